@@ -1,0 +1,519 @@
+//! The tape: an append-only list of nodes that owns every value, and one reverse loop.
+//!
+//! - Recording an op appends a node (op, input ids, value). [`Var`] is a `Copy` handle to it.
+//! - [`Tape::backward`] seeds `∂L/∂L = 1` and walks the nodes once in reverse; each node's
+//!   gradient is complete when the walk reaches it (all consumers come later on the tape).
+//! - [`Tape::clear`] forgets every node and returns all buffers to a pool keyed by length, so a
+//!   training loop of fixed shapes allocates nothing after its first step. A `Var` from before
+//!   `clear()` or from another tape panics with a clear message when used.
+//! - Gradients of intermediate nodes are dropped as soon as they have been propagated, unless
+//!   [`Tape::retain_grad`] asked for them; gradients of leaves (parameters, [`Tape::leaf`]) are
+//!   always kept.
+
+use crate::op::{BackwardCx, ClosureOp, GradSlots, Op, Pointwise, PointwiseOp};
+use crate::params::ParamId;
+use crate::{Float, Shape, Tensor};
+use std::collections::HashMap;
+use std::sync::atomic::{AtomicU32, Ordering};
+
+static NEXT_TAPE_ID: AtomicU32 = AtomicU32::new(1);
+
+/// A handle to a value on a tape. Cheap to copy; valid until the tape's next `clear()`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct Var {
+    tape: u32,
+    generation: u32,
+    index: u32,
+}
+
+impl Var {
+    /// Position of the node on its tape (its order of recording).
+    pub fn index(&self) -> usize {
+        self.index as usize
+    }
+}
+
+/// Reusable buffers keyed by exact length. Buffers handed out by [`BufferPool::zeros`] are zeroed.
+#[derive(Default)]
+pub struct BufferPool<T> {
+    free: HashMap<usize, Vec<Vec<T>>>,
+    /// Buffers allocated fresh because the pool had none of that length (for benchmarks/tests).
+    pub fresh_allocations: usize,
+}
+
+impl<T: Float> BufferPool<T> {
+    /// A zeroed tensor of `shape`, reusing a buffer of the same length when one is free.
+    pub fn zeros(&mut self, shape: Shape) -> Tensor<T> {
+        let n = shape.numel();
+        match self.free.get_mut(&n).and_then(|v| v.pop()) {
+            Some(mut buf) => {
+                buf.fill(T::zero());
+                Tensor::from_parts(shape, buf)
+            }
+            None => {
+                self.fresh_allocations += 1;
+                Tensor::from_parts(shape, vec![T::zero(); n])
+            }
+        }
+    }
+
+    /// A tensor of `shape` holding a copy of `data`.
+    #[track_caller]
+    pub fn copy_of(&mut self, shape: Shape, data: &[T]) -> Tensor<T> {
+        assert_eq!(shape.numel(), data.len(), "BufferPool::copy_of: {shape:?} vs {} values", data.len());
+        let n = data.len();
+        match self.free.get_mut(&n).and_then(|v| v.pop()) {
+            Some(mut buf) => {
+                buf.copy_from_slice(data);
+                Tensor::from_parts(shape, buf)
+            }
+            None => {
+                self.fresh_allocations += 1;
+                Tensor::from_parts(shape, data.to_vec())
+            }
+        }
+    }
+
+    /// Returns a buffer for reuse.
+    pub fn put(&mut self, t: Tensor<T>) {
+        let buf = t.into_vec();
+        if !buf.is_empty() {
+            self.free.entry(buf.len()).or_default().push(buf);
+        }
+    }
+}
+
+/// Whether and why a node takes part in backward.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum NodeKind {
+    /// Data: no gradient flows into it.
+    Constant,
+    /// A leaf whose gradient is wanted ([`Tape::leaf`]).
+    Leaf,
+    /// A parameter leaf copied from a [`ParamStore`](crate::ParamStore).
+    Param(ParamId),
+    /// The output of an op.
+    Op,
+}
+
+struct Node<T: Float> {
+    op: Option<Box<dyn Op<T>>>,
+    inputs: std::ops::Range<u32>,
+    kind: NodeKind,
+    requires_grad: bool,
+    retain: bool,
+}
+
+/// What a backward hook sees of a node.
+pub struct NodeView<'a, T: Float> {
+    /// The node's handle.
+    pub var: Var,
+    /// The op's name, or `"constant"`, `"leaf"`, `"param"`.
+    pub name: &'static str,
+    /// What kind of node it is.
+    pub kind: NodeKind,
+    /// Handles of the inputs.
+    pub inputs: &'a [Var],
+    /// Kinds of the inputs (which are parameters, and which).
+    pub input_kinds: &'a [NodeKind],
+    /// Input values.
+    pub input_values: &'a [&'a Tensor<T>],
+    /// The node's value.
+    pub value: &'a Tensor<T>,
+    op: Option<&'a dyn Op<T>>,
+}
+
+impl<T: Float> NodeView<'_, T> {
+    /// Indices of inputs the op declares as weights (see [`Op::weight_inputs`]).
+    pub fn weight_inputs(&self) -> &'static [usize] {
+        self.op.map_or(&[], |op| op.weight_inputs())
+    }
+
+    /// Runs this node's own backward with `inputs` substituted for the real input values, e.g.
+    /// fixed random feedback weights in place of the forward weights.
+    pub fn backward_with_inputs(
+        &self,
+        inputs: &[&Tensor<T>],
+        dy: &Tensor<T>,
+        dx: &mut GradSlots<'_, T>,
+    ) {
+        if let Some(op) = self.op {
+            op.backward(&BackwardCx { inputs, output: self.value, dy }, dx);
+        }
+    }
+}
+
+/// Backward-time customisation: override a node's VJP, or see/modify a complete gradient.
+pub trait BackwardHooks<T: Float> {
+    /// Return `true` after writing this node's input gradients yourself; the op's own backward
+    /// is then skipped. `dy` is the node's complete output gradient.
+    fn override_vjp(
+        &mut self,
+        _node: &NodeView<'_, T>,
+        _dy: &Tensor<T>,
+        _dx: &mut GradSlots<'_, T>,
+    ) -> bool {
+        false
+    }
+
+    /// Called once per node whose gradient is complete, before it flows to the inputs. The
+    /// gradient may be modified in place (clipping, scaling, logging, retaining a copy).
+    fn on_grad(&mut self, _node: &NodeView<'_, T>, _grad: &mut Tensor<T>) {}
+}
+
+/// No hooks.
+pub struct NoHooks;
+impl<T: Float> BackwardHooks<T> for NoHooks {}
+
+/// An append-only record of a computation, owning every value. Generic over the scalar.
+pub struct Tape<T: Float = f32> {
+    id: u32,
+    generation: u32,
+    nodes: Vec<Node<T>>,
+    input_ids: Vec<u32>,
+    values: Vec<Tensor<T>>,
+    grads: Vec<Option<Tensor<T>>>,
+    pool: BufferPool<T>,
+}
+
+impl<T: Float> Default for Tape<T> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl<T: Float> Tape<T> {
+    /// An empty tape.
+    pub fn new() -> Self {
+        Tape {
+            id: NEXT_TAPE_ID.fetch_add(1, Ordering::Relaxed),
+            generation: 0,
+            nodes: Vec::new(),
+            input_ids: Vec::new(),
+            values: Vec::new(),
+            grads: Vec::new(),
+            pool: BufferPool::default(),
+        }
+    }
+
+    /// Forgets every node and recycles every buffer. Old `Var`s become invalid.
+    pub fn clear(&mut self) {
+        for v in self.values.drain(..) {
+            self.pool.put(v);
+        }
+        for g in self.grads.drain(..).flatten() {
+            self.pool.put(g);
+        }
+        self.nodes.clear();
+        self.input_ids.clear();
+        self.generation = self.generation.wrapping_add(1);
+    }
+
+    /// Number of nodes recorded since the last `clear()`.
+    pub fn len(&self) -> usize {
+        self.nodes.len()
+    }
+
+    /// True when nothing is recorded.
+    pub fn is_empty(&self) -> bool {
+        self.nodes.is_empty()
+    }
+
+    /// The buffer pool (for ops that need scratch space during forward, and for statistics).
+    pub fn pool(&mut self) -> &mut BufferPool<T> {
+        &mut self.pool
+    }
+
+    /// A zeroed tensor from the pool, to fill and then pass to [`Tape::constant`].
+    pub fn alloc(&mut self, shape: impl Into<Shape>) -> Tensor<T> {
+        self.pool.zeros(shape.into())
+    }
+
+    #[track_caller]
+    fn check(&self, v: Var) -> usize {
+        assert!(
+            v.tape == self.id,
+            "Var {} belongs to tape #{}, used on tape #{}",
+            v.index,
+            v.tape,
+            self.id
+        );
+        assert!(
+            v.generation == self.generation,
+            "Var {} is stale: recorded before Tape::clear() (generation {} vs {})",
+            v.index,
+            v.generation,
+            self.generation
+        );
+        v.index as usize
+    }
+
+    fn push(&mut self, value: Tensor<T>, op: Option<Box<dyn Op<T>>>, inputs: &[u32], kind: NodeKind) -> Var {
+        let requires_grad = match kind {
+            NodeKind::Constant => false,
+            NodeKind::Leaf | NodeKind::Param(_) => true,
+            NodeKind::Op => inputs.iter().any(|&i| self.nodes[i as usize].requires_grad),
+        };
+        let start = self.input_ids.len() as u32;
+        self.input_ids.extend_from_slice(inputs);
+        let index = self.nodes.len() as u32;
+        self.nodes.push(Node {
+            op,
+            inputs: start..self.input_ids.len() as u32,
+            kind,
+            requires_grad,
+            retain: false,
+        });
+        self.values.push(value);
+        self.grads.push(None);
+        Var { tape: self.id, generation: self.generation, index }
+    }
+
+    /// Records data that needs no gradient.
+    pub fn constant(&mut self, value: Tensor<T>) -> Var {
+        self.push(value, None, &[], NodeKind::Constant)
+    }
+
+    /// Records a copy of `data` with `shape` as a constant, reusing a pooled buffer.
+    pub fn constant_from(&mut self, shape: impl Into<Shape>, data: &[T]) -> Var {
+        let t = self.pool.copy_of(shape.into(), data);
+        self.constant(t)
+    }
+
+    /// Records a leaf whose gradient [`Tape::backward`] computes and keeps.
+    pub fn leaf(&mut self, value: Tensor<T>) -> Var {
+        self.push(value, None, &[], NodeKind::Leaf)
+    }
+
+    /// Records a copy of parameter `id` (used by [`ParamStore::var`](crate::ParamStore::var)).
+    pub fn param_leaf(&mut self, id: ParamId, value: &Tensor<T>, trainable: bool) -> Var {
+        let t = self.pool.copy_of(value.shape(), value.data());
+        let kind = if trainable { NodeKind::Param(id) } else { NodeKind::Constant };
+        self.push(t, None, &[], kind)
+    }
+
+    /// Applies `op` to `inputs` and records the result.
+    #[track_caller]
+    pub fn apply(&mut self, mut op: impl Op<T>, inputs: &[Var]) -> Var {
+        let mut ids = [0u32; 16];
+        let mut heap;
+        let ids: &mut [u32] = if inputs.len() <= 16 {
+            &mut ids[..inputs.len()]
+        } else {
+            heap = vec![0u32; inputs.len()];
+            &mut heap
+        };
+        for (slot, &v) in ids.iter_mut().zip(inputs) {
+            *slot = self.check(v) as u32;
+        }
+        let out = {
+            let input_values: Vec<&Tensor<T>> = ids.iter().map(|&i| &self.values[i as usize]).collect();
+            let shape = op.output_shape(&input_values);
+            let mut out = self.pool.zeros(shape);
+            op.forward(&input_values, &mut out);
+            out
+        };
+        let ids = ids.to_vec();
+        self.push(out, Some(Box::new(op)), &ids, NodeKind::Op)
+    }
+
+    /// Applies a pointwise function with its derivative (see [`Pointwise`]).
+    pub fn map(&mut self, p: impl Pointwise, x: Var) -> Var {
+        self.apply(PointwiseOp(p), &[x])
+    }
+
+    /// Records `value` (computed by the caller from `inputs`) with a closure as its VJP.
+    pub fn custom_vjp(
+        &mut self,
+        name: &'static str,
+        inputs: &[Var],
+        value: Tensor<T>,
+        vjp: impl Fn(&BackwardCx<'_, T>, &mut GradSlots<'_, T>) + 'static,
+    ) -> Var {
+        self.apply(ClosureOp { name, value: Some(value), vjp: Box::new(vjp) }, inputs)
+    }
+
+    /// A copy of `x` through which no gradient flows.
+    pub fn detach(&mut self, x: Var) -> Var {
+        let i = self.check(x);
+        let shape = self.values[i].shape();
+        let t = {
+            let (values, pool) = (&self.values, &mut self.pool);
+            pool.copy_of(shape, values[i].data())
+        };
+        self.constant(t)
+    }
+
+    /// The value of `v`.
+    #[track_caller]
+    pub fn value(&self, v: Var) -> &Tensor<T> {
+        &self.values[self.check(v)]
+    }
+
+    /// The shape of `v`.
+    #[track_caller]
+    pub fn shape(&self, v: Var) -> Shape {
+        self.value(v).shape()
+    }
+
+    /// The kind of node `v` is.
+    #[track_caller]
+    pub fn kind(&self, v: Var) -> NodeKind {
+        self.nodes[self.check(v)].kind
+    }
+
+    /// Asks backward to keep the gradient of the intermediate `v`.
+    #[track_caller]
+    pub fn retain_grad(&mut self, v: Var) {
+        let i = self.check(v);
+        self.nodes[i].retain = true;
+    }
+
+    /// `∂L/∂v` after [`Tape::backward`], if `v` is a leaf, a parameter or retained.
+    #[track_caller]
+    pub fn grad(&self, v: Var) -> Option<&Tensor<T>> {
+        self.grads[self.check(v)].as_ref()
+    }
+
+    /// Parameter gradients of the last backward, `(id, ∂L/∂param)`, in recording order.
+    pub fn param_grads(&self) -> impl Iterator<Item = (ParamId, &Tensor<T>)> {
+        self.nodes.iter().zip(&self.grads).filter_map(|(n, g)| match (n.kind, g) {
+            (NodeKind::Param(id), Some(g)) => Some((id, g)),
+            _ => None,
+        })
+    }
+
+    /// Reverse-mode sweep from the scalar `loss` (seed 1).
+    #[track_caller]
+    pub fn backward(&mut self, loss: Var) {
+        self.backward_with(loss, &mut NoHooks);
+    }
+
+    /// Reverse-mode sweep from the scalar `loss` with hooks.
+    #[track_caller]
+    pub fn backward_with(&mut self, loss: Var, hooks: &mut dyn BackwardHooks<T>) {
+        let i = self.check(loss);
+        assert_eq!(
+            self.values[i].numel(),
+            1,
+            "backward: loss must have one element, got shape {:?}",
+            self.values[i].shape()
+        );
+        let seed = self.pool.copy_of(self.values[i].shape(), &[T::one()]);
+        self.backward_from(&[(loss, seed)], hooks);
+    }
+
+    /// Reverse-mode sweep from several roots, each seeded with its own output gradient
+    /// (forward-forward style local losses, or a VJP with a given cotangent).
+    #[track_caller]
+    pub fn backward_from(&mut self, seeds: &[(Var, Tensor<T>)], hooks: &mut dyn BackwardHooks<T>) {
+        for g in self.grads.iter_mut() {
+            if let Some(g) = g.take() {
+                self.pool.put(g);
+            }
+        }
+        let mut last = 0;
+        for (v, seed) in seeds {
+            let i = self.check(*v);
+            assert_eq!(self.values[i].shape(), seed.shape(), "backward_from: seed shape for node {i}");
+            let g = self.grads[i].get_or_insert_with(|| Tensor::zeros(seed.shape()));
+            for (a, &b) in g.data_mut().iter_mut().zip(seed.data()) {
+                *a += b;
+            }
+            last = last.max(i);
+        }
+        let mut input_shapes: Vec<Shape> = Vec::new();
+        let mut input_vars: Vec<Var> = Vec::new();
+        let mut input_kinds: Vec<NodeKind> = Vec::new();
+        for i in (0..=last).rev() {
+            let Some(mut dy) = self.grads[i].take() else { continue };
+            let node = &self.nodes[i];
+            let range = node.inputs.start as usize..node.inputs.end as usize;
+            let ids = &self.input_ids[range];
+            input_shapes.clear();
+            input_vars.clear();
+            input_kinds.clear();
+            let mut wants = 0u64;
+            for (k, &id) in ids.iter().enumerate() {
+                let n = &self.nodes[id as usize];
+                input_shapes.push(self.values[id as usize].shape());
+                input_vars.push(Var { tape: self.id, generation: self.generation, index: id });
+                input_kinds.push(n.kind);
+                if n.requires_grad && k < 64 {
+                    wants |= 1 << k;
+                }
+            }
+            let input_values: Vec<&Tensor<T>> = ids.iter().map(|&id| &self.values[id as usize]).collect();
+            let view = NodeView {
+                var: Var { tape: self.id, generation: self.generation, index: i as u32 },
+                name: match (node.kind, &node.op) {
+                    (_, Some(op)) => op.name(),
+                    (NodeKind::Param(_), None) => "param",
+                    (NodeKind::Leaf, None) => "leaf",
+                    _ => "constant",
+                },
+                kind: node.kind,
+                inputs: &input_vars,
+                input_kinds: &input_kinds,
+                input_values: &input_values,
+                value: &self.values[i],
+                op: node.op.as_deref(),
+            };
+            hooks.on_grad(&view, &mut dy);
+            if let (Some(op), true) = (node.op.as_deref(), wants != 0) {
+                let mut dx = GradSlots {
+                    grads: &mut self.grads,
+                    input_ids: ids,
+                    input_shapes: &input_shapes,
+                    wants,
+                    pool: &mut self.pool,
+                };
+                if !hooks.override_vjp(&view, &dy, &mut dx) {
+                    let cx = BackwardCx { inputs: &input_values, output: &self.values[i], dy: &dy };
+                    op.backward(&cx, &mut dx);
+                }
+            }
+            let keep = node.retain || matches!(node.kind, NodeKind::Leaf | NodeKind::Param(_));
+            if keep {
+                self.grads[i] = Some(dy);
+            } else {
+                self.pool.put(dy);
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    #[should_panic(expected = "stale")]
+    fn stale_var_panics() {
+        let mut tape = Tape::<f32>::new();
+        let x = tape.constant(Tensor::scalar(1.0));
+        tape.clear();
+        tape.value(x);
+    }
+
+    #[test]
+    #[should_panic(expected = "belongs to tape")]
+    fn foreign_var_panics() {
+        let mut a = Tape::<f32>::new();
+        let b = Tape::<f32>::new();
+        let x = a.constant(Tensor::scalar(1.0));
+        b.value(x);
+    }
+
+    #[test]
+    fn pool_reuses_buffers_after_clear() {
+        let mut tape = Tape::<f32>::new();
+        for _ in 0..3 {
+            tape.clear();
+            let x = tape.leaf(Tensor::full([4, 4], 2.0));
+            let _ = tape.detach(x);
+        }
+        // First iteration allocates two 16-element buffers; later iterations reuse them.
+        assert_eq!(tape.pool().fresh_allocations, 1);
+    }
+}
