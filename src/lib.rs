@@ -1,0 +1,8 @@
+//! # colorvision
+//!
+//! The wiring of the experiment: the retina (`retina`) produces optic nerve signals, the cortex
+//! (`cortex`) learns from them alone, and CMF-SIM (`colorimetry`) measures the colour
+//! dimensionality that emerges. This crate implements the black-box observer CMF-SIM probes
+//! (retina + learned cortex), the command line, and the run folders.
+
+pub mod io;
