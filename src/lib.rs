@@ -6,3 +6,4 @@
 //! (retina + learned cortex), the command line, and the run folders.
 
 pub mod io;
+pub mod cli;

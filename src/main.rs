@@ -1,3 +1,8 @@
+use clap::Parser;
+use colorvision::cli::{Cli, Command};
+
 fn main() {
-    println!("colorvision: being wired");
+    let cli = Cli::parse();
+    let command = cli.command.unwrap_or(Command::Run(cli.common));
+    println!("colorvision: {command:?} (being wired)");
 }

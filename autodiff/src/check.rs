@@ -1,1 +1,596 @@
-//! (being written) Public gradient checks.
+//! Gradient checks: the backward pass of any function recorded on a `Tape<f64>` against central
+//! differences.
+//!
+//! How a check works ([`check_gradients`]):
+//! - Every input becomes a tape leaf (or, with [`check_inputs`], a constant when it is not
+//!   checked, e.g. a mask). `f` records the function; its output `y` may have any shape.
+//! - A non-scalar output is reduced with fixed random weights `r ∈ [-1, 1]` (drawn from
+//!   `cfg.seed`): `L = Σ r ⊙ y`, and backward is seeded with `r` through
+//!   [`Tape::backward_from`]. A plain `sum()` would hide transposition and permutation bugs.
+//!   A one-element output uses `r = 1`.
+//! - An input with at most `cfg.max_full_elems` elements is checked element by element:
+//!   `∂L/∂x_j ≈ (L(x + h e_j) − L(x − h e_j)) / 2h` with `h = eps · max(1, |x_j|)`.
+//! - A larger input gets `cfg.probes` random directional probes: a unit-norm Gaussian direction
+//!   `u`, compared as `uᵀ∇L` against `(L(x + h u) − L(x − h u)) / 2h` with
+//!   `h = eps · max(1, ‖x‖₂)`.
+//!
+//! Error measure (one number per checked entry, analytic `a`, numeric `n`):
+//! `err = |a − n| / max(1, |a|, |n|)` — absolute for small gradients, relative for large ones.
+//! An entry fails when `|a − n| > atol + rtol · max(1, |a|, |n|)`, i.e. `err > rtol + atol / max(1, |a|, |n|)`.
+//!
+//! Surrogate gradients ([`Pointwise`] with `exact() == false`) have a `df` that is deliberately
+//! not the derivative of `f`; [`check_surrogate`] compares their backward with the declared `df`.
+//! Kinks (relu at 0, abs at 0) must be avoided by the caller's inputs.
+
+use crate::op::Pointwise;
+use crate::tape::NoHooks;
+use crate::{Shape, Tape, Tensor, Var};
+use rand::rngs::StdRng;
+use rand::{Rng, SeedableRng};
+use rand_distr::StandardNormal;
+use std::fmt;
+use std::rc::Rc;
+
+/// Settings of a gradient check. See the module docs for the error measure.
+#[derive(Clone, Debug)]
+pub struct CheckConfig {
+    /// Finite-difference step, relative: `h = eps · max(1, |x|)`.
+    pub eps: f64,
+    /// Relative tolerance on `|a − n|`, scaled by `max(1, |a|, |n|)`.
+    pub rtol: f64,
+    /// Absolute tolerance added to `rtol · max(1, |a|, |n|)`.
+    pub atol: f64,
+    /// Inputs with at most this many elements are checked element by element.
+    pub max_full_elems: usize,
+    /// Number of random directional probes for each larger input.
+    pub probes: usize,
+    /// Seed of the reduction weights `r` and the probe directions.
+    pub seed: u64,
+}
+
+impl Default for CheckConfig {
+    /// `eps = 1e-6` balances the O(h²) truncation error of central differences against f64
+    /// round-off (≈ 1e-16 · |L| / h); `rtol = 1e-6`, `atol = 1e-9` sit well above both for
+    /// smooth functions of inputs in [-2, 2], and far below the O(1) error of a wrong backward.
+    fn default() -> Self {
+        CheckConfig {
+            eps: 1e-6,
+            rtol: 1e-6,
+            atol: 1e-9,
+            max_full_elems: 64,
+            probes: 6,
+            seed: 0x5eed,
+        }
+    }
+}
+
+/// How one entry was checked.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Probe {
+    /// Element `flat` (row-major) of the input, by central differences.
+    Element(usize),
+    /// Random directional probe number `k`.
+    Direction(usize),
+}
+
+/// One compared entry.
+#[derive(Clone, Debug)]
+pub struct Entry {
+    /// Which input (position in `inputs`).
+    pub input: usize,
+    /// Shape of that input (for printing multi-indices).
+    pub shape: Shape,
+    /// Element or direction.
+    pub probe: Probe,
+    /// Backward's value.
+    pub analytic: f64,
+    /// Central-difference (or declared-`df`) value.
+    pub numeric: f64,
+    /// `|a − n| / max(1, |a|, |n|)`.
+    pub rel_err: f64,
+}
+
+impl fmt::Display for Entry {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let place = match self.probe {
+            Probe::Element(j) => format!("flat {j} = {}", multi_index(self.shape, j)),
+            Probe::Direction(k) => format!("probe {k}"),
+        };
+        write!(
+            f,
+            "input {} {:?} [{place}]: analytic {:+.9e}  numeric {:+.9e}  rel.err {:.2e}",
+            self.input, self.shape, self.analytic, self.numeric, self.rel_err
+        )
+    }
+}
+
+fn multi_index(shape: Shape, mut flat: usize) -> String {
+    let dims = shape.dims();
+    let mut idx = vec![0; dims.len()];
+    for a in (0..dims.len()).rev() {
+        idx[a] = flat % dims[a];
+        flat /= dims[a];
+    }
+    let s: Vec<String> = idx.iter().map(|i| i.to_string()).collect();
+    format!("({})", s.join(", "))
+}
+
+/// A passed check.
+#[derive(Clone, Debug)]
+pub struct CheckReport {
+    /// Number of compared entries (elements plus probes).
+    pub checked: usize,
+    /// Largest `err` over all entries.
+    pub max_rel_err: f64,
+    /// The entry with the largest error, if any entry was checked.
+    pub worst: Option<Entry>,
+}
+
+/// A failed check.
+#[derive(Clone, Debug)]
+pub enum CheckError {
+    /// Some entries exceed the tolerance; `worst` holds up to 10 of them, worst first.
+    Mismatch {
+        failed: usize,
+        checked: usize,
+        rtol: f64,
+        atol: f64,
+        worst: Vec<Entry>,
+    },
+    /// The function produced a non-finite value (forward output or a gradient).
+    NonFinite { what: String },
+    /// `check_inputs` was given a mask of the wrong length.
+    BadMask { inputs: usize, mask: usize },
+}
+
+impl fmt::Display for CheckError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            CheckError::Mismatch {
+                failed,
+                checked,
+                rtol,
+                atol,
+                worst,
+            } => {
+                writeln!(
+                    f,
+                    "gradient check failed: {failed} of {checked} entries exceed |a−n| ≤ {atol:e} + {rtol:e}·max(1,|a|,|n|); worst first:"
+                )?;
+                for e in worst {
+                    writeln!(f, "  {e}")?;
+                }
+                Ok(())
+            }
+            CheckError::NonFinite { what } => write!(f, "gradient check: non-finite {what}"),
+            CheckError::BadMask { inputs, mask } => {
+                write!(f, "check_inputs: {inputs} inputs but a mask of {mask}")
+            }
+        }
+    }
+}
+
+impl std::error::Error for CheckError {}
+
+/// Checks the gradient of `f` with respect to every input. See the module docs.
+pub fn check_gradients(
+    f: impl Fn(&mut Tape<f64>, &[Var]) -> Var,
+    inputs: &[Tensor<f64>],
+    cfg: &CheckConfig,
+) -> Result<CheckReport, CheckError> {
+    check_inputs(f, inputs, &vec![true; inputs.len()], cfg)
+}
+
+/// Like [`check_gradients`], but only inputs with `mask[i] == true` are leaves and checked; the
+/// others are recorded as constants (integer-like data such as masks or indices).
+pub fn check_inputs(
+    f: impl Fn(&mut Tape<f64>, &[Var]) -> Var,
+    inputs: &[Tensor<f64>],
+    mask: &[bool],
+    cfg: &CheckConfig,
+) -> Result<CheckReport, CheckError> {
+    if mask.len() != inputs.len() {
+        return Err(CheckError::BadMask {
+            inputs: inputs.len(),
+            mask: mask.len(),
+        });
+    }
+    let mut rng = StdRng::seed_from_u64(cfg.seed);
+    let mut tape = Tape::<f64>::new();
+    let record = |tape: &mut Tape<f64>, xs: &[Tensor<f64>]| -> (Vec<Var>, Var) {
+        tape.clear();
+        let vars: Vec<Var> = xs
+            .iter()
+            .zip(mask)
+            .map(|(x, &m)| {
+                if m {
+                    tape.leaf(x.clone())
+                } else {
+                    tape.constant(x.clone())
+                }
+            })
+            .collect();
+        let y = f(tape, &vars);
+        (vars, y)
+    };
+
+    // Analytic gradients, seeded with the reduction weights r.
+    let (vars, y) = record(&mut tape, inputs);
+    let y_shape = tape.shape(y);
+    let r = if y_shape.numel() == 1 {
+        Tensor::full(y_shape, 1.0)
+    } else {
+        Tensor::from_fn(y_shape, |_| rng.random_range(-1.0..1.0))
+    };
+    finite(tape.value(y).data(), "forward output")?;
+    tape.backward_from(&[(y, r.clone())], &mut NoHooks);
+    let grads: Vec<Tensor<f64>> = vars
+        .iter()
+        .zip(inputs)
+        .map(|(&v, x)| {
+            tape.grad(v)
+                .cloned()
+                .unwrap_or_else(|| Tensor::zeros(x.shape()))
+        })
+        .collect();
+    for (i, g) in grads.iter().enumerate() {
+        if mask[i] {
+            finite(g.data(), &format!("gradient of input {i}"))?;
+        }
+    }
+
+    let mut loss = |xs: &[Tensor<f64>]| -> f64 {
+        let (_, y) = record(&mut tape, xs);
+        tape.value(y)
+            .data()
+            .iter()
+            .zip(r.data())
+            .map(|(a, b)| a * b)
+            .sum()
+    };
+
+    let mut entries = Vec::new();
+    let mut xs: Vec<Tensor<f64>> = inputs.to_vec();
+    for i in (0..inputs.len()).filter(|&i| mask[i]) {
+        let n = inputs[i].numel();
+        if n <= cfg.max_full_elems {
+            for j in 0..n {
+                let x0 = inputs[i].data()[j];
+                let h = cfg.eps * x0.abs().max(1.0);
+                xs[i].data_mut()[j] = x0 + h;
+                let lp = loss(&xs);
+                xs[i].data_mut()[j] = x0 - h;
+                let lm = loss(&xs);
+                xs[i].data_mut()[j] = x0;
+                let numeric = (lp - lm) / ((x0 + h) - (x0 - h));
+                entries.push(entry(
+                    i,
+                    inputs[i].shape(),
+                    Probe::Element(j),
+                    grads[i].data()[j],
+                    numeric,
+                ));
+            }
+        } else {
+            // The step is relative to ‖x‖₂ (as `h = eps·max(1, |x_j|)` is per element): a
+            // unit direction spread over many elements changes L by little, and a step relative
+            // to max|x| would drown the difference in the round-off of L's many terms.
+            let norm = inputs[i].sum_sq().sqrt();
+            let h = cfg.eps * norm.max(1.0);
+            for k in 0..cfg.probes {
+                let mut u: Vec<f64> = (0..n).map(|_| rng.sample(StandardNormal)).collect();
+                let norm = u
+                    .iter()
+                    .map(|v| v * v)
+                    .sum::<f64>()
+                    .sqrt()
+                    .max(f64::MIN_POSITIVE);
+                u.iter_mut().for_each(|v| *v /= norm);
+                let analytic: f64 = u.iter().zip(grads[i].data()).map(|(a, b)| a * b).sum();
+                let shifted = |s: f64| {
+                    Tensor::from_fn(inputs[i].shape(), |j| inputs[i].data()[j] + s * h * u[j])
+                };
+                xs[i] = shifted(1.0);
+                let lp = loss(&xs);
+                xs[i] = shifted(-1.0);
+                let lm = loss(&xs);
+                xs[i] = inputs[i].clone();
+                entries.push(entry(
+                    i,
+                    inputs[i].shape(),
+                    Probe::Direction(k),
+                    analytic,
+                    (lp - lm) / (2.0 * h),
+                ));
+            }
+        }
+    }
+    judge(entries, cfg)
+}
+
+/// Checks the backward of a (surrogate) [`Pointwise`] against its declared `df`: for each
+/// element, `∂L/∂x_j` must equal `r_j · df(x_j, f(x_j))`, and the forward must equal `f(x_j)`.
+/// Use this when `df` is deliberately not the derivative of `f`; finite differences would
+/// (rightly) disagree with it.
+pub fn check_surrogate<P: Pointwise>(
+    p: P,
+    x: &Tensor<f64>,
+    cfg: &CheckConfig,
+) -> Result<CheckReport, CheckError> {
+    let p = Rc::new(p);
+    let mut rng = StdRng::seed_from_u64(cfg.seed);
+    let r = Tensor::from_fn(x.shape(), |_| rng.random_range(-1.0..1.0));
+    let mut tape = Tape::<f64>::new();
+    let v = tape.leaf(x.clone());
+    let y = tape.map(Shared(p.clone()), v);
+    tape.backward_from(&[(y, r.clone())], &mut NoHooks);
+    let zeros = Tensor::zeros(x.shape());
+    let g = tape.grad(v).unwrap_or(&zeros);
+    let mut entries = Vec::with_capacity(2 * x.numel());
+    for (j, &xj) in x.data().iter().enumerate() {
+        let fx = p.f(xj);
+        let yj = tape.value(y).data()[j];
+        // Forward first (reported as input 0 with analytic = tape value, numeric = f(x)).
+        entries.push(entry(0, x.shape(), Probe::Element(j), yj, fx));
+        entries.push(entry(
+            0,
+            x.shape(),
+            Probe::Element(j),
+            g.data()[j],
+            r.data()[j] * p.df(xj, fx),
+        ));
+    }
+    judge(entries, cfg)
+}
+
+/// Lets a shared [`Pointwise`] be recorded while the checker keeps using it.
+struct Shared<P>(Rc<P>);
+
+impl<P: Pointwise> Pointwise for Shared<P> {
+    fn name(&self) -> &'static str {
+        self.0.name()
+    }
+    fn f(&self, x: f64) -> f64 {
+        self.0.f(x)
+    }
+    fn df(&self, x: f64, y: f64) -> f64 {
+        self.0.df(x, y)
+    }
+    fn exact(&self) -> bool {
+        self.0.exact()
+    }
+}
+
+fn entry(input: usize, shape: Shape, probe: Probe, analytic: f64, numeric: f64) -> Entry {
+    let rel_err = (analytic - numeric).abs() / 1f64.max(analytic.abs()).max(numeric.abs());
+    Entry {
+        input,
+        shape,
+        probe,
+        analytic,
+        numeric,
+        rel_err,
+    }
+}
+
+fn finite(data: &[f64], what: &str) -> Result<(), CheckError> {
+    match data.iter().position(|v| !v.is_finite()) {
+        Some(j) => Err(CheckError::NonFinite {
+            what: format!("{what} at flat index {j}: {}", data[j]),
+        }),
+        None => Ok(()),
+    }
+}
+
+fn judge(mut entries: Vec<Entry>, cfg: &CheckConfig) -> Result<CheckReport, CheckError> {
+    let checked = entries.len();
+    if let Some(e) = entries
+        .iter()
+        .find(|e| !e.numeric.is_finite() || !e.analytic.is_finite())
+    {
+        return Err(CheckError::NonFinite {
+            what: format!("value in {e}"),
+        });
+    }
+    let fails = |e: &Entry| {
+        let scale = 1f64.max(e.analytic.abs()).max(e.numeric.abs());
+        (e.analytic - e.numeric).abs() > cfg.atol + cfg.rtol * scale
+    };
+    let failed = entries.iter().filter(|e| fails(e)).count();
+    entries.sort_by(|a, b| b.rel_err.total_cmp(&a.rel_err));
+    if failed > 0 {
+        let worst = entries.into_iter().filter(fails).take(10).collect();
+        return Err(CheckError::Mismatch {
+            failed,
+            checked,
+            rtol: cfg.rtol,
+            atol: cfg.atol,
+            worst,
+        });
+    }
+    Ok(CheckReport {
+        checked,
+        max_rel_err: entries.first().map_or(0.0, |e| e.rel_err),
+        worst: entries.into_iter().next(),
+    })
+}
+
+/// Proptest strategies for gradient checks: shapes with 1..=6 per axis, values in [-2, 2].
+#[cfg(test)]
+pub mod strategies {
+    use crate::Tensor;
+    use proptest::prelude::*;
+
+    /// Proptest settings for op checks: few cases, each a full gradient check.
+    pub fn config() -> ProptestConfig {
+        ProptestConfig {
+            cases: 24,
+            ..ProptestConfig::default()
+        }
+    }
+
+    /// Axis lengths in 1..=6 for the given rank.
+    pub fn dims(rank: usize) -> impl Strategy<Value = Vec<usize>> {
+        proptest::collection::vec(1usize..=6, rank)
+    }
+
+    /// A tensor of `dims` with values uniform in [-2, 2].
+    pub fn tensor_of(dims: Vec<usize>) -> impl Strategy<Value = Tensor<f64>> {
+        let n: usize = dims.iter().product();
+        proptest::collection::vec(-2.0f64..2.0, n).prop_map(move |v| Tensor::from_vec(&dims[..], v))
+    }
+
+    /// A tensor of random shape of `rank`, values in [-2, 2].
+    pub fn tensor(rank: usize) -> impl Strategy<Value = Tensor<f64>> {
+        dims(rank).prop_flat_map(tensor_of)
+    }
+
+    /// Values in `[lo, hi]` at least `margin` away from `kink` (for relu/abs at 0).
+    pub fn away_from(lo: f64, hi: f64, kink: f64, margin: f64) -> impl Strategy<Value = f64> {
+        (lo..hi).prop_map(move |v| {
+            if (v - kink).abs() < margin {
+                kink + margin.copysign(v - kink)
+            } else {
+                v
+            }
+        })
+    }
+
+    /// A tensor of `dims` with values in [-2, 2] at least `margin` away from `kink`.
+    pub fn tensor_away_from(
+        dims: Vec<usize>,
+        kink: f64,
+        margin: f64,
+    ) -> impl Strategy<Value = Tensor<f64>> {
+        let n: usize = dims.iter().product();
+        proptest::collection::vec(away_from(-2.0, 2.0, kink, margin), n)
+            .prop_map(move |v| Tensor::from_vec(&dims[..], v))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::op::{BackwardCx, GradSlots, Op};
+
+    /// y = x ⊙ w, with a backward that (wrongly) transposes nothing but swaps two elements:
+    /// invisible under a plain sum, caught by the random reduction.
+    struct Permuted;
+    impl Op<f64> for Permuted {
+        fn name(&self) -> &'static str {
+            "permuted_test"
+        }
+        fn output_shape(&self, inputs: &[&Tensor<f64>]) -> Shape {
+            inputs[0].shape()
+        }
+        fn forward(&mut self, inputs: &[&Tensor<f64>], out: &mut Tensor<f64>) {
+            out.data_mut().copy_from_slice(inputs[0].data());
+        }
+        fn backward(&self, cx: &BackwardCx<'_, f64>, dx: &mut GradSlots<'_, f64>) {
+            if let Some(g) = dx.slot_data(0) {
+                for (g, &d) in g.iter_mut().zip(cx.dy.data().iter().rev()) {
+                    *g += d;
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn correct_gradient_passes() {
+        let x = Tensor::from_vec([2, 3], vec![0.1, -0.5, 1.5, 2.0, -1.0, 0.3]);
+        let rep = check_gradients(
+            |t, v| t.map(Sq, v[0]),
+            std::slice::from_ref(&x),
+            &CheckConfig::default(),
+        )
+        .unwrap();
+        assert_eq!(rep.checked, 6);
+        assert!(rep.max_rel_err < 1e-8, "{rep:?}");
+    }
+
+    #[test]
+    fn permuted_backward_is_caught_and_reported() {
+        let x = Tensor::from_fn([3, 2], |i| i as f64 * 0.3 - 0.7);
+        let err = check_gradients(|t, v| t.apply(Permuted, v), &[x], &CheckConfig::default())
+            .unwrap_err();
+        let text = err.to_string();
+        assert!(
+            matches!(err, CheckError::Mismatch { failed: 6, .. }),
+            "{text}"
+        );
+        assert!(text.contains("input 0 (3, 2) [flat"), "{text}");
+    }
+
+    #[test]
+    fn probes_catch_a_wrong_gradient_on_large_inputs() {
+        let x = Tensor::from_fn([10, 10], |i| (i as f64 * 0.37).sin());
+        let cfg = CheckConfig::default();
+        let err = check_gradients(|t, v| t.apply(Permuted, v), std::slice::from_ref(&x), &cfg)
+            .unwrap_err();
+        assert!(
+            matches!(err, CheckError::Mismatch { checked: 6, .. }),
+            "{err}"
+        );
+        let ok = check_gradients(|t, v| t.map(Sq, v[0]), &[x], &cfg).unwrap();
+        assert_eq!(ok.checked, 6);
+    }
+
+    #[test]
+    fn masked_inputs_are_constants() {
+        let x = Tensor::from_vec([3], vec![0.5, -1.0, 2.0]);
+        let m = Tensor::from_vec([3], vec![1.0, 0.0, 1.0]);
+        let f = |t: &mut Tape<f64>, v: &[Var]| {
+            assert_eq!(t.kind(v[1]), crate::NodeKind::Constant);
+            let (a, b) = (t.value(v[0]).clone(), t.value(v[1]).clone());
+            let val = Tensor::from_fn([3], |i| a.data()[i] * b.data()[i]);
+            t.custom_vjp("mask_mul_test", v, val, |cx, dx| {
+                if let Some(g) = dx.slot_data(0) {
+                    let (dy, m) = (cx.dy.data(), cx.inputs[1].data());
+                    g.iter_mut()
+                        .zip(dy)
+                        .zip(m)
+                        .for_each(|((g, &d), &m)| *g += d * m);
+                }
+            })
+        };
+        let rep = check_inputs(f, &[x, m], &[true, false], &CheckConfig::default()).unwrap();
+        assert_eq!(rep.checked, 3);
+    }
+
+    struct Sq;
+    impl Pointwise for Sq {
+        fn name(&self) -> &'static str {
+            "sq_test"
+        }
+        fn f(&self, x: f64) -> f64 {
+            x * x
+        }
+        fn df(&self, x: f64, _y: f64) -> f64 {
+            2.0 * x
+        }
+    }
+
+    struct Step;
+    impl Pointwise for Step {
+        fn name(&self) -> &'static str {
+            "step_test"
+        }
+        fn f(&self, x: f64) -> f64 {
+            f64::from(x > 0.0)
+        }
+        fn df(&self, x: f64, _y: f64) -> f64 {
+            1.0 / (1.0 + x.abs()).powi(2)
+        }
+        fn exact(&self) -> bool {
+            false
+        }
+    }
+
+    #[test]
+    fn surrogate_matches_declared_df_but_not_finite_differences() {
+        let x = Tensor::from_vec([4], vec![-1.5, -0.2, 0.3, 1.1]);
+        let cfg = CheckConfig::default();
+        assert_eq!(check_surrogate(Step, &x, &cfg).unwrap().checked, 8);
+        assert!(check_gradients(|t, v| t.map(Step, v[0]), &[x], &cfg).is_err());
+    }
+}

@@ -1,2 +1,470 @@
-//! (being written)
-pub const OPS: &[&str] = &[];
+//! Fourier-domain ops for the W bucket (official §3.2): 2-D FFT and inverse FFT, complex
+//! pointwise multiply and guarded divide, moves in and out of the complex domain, zero-padding
+//! and cropping, and the "same-size linear convolution" composition the cortex calls.
+//!
+//! Layout and conventions:
+//! - **Complex tensors** carry a trailing axis of length 2, `(re, im)`: a batch of complex images
+//!   is `(…, H, W, 2)`, any number of leading batch axes (rank ≥ 3).
+//! - [`Tape::fft2`] is the unnormalised DFT over the axes `H, W`:
+//!   `X[k, l] = Σ_{y, x} x[y, x] · exp(−2πi (k·y/H + l·x/W))`.
+//!   [`Tape::ifft2`] is its inverse, normalised by `1/(H·W)` (NumPy/PyTorch `norm="backward"`).
+//! - **Gradients of complex values** are stored the same way: `(∂L/∂re, ∂L/∂im)`. For a
+//!   complex-linear map `y = A·x` the backward is `g_x = Aᴴ·g_y`, so the backward of `fft2` is
+//!   the *unnormalised* inverse DFT of `g_y` and the backward of `ifft2` is `fft2(g_y)/(H·W)`.
+//! - FFTs run on rustfft: rows in place, then columns through a blocked transpose. Plans are
+//!   cached per (scalar type, length, direction) for the life of the process, and every rayon
+//!   worker keeps its own scratch buffer, so repeated calls neither re-plan nor allocate.
+//!   Images of a batch are transformed in parallel.
+//!
+//! Submodules: [`complex`] (to/from complex, multiply, guarded divide), [`pad`] (zero-pad and
+//! crop of the last two axes) and [`convolve`] (FFT convolution and deconvolution of real images
+//! at their own size, the W-bucket responses).
+
+pub mod complex;
+pub mod convolve;
+pub mod pad;
+
+pub use convolve::{identity_response, kernel_response, response_kernel};
+
+use crate::op::{BackwardCx, GradSlots, Op};
+use crate::{Float, Shape, Tape, Tensor, Var};
+use rayon::prelude::*;
+use rustfft::num_complex::Complex;
+use rustfft::{Fft, FftPlanner};
+use std::any::{Any, TypeId};
+use std::cell::RefCell;
+use std::collections::HashMap;
+use std::sync::{Arc, Mutex, OnceLock};
+
+/// Names of the ops in this family (see the registry rule in [`crate::ops`]).
+pub const OPS: &[&str] = &[
+    "fft2",
+    "ifft2",
+    "to_complex",
+    "real_part",
+    "complex_mul",
+    "complex_div_guarded",
+    "pad2d",
+    "crop2d",
+];
+
+/// Views interleaved `(re, im)` scalars as complex numbers.
+pub(crate) fn as_complex<T: Float>(x: &[T]) -> &[Complex<T>] {
+    assert!(x.len() % 2 == 0, "as_complex: odd length {}", x.len());
+    // SAFETY: `Complex<T>` is `#[repr(C)] { re: T, im: T }`: two `T`s, alignment of `T`. The
+    // slice holds `len / 2` such pairs, and the lifetime is tied to `x`.
+    unsafe { std::slice::from_raw_parts(x.as_ptr().cast(), x.len() / 2) }
+}
+
+/// Mutable form of [`as_complex`].
+pub(crate) fn as_complex_mut<T: Float>(x: &mut [T]) -> &mut [Complex<T>] {
+    assert!(x.len() % 2 == 0, "as_complex_mut: odd length {}", x.len());
+    // SAFETY: as in `as_complex`; the exclusive borrow of `x` is moved into the result.
+    unsafe { std::slice::from_raw_parts_mut(x.as_mut_ptr().cast(), x.len() / 2) }
+}
+
+/// `(batch, H, W)` of a complex tensor `(…, H, W, 2)`; panics naming `op` otherwise.
+#[track_caller]
+pub(crate) fn complex_dims(op: &str, s: Shape) -> (usize, usize, usize) {
+    let d = s.dims();
+    assert!(
+        d.len() >= 3 && d[d.len() - 1] == 2,
+        "{op}: expected a complex tensor (…, H, W, 2), got {s:?}"
+    );
+    let (h, w) = (d[d.len() - 3], d[d.len() - 2]);
+    (s.numel() / (2 * h * w).max(1), h, w)
+}
+
+type PlanKey = (TypeId, usize, bool);
+
+/// The cached rustfft plan for `len` points (forward, or inverse without normalisation).
+fn plan<T: Float>(len: usize, inverse: bool) -> Arc<dyn Fft<T>> {
+    static CACHE: OnceLock<Mutex<HashMap<PlanKey, Box<dyn Any + Send + Sync>>>> = OnceLock::new();
+    let mut cache = CACHE
+        .get_or_init(Default::default)
+        .lock()
+        .unwrap_or_else(|poisoned| poisoned.into_inner());
+    let entry = cache
+        .entry((TypeId::of::<T>(), len, inverse))
+        .or_insert_with(|| {
+            let mut planner = FftPlanner::<T>::new();
+            let fft = if inverse {
+                planner.plan_fft_inverse(len)
+            } else {
+                planner.plan_fft_forward(len)
+            };
+            Box::new(fft)
+        });
+    entry
+        .downcast_ref::<Arc<dyn Fft<T>>>()
+        .expect("fft plan cache: entry of the wrong type")
+        .clone()
+}
+
+thread_local! {
+    /// One growable complex scratch buffer per scalar type and thread.
+    static SCRATCH: RefCell<HashMap<TypeId, Box<dyn Any>>> = RefCell::new(HashMap::new());
+}
+
+/// Runs `f` with this thread's scratch buffer of at least `len` complex values.
+fn with_scratch<T: Float, R>(len: usize, f: impl FnOnce(&mut [Complex<T>]) -> R) -> R {
+    let key = TypeId::of::<T>();
+    let mut buf: Vec<Complex<T>> = SCRATCH
+        .with(|s| s.borrow_mut().remove(&key))
+        .and_then(|b| b.downcast::<Vec<Complex<T>>>().ok())
+        .map(|b| *b)
+        .unwrap_or_default();
+    if buf.len() < len {
+        buf.resize(len, Complex::new(T::zero(), T::zero()));
+    }
+    let r = f(&mut buf[..len]);
+    SCRATCH.with(|s| s.borrow_mut().insert(key, Box::new(buf)));
+    r
+}
+
+/// Blocked transpose `dst (cols × rows) = scale · srcᵀ`, `src` being `rows × cols`.
+fn transpose_scaled<T: Float>(
+    src: &[Complex<T>],
+    dst: &mut [Complex<T>],
+    rows: usize,
+    cols: usize,
+    scale: T,
+) {
+    const BLOCK: usize = 16;
+    for r0 in (0..rows).step_by(BLOCK) {
+        for c0 in (0..cols).step_by(BLOCK) {
+            for r in r0..(r0 + BLOCK).min(rows) {
+                let row = &src[r * cols..(r + 1) * cols];
+                for c in c0..(c0 + BLOCK).min(cols) {
+                    dst[c * rows + r] = row[c] * scale;
+                }
+            }
+        }
+    }
+}
+
+/// In-place 2-D DFT of every `H×W` image in `data` (interleaved complex), times `scale`.
+/// `inverse` selects the sign `+` of the exponent (unnormalised; pass `scale = 1/(H·W)`).
+pub(crate) fn dft2_in_place<T: Float>(data: &mut [T], h: usize, w: usize, inverse: bool, scale: T) {
+    let plane = h * w;
+    if plane == 0 {
+        return;
+    }
+    let (fft_w, fft_h) = (plan::<T>(w, inverse), plan::<T>(h, inverse));
+    let scratch_len = fft_w
+        .get_inplace_scratch_len()
+        .max(fft_h.get_inplace_scratch_len());
+    let one_image = |img: &mut [T]| {
+        let img = as_complex_mut(img);
+        with_scratch::<T, _>(scratch_len + plane, |buf| {
+            let (scratch, tbuf) = buf.split_at_mut(scratch_len);
+            fft_w.process_with_scratch(img, scratch);
+            transpose_scaled(img, tbuf, h, w, T::one());
+            fft_h.process_with_scratch(tbuf, scratch);
+            transpose_scaled(tbuf, img, w, h, scale);
+        });
+    };
+    let images = data.len() / (2 * plane);
+    if images > 1 && data.len() >= 1 << 12 {
+        data.par_chunks_mut(2 * plane).for_each(one_image);
+    } else {
+        data.chunks_mut(2 * plane).for_each(one_image);
+    }
+}
+
+/// `fft2` (forward) or `ifft2` (inverse, normalised) of a complex tensor `(…, H, W, 2)`.
+struct Dft2 {
+    inverse: bool,
+}
+
+impl Dft2 {
+    fn scale<T: Float>(&self, h: usize, w: usize) -> T {
+        if self.inverse {
+            T::of(1.0 / (h * w) as f64)
+        } else {
+            T::one()
+        }
+    }
+}
+
+impl<T: Float> Op<T> for Dft2 {
+    fn name(&self) -> &'static str {
+        if self.inverse {
+            "ifft2"
+        } else {
+            "fft2"
+        }
+    }
+
+    fn output_shape(&self, inputs: &[&Tensor<T>]) -> Shape {
+        complex_dims(<Self as Op<T>>::name(self), inputs[0].shape());
+        inputs[0].shape()
+    }
+
+    fn forward(&mut self, inputs: &[&Tensor<T>], out: &mut Tensor<T>) {
+        let (_, h, w) = complex_dims("fft2", out.shape());
+        out.data_mut().copy_from_slice(inputs[0].data());
+        dft2_in_place(out.data_mut(), h, w, self.inverse, self.scale(h, w));
+    }
+
+    /// `fft2`: `g_x = conj(F)·g_y` (unnormalised inverse); `ifft2`: `g_x = F·g_y / (H·W)`.
+    fn backward(&self, cx: &BackwardCx<'_, T>, dx: &mut GradSlots<'_, T>) {
+        if !dx.wants(0) {
+            return;
+        }
+        let (_, h, w) = complex_dims("fft2", cx.dy.shape());
+        let mut g = dx.scratch(cx.dy.shape());
+        g.data_mut().copy_from_slice(cx.dy.data());
+        dft2_in_place(g.data_mut(), h, w, !self.inverse, self.scale(h, w));
+        add_into(dx.slot_data(0).expect("wanted"), g.data());
+        dx.recycle(g);
+    }
+}
+
+/// `acc += g`, in parallel for large buffers.
+pub(crate) fn add_into<T: Float>(acc: &mut [T], g: &[T]) {
+    const CHUNK: usize = 1 << 14;
+    let add = |(a, b): (&mut [T], &[T])| a.iter_mut().zip(b).for_each(|(a, &b)| *a += b);
+    if acc.len() > CHUNK {
+        acc.par_chunks_mut(CHUNK)
+            .zip(g.par_chunks(CHUNK))
+            .for_each(add);
+    } else {
+        add((acc, g));
+    }
+}
+
+impl<T: Float> Tape<T> {
+    /// Unnormalised 2-D DFT over the `H, W` axes of a complex tensor `(…, H, W, 2)`.
+    #[track_caller]
+    pub fn fft2(&mut self, x: Var) -> Var {
+        self.apply(Dft2 { inverse: false }, &[x])
+    }
+
+    /// Inverse 2-D DFT, normalised by `1/(H·W)`, of a complex tensor `(…, H, W, 2)`.
+    #[track_caller]
+    pub fn ifft2(&mut self, x: Var) -> Var {
+        self.apply(Dft2 { inverse: true }, &[x])
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::check::{check_gradients, check_inputs, strategies, CheckConfig};
+    use proptest::prelude::*;
+    use std::f64::consts::PI;
+
+    /// Naive `O((HW)²)` DFT of one complex image, sign `−` (forward) or `+` (inverse).
+    fn naive_dft(x: &[f64], h: usize, w: usize, sign: f64) -> Vec<f64> {
+        let mut out = vec![0.0; 2 * h * w];
+        for k in 0..h {
+            for l in 0..w {
+                let (mut re, mut im) = (0.0, 0.0);
+                for y in 0..h {
+                    for xx in 0..w {
+                        let phase = sign
+                            * 2.0
+                            * PI
+                            * ((k * y) as f64 / h as f64 + (l * xx) as f64 / w as f64);
+                        let (s, c) = phase.sin_cos();
+                        let (a, b) = (x[2 * (y * w + xx)], x[2 * (y * w + xx) + 1]);
+                        re += a * c - b * s;
+                        im += a * s + b * c;
+                    }
+                }
+                out[2 * (k * w + l)] = re;
+                out[2 * (k * w + l) + 1] = im;
+            }
+        }
+        out
+    }
+
+    fn complex_tensor(batch: usize, h: usize, w: usize) -> impl Strategy<Value = Tensor<f64>> {
+        strategies::tensor_of(vec![batch, h, w, 2])
+    }
+
+    fn sizes() -> impl Strategy<Value = (usize, usize, usize)> {
+        (1usize..=3, 1usize..=7, 1usize..=7)
+    }
+
+    proptest! {
+        #![proptest_config(strategies::config())]
+
+        #[test]
+        fn fft2_matches_naive_dft(x in sizes().prop_flat_map(|(b, h, w)| complex_tensor(b, h, w))) {
+            let (b, h, w) = complex_dims("test", x.shape());
+            let mut tape = Tape::<f64>::new();
+            let v = tape.constant(x.clone());
+            let y = tape.fft2(v);
+            let z = tape.ifft2(v);
+            for i in 0..b {
+                let img = &x.data()[2 * h * w * i..2 * h * w * (i + 1)];
+                let want = naive_dft(img, h, w, -1.0);
+                let got = &tape.value(y).data()[2 * h * w * i..2 * h * w * (i + 1)];
+                for (g, e) in got.iter().zip(&want) {
+                    prop_assert!((g - e).abs() < 1e-9 * (1.0 + e.abs()), "fft2 {g} vs naive {e}");
+                }
+                let want = naive_dft(img, h, w, 1.0);
+                let got = &tape.value(z).data()[2 * h * w * i..2 * h * w * (i + 1)];
+                for (g, e) in got.iter().zip(&want) {
+                    let e = e / (h * w) as f64;
+                    prop_assert!((g - e).abs() < 1e-9 * (1.0 + e.abs()), "ifft2 {g} vs naive {e}");
+                }
+            }
+        }
+
+        #[test]
+        fn ifft2_inverts_fft2(x in sizes().prop_flat_map(|(b, h, w)| complex_tensor(b, h, w))) {
+            let mut tape = Tape::<f64>::new();
+            let v = tape.constant(x.clone());
+            let f = tape.fft2(v);
+            let back = tape.ifft2(f);
+            prop_assert!(tape.value(back).max_abs_diff(&x) < 1e-12);
+        }
+
+        #[test]
+        fn fft2_gradient(x in sizes().prop_flat_map(|(b, h, w)| complex_tensor(b, h, w))) {
+            check_gradients(|t, v| t.fft2(v[0]), &[x], &CheckConfig::default())
+                .map_err(|e| TestCaseError::fail(e.to_string()))?;
+        }
+
+        #[test]
+        fn ifft2_gradient(x in sizes().prop_flat_map(|(b, h, w)| complex_tensor(b, h, w))) {
+            check_gradients(|t, v| t.ifft2(v[0]), &[x], &CheckConfig::default())
+                .map_err(|e| TestCaseError::fail(e.to_string()))?;
+        }
+
+        #[test]
+        fn to_complex_and_real_part_gradients(x in strategies::tensor(3)) {
+            let cfg = CheckConfig::default();
+            check_gradients(|t, v| t.to_complex(v[0]), std::slice::from_ref(&x), &cfg)
+                .map_err(|e| TestCaseError::fail(e.to_string()))?;
+            let d = x.dims().to_vec();
+            let c = Tensor::from_fn([d[0], d[1], d[2], 2], |i| x.data()[i / 2] * if i % 2 == 0 { 1.0 } else { -0.5 });
+            check_gradients(|t, v| t.real_part(v[0]), &[c], &cfg)
+                .map_err(|e| TestCaseError::fail(e.to_string()))?;
+        }
+
+        /// `b` is either one response broadcast over the batch, or a full batch of them.
+        #[test]
+        fn complex_mul_gradient(
+            (a, b) in (sizes(), any::<bool>()).prop_flat_map(|((n, h, w), full)| {
+                let bdims = if full { vec![n, h, w, 2] } else { vec![h, w, 2] };
+                (complex_tensor(n, h, w), strategies::tensor_of(bdims))
+            })
+        ) {
+            check_gradients(|t, v| t.complex_mul(v[0], v[1]), &[a, b], &CheckConfig::default())
+                .map_err(|e| TestCaseError::fail(e.to_string()))?;
+        }
+
+        #[test]
+        fn complex_div_guarded_gradient(
+            (a, b) in sizes().prop_flat_map(|(n, h, w)| (complex_tensor(n, h, w), strategies::tensor_of(vec![h, w, 2])))
+        ) {
+            check_gradients(|t, v| t.complex_div_guarded(v[0], v[1], 1e-6), &[a, b], &CheckConfig::default())
+                .map_err(|e| TestCaseError::fail(e.to_string()))?;
+        }
+
+        /// `|b|` between 0 and 10·√eps (one entry exactly 0 in half the cases), where the guard
+        /// dominates and `∂y/∂b` reaches `|a|/eps`. As near a zero of a real response, the
+        /// spectrum `a` is small too (≈ 1e-3), which keeps `y` and `L` of order one, so the f64
+        /// round-off of the central difference (≈ 1e-16·|L|/h) stays far below the tolerance.
+        #[test]
+        fn complex_div_guarded_gradient_near_zero(
+            (a, b, exact_zero) in sizes().prop_flat_map(|(n, h, w)| (
+                proptest::collection::vec(-2e-3f64..2e-3, 2 * n * h * w)
+                    .prop_map(move |v| Tensor::from_vec([n, h, w, 2], v)),
+                proptest::collection::vec(-1e-2f64..1e-2, 2 * h * w)
+                    .prop_map(move |v| Tensor::from_vec([h, w, 2], v)),
+                any::<bool>(),
+            ))
+        ) {
+            let mut b = b;
+            if exact_zero {
+                b.data_mut()[0] = 0.0;
+                b.data_mut()[1] = 0.0;
+            }
+            let div = |t: &mut Tape<f64>, v: &[Var]| t.complex_div_guarded(v[0], v[1], 1e-6);
+            // `a` enters linearly: the default step. `b`: a step small against √eps = 1e-3, so
+            // the truncation error (≈ h²/|b|²) is ≈ 1e-10 relative.
+            check_inputs(div, &[a.clone(), b.clone()], &[true, false], &CheckConfig::default())
+                .map_err(|e| TestCaseError::fail(e.to_string()))?;
+            let cfg = CheckConfig { eps: 1e-8, ..CheckConfig::default() };
+            check_inputs(div, &[a, b], &[false, true], &cfg)
+                .map_err(|e| TestCaseError::fail(e.to_string()))?;
+        }
+
+        #[test]
+        fn pad2d_gradient(
+            (x, top, left, extra_h, extra_w) in (strategies::tensor(3), 0usize..3, 0usize..3, 0usize..3, 0usize..3)
+        ) {
+            let (h, w) = (x.dims()[1], x.dims()[2]);
+            check_gradients(|t, v| t.pad2d(v[0], top, left, top + h + extra_h, left + w + extra_w), &[x], &CheckConfig::default())
+                .map_err(|e| TestCaseError::fail(e.to_string()))?;
+        }
+
+        /// A window `(top, left, h, w)` anywhere inside a `(2, H, W)` tensor (rank 3 and 4).
+        #[test]
+        fn crop2d_gradient(
+            (x, (top, h), (left, w)) in (1usize..=2, 1usize..=6, 1usize..=6).prop_flat_map(|(b, bh, bw)| (
+                strategies::tensor_of(if b == 1 { vec![2, bh, bw] } else { vec![b, 2, bh, bw] }),
+                (0..bh).prop_flat_map(move |t| (Just(t), 1..=bh - t)),
+                (0..bw).prop_flat_map(move |l| (Just(l), 1..=bw - l)),
+            ))
+        ) {
+            check_gradients(|t, v| t.crop2d(v[0], top, left, h, w), &[x], &CheckConfig::default())
+                .map_err(|e| TestCaseError::fail(e.to_string()))?;
+        }
+
+        /// The whole W-bucket path: gradients to the image and to the learned response.
+        #[test]
+        fn fft_convolve_and_deconvolve_same_gradients(
+            (x, r) in (1usize..=2, 1usize..=4).prop_flat_map(|(b, n)| (
+                strategies::tensor_of(vec![b, 1, n, n]),
+                strategies::tensor_of(vec![2 * n - 1, 2 * n - 1, 2]),
+            ))
+        ) {
+            let cfg = CheckConfig::default();
+            check_gradients(|t, v| t.fft_convolve_same(v[0], v[1]), &[x.clone(), r.clone()], &cfg)
+                .map_err(|e| TestCaseError::fail(e.to_string()))?;
+            check_gradients(|t, v| t.fft_deconvolve_same(v[0], v[1], 1e-6), &[x, r], &cfg)
+                .map_err(|e| TestCaseError::fail(e.to_string()))?;
+        }
+    }
+
+    /// The response as a constant (`check_inputs` mask) still lets the image gradient through.
+    #[test]
+    fn constant_response_passes_image_gradient() {
+        let x = Tensor::from_fn([2, 1, 3, 3], |i| (i as f64 * 0.7).sin());
+        let r = identity_response::<f64>(3);
+        let rep = check_inputs(
+            |t, v| t.fft_convolve_same(v[0], v[1]),
+            &[x, r],
+            &[true, false],
+            &CheckConfig::default(),
+        )
+        .unwrap();
+        assert_eq!(rep.checked, 18);
+    }
+
+    #[test]
+    fn plans_are_cached() {
+        let a = plan::<f32>(37, false);
+        let b = plan::<f32>(37, false);
+        assert!(Arc::ptr_eq(&a, &b), "a second request re-planned");
+        let c = plan::<f32>(37, true);
+        assert!(
+            !Arc::ptr_eq(&a, &c),
+            "forward and inverse plans must differ"
+        );
+    }
+
+    #[test]
+    #[should_panic(expected = "fft2: expected a complex tensor (…, H, W, 2), got (2, 3, 3)")]
+    fn real_input_panics_with_shape() {
+        let mut tape = Tape::<f32>::new();
+        let x = tape.constant(Tensor::zeros([2, 3, 3]));
+        tape.fft2(x);
+    }
+}

@@ -1,2 +1,333 @@
-//! (being written)
-pub const OPS: &[&str] = &[];
+//! Reductions: sum and mean over everything or over chosen axes, max and min over everything.
+//!
+//! - [`Sum`] / [`Mean`]: all elements → a rank-0 scalar. `∂/∂x_i = 1` (or `1/n`). Sums are
+//!   accumulated in f64, also on an f32 tape, so a loss over a large image is not dominated by
+//!   round-off.
+//! - [`SumAxes`] / [`MeanAxes`]: sum (mean) over a set of axes. With `keepdim` the reduced axes
+//!   stay with length 1 (`(B, C, H, W)` over `[2, 3]` → `(B, C, 1, 1)`), otherwise they are
+//!   removed (→ `(B, C)`). Backward broadcasts `dy` back over the reduced axes.
+//! - [`Max`] / [`Min`]: the largest (smallest) element → a scalar; the gradient goes to the first
+//!   position attaining it (a subgradient at ties).
+//!
+//! An axis out of range panics naming the op and the shape.
+
+use crate::op::{BackwardCx, GradSlots, Op};
+use crate::ops::broadcast::Plan;
+use crate::tensor::MAX_RANK;
+use crate::{Float, Shape, Tape, Tensor, Var};
+
+/// Names of the ops in this file (registry rule, see [`crate::ops`]).
+pub const OPS: &[&str] = &["sum", "mean", "sum_axes", "mean_axes", "max", "min"];
+
+/// Sum of all elements, in f64.
+fn total<T: Float>(x: &[T]) -> f64 {
+    // Chunked so the inner loop vectorises; the chunk sums are exact enough in f64.
+    x.chunks(256)
+        .map(|c| c.iter().map(|v| v.as_f64()).sum::<f64>())
+        .sum()
+}
+
+macro_rules! reduce_all {
+    ($(#[$doc:meta])* $name:ident, $str:literal, $mean:expr) => {
+        $(#[$doc])*
+        #[derive(Clone, Copy, Debug, Default)]
+        pub struct $name;
+        impl<T: Float> Op<T> for $name {
+            fn name(&self) -> &'static str {
+                $str
+            }
+            fn output_shape(&self, inputs: &[&Tensor<T>]) -> Shape {
+                assert_eq!(inputs.len(), 1, "{}: takes one input", $str);
+                Shape::scalar()
+            }
+            fn forward(&mut self, inputs: &[&Tensor<T>], out: &mut Tensor<T>) {
+                let x = inputs[0].data();
+                let s = total(x);
+                out.data_mut()[0] = T::of(if $mean { s / x.len().max(1) as f64 } else { s });
+            }
+            fn backward(&self, cx: &BackwardCx<'_, T>, dx: &mut GradSlots<'_, T>) {
+                if let Some(g) = dx.slot_data(0) {
+                    let n = g.len().max(1);
+                    let d = if $mean { cx.dy.data()[0] / T::of(n as f64) } else { cx.dy.data()[0] };
+                    g.iter_mut().for_each(|g| *g += d);
+                }
+            }
+        }
+    };
+}
+
+reduce_all!(
+    /// `y = Σ x` (rank-0 output).
+    Sum,
+    "sum",
+    false
+);
+reduce_all!(
+    /// `y = Σ x / n` (rank-0 output).
+    Mean,
+    "mean",
+    true
+);
+
+/// The input shape with the axes in `mask` set to 1 (`keepdim` form), and the output shape.
+fn reduced_shapes(x: Shape, mask: u8, keepdim: bool) -> (Shape, Shape) {
+    let (mut keep, mut kept, mut k) = ([1usize; MAX_RANK], [0usize; MAX_RANK], 0);
+    for (a, &d) in x.dims().iter().enumerate() {
+        if mask & (1 << a) == 0 {
+            keep[a] = d;
+            kept[k] = d;
+            k += 1;
+        }
+    }
+    let keep = Shape::new(&keep[..x.rank()]);
+    (
+        keep,
+        if keepdim {
+            keep
+        } else {
+            Shape::new(&kept[..k])
+        },
+    )
+}
+
+#[track_caller]
+fn axes_mask(op: &str, x: Shape, axes: &[usize]) -> u8 {
+    let mut m = 0u8;
+    for &a in axes {
+        assert!(a < x.rank(), "{op}: axis {a} out of range for {x:?}");
+        m |= 1 << a;
+    }
+    m
+}
+
+macro_rules! reduce_axes {
+    ($(#[$doc:meta])* $name:ident, $str:literal, $mean:expr) => {
+        $(#[$doc])*
+        #[derive(Clone, Copy, Debug)]
+        pub struct $name {
+            mask: u8,
+            keepdim: bool,
+            plan: Option<(Plan, usize)>,
+        }
+        impl<T: Float> Op<T> for $name {
+            fn name(&self) -> &'static str {
+                $str
+            }
+            fn output_shape(&self, inputs: &[&Tensor<T>]) -> Shape {
+                reduced_shapes(inputs[0].shape(), self.mask, self.keepdim).1
+            }
+            fn forward(&mut self, inputs: &[&Tensor<T>], out: &mut Tensor<T>) {
+                let x = inputs[0].shape();
+                let keep = reduced_shapes(x, self.mask, self.keepdim).0;
+                let plan = Plan::new($str, keep, x);
+                let count = x.numel() / keep.numel().max(1);
+                plan.reduce_into(out.data_mut(), inputs[0].data(), None);
+                if $mean {
+                    let s = T::of(1.0 / count.max(1) as f64);
+                    out.data_mut().iter_mut().for_each(|v| *v *= s);
+                }
+                self.plan = Some((plan, count));
+            }
+            fn backward(&self, cx: &BackwardCx<'_, T>, dx: &mut GradSlots<'_, T>) {
+                let (plan, count) = self.plan.expect(concat!($str, ": backward before forward"));
+                if let Some(g) = dx.slot_data(0) {
+                    let s = if $mean { T::of(1.0 / count.max(1) as f64) } else { T::one() };
+                    let (n, step) = plan.row();
+                    let dy = cx.dy.data();
+                    plan.for_each_row(|o, yo| {
+                        for i in 0..n {
+                            g[o + i] += s * dy[yo + i * step];
+                        }
+                    });
+                }
+            }
+        }
+    };
+}
+
+reduce_axes!(
+    /// `y = Σ_axes x`, keeping the reduced axes as length 1 when `keepdim`.
+    SumAxes,
+    "sum_axes",
+    false
+);
+reduce_axes!(
+    /// `y = mean_axes x`, keeping the reduced axes as length 1 when `keepdim`.
+    MeanAxes,
+    "mean_axes",
+    true
+);
+
+macro_rules! extremum {
+    ($(#[$doc:meta])* $name:ident, $str:literal, $better:expr) => {
+        $(#[$doc])*
+        #[derive(Clone, Copy, Debug, Default)]
+        pub struct $name {
+            at: usize,
+        }
+        impl<T: Float> Op<T> for $name {
+            fn name(&self) -> &'static str {
+                $str
+            }
+            #[track_caller]
+            fn output_shape(&self, inputs: &[&Tensor<T>]) -> Shape {
+                assert!(inputs[0].numel() > 0, "{}: empty input {:?}", $str, inputs[0].shape());
+                Shape::scalar()
+            }
+            fn forward(&mut self, inputs: &[&Tensor<T>], out: &mut Tensor<T>) {
+                let x = inputs[0].data();
+                let better: fn(T, T) -> bool = $better;
+                self.at = (1..x.len()).fold(0, |best, i| if better(x[i], x[best]) { i } else { best });
+                out.data_mut()[0] = x[self.at];
+            }
+            fn backward(&self, cx: &BackwardCx<'_, T>, dx: &mut GradSlots<'_, T>) {
+                if let Some(g) = dx.slot_data(0) {
+                    g[self.at] += cx.dy.data()[0];
+                }
+            }
+        }
+    };
+}
+
+extremum!(
+    /// `y = max x`; the gradient goes to the first maximal element.
+    Max,
+    "max",
+    |a, b| a > b
+);
+extremum!(
+    /// `y = min x`; the gradient goes to the first minimal element.
+    Min,
+    "min",
+    |a, b| a < b
+);
+
+impl<T: Float> Tape<T> {
+    /// `Σ x` over all elements (rank-0 result).
+    pub fn sum(&mut self, x: Var) -> Var {
+        self.apply(Sum, &[x])
+    }
+    /// Mean over all elements (rank-0 result).
+    pub fn mean(&mut self, x: Var) -> Var {
+        self.apply(Mean, &[x])
+    }
+    /// Sum over `axes`; reduced axes stay as length 1 when `keepdim`, else they are removed.
+    #[track_caller]
+    pub fn sum_axes(&mut self, x: Var, axes: &[usize], keepdim: bool) -> Var {
+        let mask = axes_mask("sum_axes", self.shape(x), axes);
+        self.apply(
+            SumAxes {
+                mask,
+                keepdim,
+                plan: None,
+            },
+            &[x],
+        )
+    }
+    /// Mean over `axes`; reduced axes stay as length 1 when `keepdim`, else they are removed.
+    #[track_caller]
+    pub fn mean_axes(&mut self, x: Var, axes: &[usize], keepdim: bool) -> Var {
+        let mask = axes_mask("mean_axes", self.shape(x), axes);
+        self.apply(
+            MeanAxes {
+                mask,
+                keepdim,
+                plan: None,
+            },
+            &[x],
+        )
+    }
+    /// The largest element (rank-0 result).
+    #[track_caller]
+    pub fn max(&mut self, x: Var) -> Var {
+        self.apply(Max::default(), &[x])
+    }
+    /// The smallest element (rank-0 result).
+    #[track_caller]
+    pub fn min(&mut self, x: Var) -> Var {
+        self.apply(Min::default(), &[x])
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::check::{check_gradients, strategies as st, CheckConfig};
+    use proptest::prelude::*;
+
+    fn with_axes() -> impl Strategy<Value = (Tensor<f64>, Vec<usize>, bool)> {
+        (1usize..=4).prop_flat_map(|r| {
+            (
+                st::tensor(r),
+                proptest::collection::vec(any::<bool>(), r),
+                any::<bool>(),
+            )
+                .prop_map(|(x, pick, keep)| {
+                    let axes = (0..pick.len()).filter(|&a| pick[a]).collect();
+                    (x, axes, keep)
+                })
+        })
+    }
+
+    proptest! {
+        #![proptest_config(st::config())]
+
+        #[test]
+        fn whole_reductions(x in (1usize..=3).prop_flat_map(st::tensor)) {
+            for name in ["sum", "mean", "max", "min"] {
+                let r = check_gradients(|t, v| {
+                    // Square first so the check sees a non-constant gradient.
+                    let s = t.square(v[0]);
+                    match name { "sum" => t.sum(s), "mean" => t.mean(s), "max" => t.max(v[0]), _ => t.min(v[0]) }
+                }, std::slice::from_ref(&x), &CheckConfig::default());
+                prop_assert!(r.is_ok(), "{name}: {}", r.unwrap_err());
+            }
+        }
+
+        #[test]
+        fn axis_reductions((x, axes, keepdim) in with_axes()) {
+            let r = check_gradients(|t, v| t.sum_axes(v[0], &axes, keepdim), std::slice::from_ref(&x), &CheckConfig::default());
+            prop_assert!(r.is_ok(), "sum_axes {axes:?}: {}", r.unwrap_err());
+            let r = check_gradients(|t, v| t.mean_axes(v[0], &axes, keepdim), &[x], &CheckConfig::default());
+            prop_assert!(r.is_ok(), "mean_axes {axes:?}: {}", r.unwrap_err());
+        }
+    }
+
+    #[test]
+    fn axis_shapes_and_values() {
+        let mut t = Tape::<f64>::new();
+        let x = t.constant(Tensor::from_fn([2, 3, 4], |i| i as f64));
+        let a = t.sum_axes(x, &[1], false);
+        assert_eq!(t.shape(a), Shape::new(&[2, 4]));
+        // x[0, :, 0] = 0, 4, 8
+        assert_eq!(t.value(a).data()[0], 12.0);
+        let b = t.mean_axes(x, &[0, 2], true);
+        assert_eq!(t.shape(b), Shape::new(&[1, 3, 1]));
+        // mean over x[:, 1, :] = {4..8} ∪ {16..20}
+        assert_eq!(
+            t.value(b).data()[1],
+            (4 + 5 + 6 + 7 + 16 + 17 + 18 + 19) as f64 / 8.0
+        );
+        let all = t.sum_axes(x, &[0, 1, 2], false);
+        assert_eq!(t.shape(all), Shape::scalar());
+        assert_eq!(t.value(all).item(), (0..24).sum::<i32>() as f64);
+    }
+
+    #[test]
+    fn f32_sum_accumulates_in_f64() {
+        let n = 1 << 22;
+        let mut t = Tape::<f32>::new();
+        let x = t.constant(Tensor::full([n], 0.1f32));
+        let s = t.sum(x);
+        let want = n as f64 * 0.1f32 as f64;
+        assert!((t.value(s).item() as f64 - want).abs() < 1e-6 * want);
+    }
+
+    #[test]
+    #[should_panic(expected = "sum_axes: axis 2 out of range for (2, 3)")]
+    fn bad_axis_panics() {
+        let mut t = Tape::<f32>::new();
+        let x = t.constant(Tensor::zeros([2, 3]));
+        t.sum_axes(x, &[2], false);
+    }
+}

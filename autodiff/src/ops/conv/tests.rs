@@ -1,0 +1,342 @@
+//! Tests of `conv2d` and `conv_transpose2x2`: gradient checks over proptest shapes (tiny images
+//! so reflect borders dominate), a direct-loop reference on images big enough to be tiled, a
+//! hand-computed reflect example, and shape panics.
+
+use super::*;
+use crate::check::{check_gradients, strategies as st, CheckConfig};
+use proptest::prelude::*;
+
+/// Direct convolution with an explicitly built padded image (independent of `lowering`).
+fn naive_conv(x: &Tensor<f64>, w: &Tensor<f64>, mode: Padding) -> Tensor<f64> {
+    let (bn, c, h, wd) = x.shape().bchw("ref");
+    let (co, _, k, _) = w.shape().bchw("ref");
+    let p = (k / 2) as isize;
+    let pick = |i: isize, n: usize| -> Option<usize> {
+        let n = n as isize;
+        match mode {
+            _ if i >= 0 && i < n => Some(i as usize),
+            Padding::Zero => None,
+            Padding::Reflect if i < 0 => Some((-i) as usize),
+            Padding::Reflect => Some((2 * n - 2 - i) as usize),
+        }
+    };
+    Tensor::from_fn([bn, co, h, wd], |f| {
+        let (b, o, i, j) = (f / (co * h * wd), (f / (h * wd)) % co, (f / wd) % h, f % wd);
+        let mut s = 0.0;
+        for ci in 0..c {
+            for a in 0..k {
+                for bb in 0..k {
+                    let (r, q) = (
+                        pick(i as isize + a as isize - p, h),
+                        pick(j as isize + bb as isize - p, wd),
+                    );
+                    if let (Some(r), Some(q)) = (r, q) {
+                        s += w.data()[((o * c + ci) * k + a) * k + bb]
+                            * x.data()[((b * c + ci) * h + r) * wd + q];
+                    }
+                }
+            }
+        }
+        s
+    })
+}
+
+fn lcg_tensor(shape: &[usize], seed: u64) -> Tensor<f64> {
+    let mut s = seed;
+    Tensor::from_fn(shape, |_| {
+        s = s
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (s >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+    })
+}
+
+/// (x, w, padding) with tiny images; reflect needs (k−1)/2 < H, W.
+fn conv_case() -> impl Strategy<Value = (Tensor<f64>, Tensor<f64>, Padding)> {
+    (
+        1usize..=2,
+        1usize..=3,
+        1usize..=3,
+        2usize..=6,
+        2usize..=6,
+        prop_oneof![Just(1usize), Just(3)],
+        any::<bool>(),
+    )
+        .prop_flat_map(|(b, ci, co, h, w, k, reflect)| {
+            let k = if k == 3 && h > 2 && w > 2 && reflect && (h + w) % 3 == 0 {
+                5
+            } else {
+                k
+            };
+            let mode = if reflect {
+                Padding::Reflect
+            } else {
+                Padding::Zero
+            };
+            (
+                st::tensor_of(vec![b, ci, h, w]),
+                st::tensor_of(vec![co, ci, k, k]),
+                Just(mode),
+            )
+        })
+}
+
+proptest! {
+    #![proptest_config(st::config())]
+
+    #[test]
+    fn conv2d_gradients((x, w, mode) in conv_case()) {
+        let r = check_gradients(|t, v| t.conv2d(v[0], v[1], mode), &[x.clone(), w.clone()], &CheckConfig::default());
+        prop_assert!(r.is_ok(), "conv2d {mode:?} x {:?} w {:?}: {}", x.shape(), w.shape(), r.unwrap_err());
+    }
+
+    #[test]
+    fn conv2d_matches_direct_loops((x, w, mode) in conv_case()) {
+        let mut t = Tape::<f64>::new();
+        let (xv, wv) = (t.constant(x.clone()), t.constant(w.clone()));
+        let y = t.conv2d(xv, wv, mode);
+        prop_assert!(t.value(y).max_abs_diff(&naive_conv(&x, &w, mode)) < 1e-12);
+    }
+
+    #[test]
+    fn conv_transpose_gradients(
+        x in (1usize..=2, 1usize..=3, 1usize..=4, 1usize..=4).prop_flat_map(|(b, c, h, w)| st::tensor_of(vec![b, c, h, w])),
+        co in 1usize..=3,
+        seed in any::<u64>(),
+    ) {
+        let w = lcg_tensor(&[x.dims()[1], co, 2, 2], seed);
+        let r = check_gradients(|t, v| t.conv_transpose2x2(v[0], v[1]), &[x.clone(), w], &CheckConfig::default());
+        prop_assert!(r.is_ok(), "conv_transpose2x2 x {:?}: {}", x.shape(), r.unwrap_err());
+    }
+}
+
+#[test]
+fn reflect_example_by_hand() {
+    // x = [[1 2 3], [4 5 6]], reflect-padded, summed by a 3×3 box (worked out on paper).
+    let mut t = Tape::<f64>::new();
+    let x = t.constant(Tensor::from_vec([1, 1, 2, 3], vec![1., 2., 3., 4., 5., 6.]));
+    let w = t.constant(Tensor::full([1, 1, 3, 3], 1.0));
+    let y = t.conv2d(x, w, Padding::Reflect);
+    assert_eq!(t.value(y).data(), &[33., 36., 39., 24., 27., 30.]);
+    let y = t.conv2d(x, w, Padding::Zero);
+    assert_eq!(t.value(y).data(), &[12., 21., 16., 12., 21., 16.]);
+}
+
+/// Direct-loop backward of `Σ r ⊙ conv(x, w)`: ∂x and ∂w by scattering each product.
+fn naive_conv_grads(
+    x: &Tensor<f64>,
+    w: &Tensor<f64>,
+    r: &Tensor<f64>,
+    mode: Padding,
+) -> (Tensor<f64>, Tensor<f64>) {
+    let (bn, c, h, wd) = x.shape().bchw("ref");
+    let (co, _, k, _) = w.shape().bchw("ref");
+    let p = (k / 2) as isize;
+    let pick = |i: isize, n: usize| -> Option<usize> {
+        let n = n as isize;
+        if (0..n).contains(&i) {
+            Some(i as usize)
+        } else if mode == Padding::Zero {
+            None
+        } else if i < 0 {
+            Some((-i) as usize)
+        } else {
+            Some((2 * n - 2 - i) as usize)
+        }
+    };
+    let (mut gx, mut gw) = (Tensor::zeros(x.shape()), Tensor::zeros(w.shape()));
+    for b in 0..bn {
+        for o in 0..co {
+            for i in 0..h {
+                for j in 0..wd {
+                    let d = r.data()[((b * co + o) * h + i) * wd + j];
+                    for ci in 0..c {
+                        for a in 0..k {
+                            for bb in 0..k {
+                                if let (Some(y), Some(z)) = (
+                                    pick(i as isize + a as isize - p, h),
+                                    pick(j as isize + bb as isize - p, wd),
+                                ) {
+                                    let (xi, wi) = (
+                                        ((b * c + ci) * h + y) * wd + z,
+                                        ((o * c + ci) * k + a) * k + bb,
+                                    );
+                                    gx.data_mut()[xi] += d * w.data()[wi];
+                                    gw.data_mut()[wi] += d * x.data()[xi];
+                                }
+                            }
+                        }
+                    }
+                }
+            }
+        }
+    }
+    (gx, gw)
+}
+
+#[test]
+fn tiled_large_image_matches_direct_loops() {
+    // 300×37 with 8 input channels is cut into many row tiles (several per image).
+    let g = lowering::Geometry {
+        c: 8,
+        h: 300,
+        w: 37,
+        k: 3,
+        mode: Padding::Reflect,
+    };
+    assert!(
+        lowering::tiles(&g).len() >= 3,
+        "test must exercise several tiles"
+    );
+    for (mode, batch) in [(Padding::Reflect, 1), (Padding::Zero, 3)] {
+        let x = lcg_tensor(&[batch, 8, 300, 37], 1);
+        let w = lcg_tensor(&[3, 8, 3, 3], 2);
+        let r = lcg_tensor(&[batch, 3, 300, 37], 3);
+        let mut t = Tape::<f64>::new();
+        let (xv, wv) = (t.leaf(x.clone()), t.leaf(w.clone()));
+        let y = t.conv2d(xv, wv, mode);
+        assert!(t.value(y).max_abs_diff(&naive_conv(&x, &w, mode)) < 1e-12);
+        t.backward_from(&[(y, r.clone())], &mut crate::NoHooks);
+        let (gx, gw) = naive_conv_grads(&x, &w, &r, mode);
+        assert!(t.grad(xv).unwrap().max_abs_diff(&gx) < 1e-10, "{mode:?} dx");
+        assert!(t.grad(wv).unwrap().max_abs_diff(&gw) < 1e-9, "{mode:?} dw");
+    }
+}
+
+#[test]
+fn conv_transpose_places_each_tap() {
+    // One input pixel, one channel: the 2×2 output block is the kernel itself.
+    let mut t = Tape::<f64>::new();
+    let x = t.constant(Tensor::from_vec([1, 1, 1, 2], vec![2.0, -1.0]));
+    let w = t.constant(Tensor::from_vec([1, 1, 2, 2], vec![1., 2., 3., 4.]));
+    let y = t.conv_transpose2x2(x, w);
+    assert_eq!(t.shape(y), Shape::new(&[1, 1, 2, 4]));
+    assert_eq!(t.value(y).data(), &[2., 4., -1., -2., 6., 8., -3., -4.]);
+}
+
+#[test]
+#[should_panic(expected = "conv2d: input (1, 2, 4, 4) and weight (3, 5, 3, 3) do not fit")]
+fn conv2d_channel_mismatch_panics() {
+    let mut t = Tape::<f32>::new();
+    let x = t.constant(Tensor::zeros([1, 2, 4, 4]));
+    let w = t.constant(Tensor::zeros([3, 5, 3, 3]));
+    t.conv2d(x, w, Padding::Zero);
+}
+
+#[test]
+#[should_panic(
+    expected = "conv2d: reflect padding 1 needs an image larger than that, input (1, 1, 1, 4)"
+)]
+fn conv2d_reflect_on_one_row_panics() {
+    let mut t = Tape::<f32>::new();
+    let x = t.constant(Tensor::zeros([1, 1, 1, 4]));
+    let w = t.constant(Tensor::zeros([1, 1, 3, 3]));
+    t.conv2d(x, w, Padding::Reflect);
+}
+
+#[test]
+#[should_panic(
+    expected = "conv_transpose2x2: input (1, 3, 2, 2) and weight (2, 4, 2, 2) do not fit"
+)]
+fn conv_transpose_mismatch_panics() {
+    let mut t = Tape::<f32>::new();
+    let x = t.constant(Tensor::zeros([1, 3, 2, 2]));
+    let w = t.constant(Tensor::zeros([2, 4, 2, 2]));
+    t.conv_transpose2x2(x, w);
+}
+
+#[test]
+fn f32_matches_f64() {
+    let x = lcg_tensor(&[2, 5, 9, 11], 4);
+    let w = lcg_tensor(&[6, 5, 3, 3], 5);
+    let want = naive_conv(&x, &w, Padding::Reflect);
+    let mut t = Tape::<f32>::new();
+    let (xv, wv) = (t.constant(x.cast()), t.constant(w.cast()));
+    let y = t.conv2d(xv, wv, Padding::Reflect);
+    assert!(t.value(y).cast::<f64>().max_abs_diff(&want) < 1e-5);
+}
+
+/// Timing breakdown for tuning (`cargo test --release -p autodiff conv_profile -- --ignored --nocapture`).
+#[test]
+#[ignore]
+fn conv_profile() {
+    use std::time::Instant;
+    for &(b, ci, h, co) in &[
+        (8usize, 16usize, 64usize, 16usize),
+        (8, 64, 16, 64),
+        (4, 16, 256, 16),
+    ] {
+        let x: Tensor<f32> = lcg_tensor(&[b, ci, h, h], 1).cast();
+        let w: Tensor<f32> = lcg_tensor(&[co, ci, 3, 3], 2).cast();
+        let g = lowering::Geometry {
+            c: ci,
+            h,
+            w: h,
+            k: 3,
+            mode: Padding::Reflect,
+        };
+        let tl = lowering::tiles(&g);
+        let px = (tl[0].1 - tl[0].0) * g.wp();
+        let mut col = vec![0f32; g.col_rows() * px];
+        let mut xp = vec![0f32; g.padded_len()];
+        let mut yt = vec![0f32; co * px];
+        let reps = 20;
+        let t0 = Instant::now();
+        for _ in 0..reps {
+            for bi in 0..b {
+                g.pad(&x.data()[bi * ci * h * h..][..ci * h * h], &mut xp);
+                for &(r0, r1) in &tl {
+                    g.im2col(&xp, r0, r1, &mut col[..g.col_rows() * (r1 - r0) * g.wp()]);
+                }
+            }
+        }
+        let t_im2col = t0.elapsed().as_secs_f64() / reps as f64;
+        let t0 = Instant::now();
+        for _ in 0..reps {
+            for _ in 0..b * tl.len() {
+                f32::gemm(
+                    &mut yt,
+                    false,
+                    w.data(),
+                    false,
+                    &col,
+                    false,
+                    co,
+                    px,
+                    g.col_rows(),
+                    1.0,
+                );
+            }
+        }
+        let t_gemm = t0.elapsed().as_secs_f64() / reps as f64;
+        let mut t = Tape::<f32>::new();
+        let mut best = Vec::new();
+        for tile in [1usize << 16, 1 << 17, 1 << 18, 1 << 19, 1 << 20] {
+            lowering::TILE_ELEMS.store(tile, std::sync::atomic::Ordering::Relaxed);
+            let (mut tf, mut tb) = (f64::MAX, f64::MAX);
+            for _ in 0..reps {
+                t.clear();
+                let xv = t.leaf(x.clone());
+                let wv = t.leaf(w.clone());
+                let t0 = Instant::now();
+                let y = t.conv2d(xv, wv, Padding::Reflect);
+                tf = tf.min(t0.elapsed().as_secs_f64());
+                let l = t.sum(y);
+                let t0 = Instant::now();
+                t.backward(l);
+                tb = tb.min(t0.elapsed().as_secs_f64());
+            }
+            best.push(format!(
+                "tile 2^{}: fwd {:.2} bwd {:.2}",
+                tile.trailing_zeros(),
+                tf * 1e3,
+                tb * 1e3
+            ));
+        }
+        lowering::TILE_ELEMS.store(1 << 17, std::sync::atomic::Ordering::Relaxed);
+        eprintln!(
+            "({b},{ci},{h},{h})->{co}: 1-thread im2col {:.2} ms, fwd gemm {:.2} ms ({:.0} GFLOP/s); tape min fwd/bwd(+sum) in ms: {}",
+            t_im2col * 1e3, t_gemm * 1e3, 2.0 * (b * h * h * co * ci * 9) as f64 / t_gemm / 1e9, best.join(" | ")
+        );
+    }
+}

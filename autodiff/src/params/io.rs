@@ -1,0 +1,283 @@
+//! Reading and writing named tensors as [safetensors](https://huggingface.co/docs/safetensors):
+//! an 8-byte little-endian header length, a JSON header (`name → dtype, shape, offsets`, plus a
+//! string-to-string `__metadata__`), then the raw little-endian data. PyTorch
+//! (`safetensors.torch.load_file`) and NumPy (`safetensors.numpy.load_file`) open these files.
+//!
+//! - Tensors are written with the dtype of the tape's float (`F32` or `F64`). Reading accepts
+//!   both and converts to the requested float (f32 → f64 is exact; f64 → f32 rounds). Same-dtype
+//!   round trips are bit-exact.
+//! - Writes are atomic: the bytes go to a temporary file in the same directory, which is then
+//!   renamed over the target, so a crash never leaves a half-written checkpoint.
+//! - Every error names the file, and the tensor when one is involved.
+
+use crate::tensor::MAX_RANK;
+use crate::{Float, Shape, Tensor};
+use safetensors::tensor::{Dtype, SafeTensors, TensorView, View};
+use std::borrow::Cow;
+use std::collections::{BTreeMap, HashMap};
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+/// What went wrong reading or writing a safetensors file.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum SafetensorsError {
+    /// The file could not be read, written or renamed.
+    #[error("{path}: {source}")]
+    Io {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+    /// The bytes are not a valid safetensors file (truncated, bad header, bad offsets).
+    #[error("{path}: not a valid safetensors file: {reason}")]
+    Format { path: PathBuf, reason: String },
+    /// A tensor has a dtype other than F32/F64.
+    #[error("{path}: tensor {name:?} has dtype {dtype}, expected F32 or F64")]
+    Dtype {
+        path: PathBuf,
+        name: String,
+        dtype: String,
+    },
+    /// A tensor has more axes than a [`Shape`] holds.
+    #[error("{path}: tensor {name:?} has rank {rank}, at most {MAX_RANK} is supported")]
+    Rank {
+        path: PathBuf,
+        name: String,
+        rank: usize,
+    },
+    /// A tensor's shape differs from the parameter it should load into.
+    #[error("{path}: tensor {name:?} has shape {found:?}, expected {expected:?}")]
+    Shape {
+        path: PathBuf,
+        name: String,
+        found: Vec<usize>,
+        expected: Vec<usize>,
+    },
+    /// A tensor that should be in the file is not.
+    #[error("{path}: tensor {name:?} is missing")]
+    Missing { path: PathBuf, name: String },
+    /// The file holds a tensor nothing asked for.
+    #[error("{path}: unexpected tensor {name:?}")]
+    Unexpected { path: PathBuf, name: String },
+    /// A metadata entry is missing or cannot be parsed.
+    #[error("{path}: metadata {key:?}: {reason}")]
+    Metadata {
+        path: PathBuf,
+        key: String,
+        reason: String,
+    },
+}
+
+/// Little-endian bytes of one tensor, in the file's dtype.
+struct Bytes {
+    dtype: Dtype,
+    shape: Vec<usize>,
+    data: Vec<u8>,
+}
+
+impl View for &Bytes {
+    fn dtype(&self) -> Dtype {
+        self.dtype
+    }
+    fn shape(&self) -> &[usize] {
+        &self.shape
+    }
+    fn data(&self) -> Cow<'_, [u8]> {
+        Cow::Borrowed(&self.data)
+    }
+    fn data_len(&self) -> usize {
+        self.data.len()
+    }
+}
+
+fn to_bytes<T: Float>(t: &Tensor<T>) -> Bytes {
+    let data = if T::DTYPE == "f64" {
+        t.data()
+            .iter()
+            .flat_map(|x| x.as_f64().to_le_bytes())
+            .collect()
+    } else {
+        t.data()
+            .iter()
+            .flat_map(|x| (x.as_f64() as f32).to_le_bytes())
+            .collect()
+    };
+    let dtype = if T::DTYPE == "f64" {
+        Dtype::F64
+    } else {
+        Dtype::F32
+    };
+    Bytes {
+        dtype,
+        shape: t.dims().to_vec(),
+        data,
+    }
+}
+
+fn io_err(path: &Path) -> impl Fn(std::io::Error) -> SafetensorsError + '_ {
+    move |source| SafetensorsError::Io {
+        path: path.to_path_buf(),
+        source,
+    }
+}
+
+/// Writes `tensors` (name, value) and string `metadata` to `path`, atomically.
+pub fn write_safetensors<T: Float>(
+    path: &Path,
+    tensors: &[(&str, &Tensor<T>)],
+    metadata: &BTreeMap<String, String>,
+) -> Result<(), SafetensorsError> {
+    let bytes: Vec<(&str, Bytes)> = tensors.iter().map(|(n, t)| (*n, to_bytes(t))).collect();
+    let info: HashMap<String, String> = metadata.clone().into_iter().collect();
+    let buf = safetensors::tensor::serialize(
+        bytes.iter().map(|(n, b)| (*n, b)),
+        if info.is_empty() { None } else { Some(info) },
+    )
+    .map_err(|e| SafetensorsError::Format {
+        path: path.to_path_buf(),
+        reason: e.to_string(),
+    })?;
+
+    let dir = path
+        .parent()
+        .filter(|d| !d.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    let file = path
+        .file_name()
+        .map(|f| f.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let tmp = dir.join(format!(".{file}.tmp{}", std::process::id()));
+    let write = || -> std::io::Result<()> {
+        let mut f = std::fs::File::create(&tmp)?;
+        f.write_all(&buf)?;
+        f.sync_all()
+    };
+    if let Err(e) = write() {
+        let _ = std::fs::remove_file(&tmp);
+        return Err(io_err(&tmp)(e));
+    }
+    std::fs::rename(&tmp, path).map_err(|e| {
+        let _ = std::fs::remove_file(&tmp);
+        io_err(path)(e)
+    })
+}
+
+/// Named tensors and the string metadata of a safetensors file.
+pub struct Loaded<T> {
+    /// Tensors by name.
+    pub tensors: BTreeMap<String, Tensor<T>>,
+    /// The `__metadata__` map (empty when absent).
+    pub metadata: BTreeMap<String, String>,
+}
+
+/// Reads every tensor of `path`, converted to `T`.
+pub fn read_safetensors<T: Float>(path: &Path) -> Result<Loaded<T>, SafetensorsError> {
+    let buf = std::fs::read(path).map_err(io_err(path))?;
+    let format = |e: safetensors::SafeTensorError| SafetensorsError::Format {
+        path: path.to_path_buf(),
+        reason: e.to_string(),
+    };
+    let (_, meta) = SafeTensors::read_metadata(&buf).map_err(format)?;
+    let st = SafeTensors::deserialize(&buf).map_err(format)?;
+    let mut tensors = BTreeMap::new();
+    for (name, view) in st.iter() {
+        tensors.insert(name.to_string(), from_view(path, name, &view)?);
+    }
+    let metadata = meta
+        .metadata()
+        .clone()
+        .unwrap_or_default()
+        .into_iter()
+        .collect();
+    Ok(Loaded { tensors, metadata })
+}
+
+fn from_view<T: Float>(
+    path: &Path,
+    name: &str,
+    v: &TensorView<'_>,
+) -> Result<Tensor<T>, SafetensorsError> {
+    if v.shape().len() > MAX_RANK {
+        return Err(SafetensorsError::Rank {
+            path: path.into(),
+            name: name.into(),
+            rank: v.shape().len(),
+        });
+    }
+    let shape = Shape::new(v.shape());
+    let data: Vec<T> = match v.dtype() {
+        Dtype::F32 => v
+            .data()
+            .chunks_exact(4)
+            .map(|c| T::of(f32::from_le_bytes(c.try_into().unwrap()) as f64))
+            .collect(),
+        Dtype::F64 => v
+            .data()
+            .chunks_exact(8)
+            .map(|c| T::of(f64::from_le_bytes(c.try_into().unwrap())))
+            .collect(),
+        other => {
+            return Err(SafetensorsError::Dtype {
+                path: path.into(),
+                name: name.into(),
+                dtype: format!("{other:?}"),
+            })
+        }
+    };
+    if data.len() != shape.numel() {
+        return Err(SafetensorsError::Format {
+            path: path.into(),
+            reason: format!("tensor {name:?}: {} values for shape {shape:?}", data.len()),
+        });
+    }
+    Ok(Tensor::from_vec(shape, data))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn tmp(name: &str) -> PathBuf {
+        std::env::temp_dir().join(format!("autodiff-io-{}-{name}", std::process::id()))
+    }
+
+    #[test]
+    fn round_trip_is_bit_exact_and_converts_dtypes() {
+        let p = tmp("rt.safetensors");
+        let a = Tensor::from_vec([2, 2], vec![1.0f32, -0.0, f32::MIN_POSITIVE, 1.0 / 3.0]);
+        let s = Tensor::scalar(std::f32::consts::PI);
+        let meta = BTreeMap::from([("step".to_string(), "7".to_string())]);
+        write_safetensors(&p, &[("a", &a), ("s", &s)], &meta).unwrap();
+        let back = read_safetensors::<f32>(&p).unwrap();
+        let bits = |t: &Tensor<f32>| t.data().iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&back.tensors["a"]), bits(&a));
+        assert_eq!(back.tensors["s"].shape(), Shape::scalar());
+        assert_eq!(back.metadata, meta);
+        let wide = read_safetensors::<f64>(&p).unwrap();
+        assert_eq!(wide.tensors["a"].data()[3], (1.0f32 / 3.0) as f64);
+        std::fs::remove_file(&p).unwrap();
+    }
+
+    #[test]
+    fn truncated_file_is_a_format_error_naming_the_file() {
+        let p = tmp("trunc.safetensors");
+        write_safetensors(&p, &[("w", &Tensor::<f64>::zeros([3]))], &BTreeMap::new()).unwrap();
+        let bytes = std::fs::read(&p).unwrap();
+        std::fs::write(&p, &bytes[..bytes.len() - 5]).unwrap();
+        let err = read_safetensors::<f64>(&p).err().expect("must fail");
+        assert!(matches!(err, SafetensorsError::Format { .. }), "{err}");
+        assert!(err.to_string().contains("trunc.safetensors"), "{err}");
+        std::fs::remove_file(&p).unwrap();
+    }
+
+    #[test]
+    fn missing_file_is_an_io_error() {
+        let err = read_safetensors::<f32>(Path::new("/nonexistent/x.safetensors"))
+            .err()
+            .unwrap();
+        assert!(
+            matches!(err, SafetensorsError::Io { .. })
+                && err.to_string().contains("/nonexistent/x")
+        );
+    }
+}

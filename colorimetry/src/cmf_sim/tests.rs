@@ -1,0 +1,146 @@
+//! CMF-SIM on analytic observers whose dimension is known (issue 5, "must show" 2).
+//!
+//! Fast settings: 20 primary sets per K (the paper uses 500), one location pair per evaluation
+//! for the location-independent observers, the default 400–700 nm / 10 nm grid.
+
+use super::*;
+use crate::analytic::{ConeObserver, LocationDependentObserver};
+use crate::cones::{ConeClass, ConeTemplate};
+
+fn fast(seed: u64) -> CmfSimSettings {
+    CmfSimSettings {
+        sets_per_k: 20,
+        location_pairs: 1,
+        seed,
+        ..CmfSimSettings::default()
+    }
+}
+
+fn cones(classes: &[ConeClass]) -> ConeObserver {
+    ConeObserver::new(
+        classes,
+        &ConeTemplate::default(),
+        &WavelengthGrid::default(),
+    )
+    .unwrap()
+}
+
+fn dimension_of(o: &dyn Observer, seed: u64) -> CmfSimResult {
+    let r = run_cmf_sim(o, &fast(seed)).unwrap();
+    assert!(!r.no_colour_constancy, "{}: {}", r.observer, r.verdict);
+    r
+}
+
+#[test]
+fn cone_observers_have_dimension_k() {
+    let (l, m, s) = (ConeClass::l(), ConeClass::m(), ConeClass::s());
+    let cases: Vec<(Vec<ConeClass>, usize)> = vec![
+        (vec![l.clone()], 1),
+        (vec![m.clone()], 1),
+        (vec![l.clone(), m.clone()], 2),
+        (vec![l.clone(), s.clone()], 2),
+        (vec![m.clone(), s.clone()], 2),
+        (ConeClass::lms(), 3),
+        (
+            vec![l.clone(), m.clone(), s.clone(), ConeClass::pigeon_q()],
+            4,
+        ),
+        (vec![l, m, s, ConeClass::human_q()], 4),
+    ];
+    for (i, (classes, k)) in cases.iter().enumerate() {
+        let k = *k;
+        let o = cones(classes);
+        let r = dimension_of(&o, 11 + i as u64);
+        assert_eq!(
+            r.dimension, k,
+            "{}: {} (per K {:?})",
+            r.observer, r.verdict, r.per_k
+        );
+        let ratios: Vec<String> = r.curves[1..]
+            .iter()
+            .map(|c| format!("K={} worst {:.2e}", c.n_primaries, c.worst_ratio))
+            .collect();
+        eprintln!(
+            "{}: dimension {} [{}]",
+            r.observer,
+            r.dimension,
+            ratios.join(", ")
+        );
+        // every smaller K tried its full budget and failed; K itself passed
+        for ks in &r.per_k[..k - 1] {
+            assert!(!ks.passed && ks.sets_tried == 20, "{}: {ks:?}", r.observer);
+        }
+        assert!(r.per_k[k - 1].passed);
+        assert_eq!(r.curves.len(), k + 1);
+        // areas shrink from the energy curve down to the passing set
+        assert!(r.curves[k].area < 1e-6 * r.curves[0].area);
+    }
+}
+
+#[test]
+fn rank_deficient_observer_has_dimension_3() {
+    let o = ConeObserver::rank_deficient_lms(&ConeTemplate::default(), &WavelengthGrid::default())
+        .unwrap();
+    assert_eq!(o.percept_dim(), 4);
+    let r = dimension_of(&o, 5);
+    assert_eq!(r.dimension, 3, "{}", r.verdict);
+}
+
+#[test]
+fn location_dependent_observer_fails_the_base_error_test() {
+    let o = LocationDependentObserver::new(cones(&ConeClass::lms()), 4, 3);
+    let settings = CmfSimSettings {
+        location_pairs: 4,
+        ..fast(9)
+    };
+    let r = run_cmf_sim(&o, &settings).unwrap();
+    assert!(r.no_colour_constancy, "{}", r.verdict);
+    assert_eq!(r.dimension, 0);
+    assert!(r.per_k.is_empty());
+    let (b, e): (f64, f64) = (r.base_error.iter().sum(), r.energy.iter().sum());
+    assert!(b > e, "base {b} energy {e}");
+}
+
+#[test]
+fn too_small_a_budget_is_reported_not_guessed() {
+    let o = cones(&ConeClass::lms());
+    let settings = CmfSimSettings {
+        max_primaries: 2,
+        ..fast(1)
+    };
+    let r = run_cmf_sim(&o, &settings).unwrap();
+    assert_eq!(r.dimension, 0);
+    assert!(r.verdict.contains("K ≤ 2"), "{}", r.verdict);
+}
+
+#[test]
+fn settings_outside_the_grid_are_errors() {
+    let o = cones(&ConeClass::lms());
+    let bad = CmfSimSettings {
+        test_range_nm: (380.0, 700.0),
+        ..fast(1)
+    };
+    let e = run_cmf_sim(&o, &bad).unwrap_err().to_string();
+    assert!(e.contains("test_range_nm"), "{e}");
+    let bad = CmfSimSettings {
+        sets_per_k: 0,
+        ..fast(1)
+    };
+    assert!(run_cmf_sim(&o, &bad).is_err());
+}
+
+#[test]
+fn stratified_primaries_respect_bands_and_spacing() {
+    let mut rng = rand::rngs::StdRng::seed_from_u64(4);
+    for k in 1..=6 {
+        for _ in 0..50 {
+            let p = stratified_primaries(k, (400.0, 700.0), 5.0, &mut rng).unwrap();
+            let w = 300.0 / k as f64;
+            for (i, &v) in p.iter().enumerate() {
+                assert!(v >= 400.0 + w * i as f64 && v <= 400.0 + w * (i + 1) as f64);
+            }
+            assert!(p.windows(2).all(|x| x[1] - x[0] >= 5.0));
+        }
+    }
+    assert!(stratified_primaries(100, (400.0, 700.0), 5.0, &mut rng).is_err());
+}

@@ -1,0 +1,417 @@
+//! Cone spectral sensitivities: pigment templates, lens filtering, peak normalisation.
+//!
+//! Templates (shared/data/FORMULAS.md §1–2, official-implementation.md §2.2):
+//! - [`ConeTemplate::CarrollNeitz`]: the Carroll, McMahon, Neitz & Neitz (2000) template (the
+//!   Neitz-lab `spectsens`) with self-screening at peak optical density OD:
+//!   `(1 − 10^(−Z·ext)) / (1 − 10^(−Z))`, `Z = OD + 1e-8`. The official code uses OD = 0.001
+//!   ([`OFFICIAL_OPTICAL_DENSITY`]), the lab's own default is 0.2.
+//! - [`ConeTemplate::Govardovskii`]: Govardovskii et al. (2000) A1 template, α band or α + β,
+//!   with the same self-screening.
+//! - [`ConeTemplate::StockmanSharpe2deg`]: the tabulated Stockman & Sharpe (2000) 2° fundamentals
+//!   (energy, lens and macular pigment already included); classes must be L/M/S (560/530/419).
+//!
+//! With `lens: true` an analytic template is multiplied by the lens transmittance
+//! `10^(−d_lens(λ))` (Stockman–Sharpe ocular media density, 32-year observer; no macular
+//! pigment — official §2.2). Every curve is then normalised to peak 1 over the grid's range; the
+//! peak is found on a 0.1 nm sampling of that range, so the normalisation does not depend on the
+//! grid's spacing (the official code normalises on 400–700 nm at 1 nm).
+//!
+//! Units: sensitivities are relative (peak 1), per unit of whatever spectral quantity the scene
+//! holds — the official code applies the quantal templates directly to NTIRE radiance, with no
+//! λ factor, and so do we. Output layout: [`ConeFundamentals::values`] is row-major
+//! `(wavelengths × classes)`.
+
+use serde::{Deserialize, Serialize};
+
+use crate::data;
+use crate::error::{ColorimetryError, Result};
+use crate::grid::WavelengthGrid;
+use crate::table::interp_linear;
+
+/// λmax of the L pigment, nm (official §2.2, paper S-02).
+pub const L_PEAK_NM: f64 = 560.0;
+/// λmax of the M pigment, nm.
+pub const M_PEAK_NM: f64 = 530.0;
+/// λmax of the S pigment, nm.
+pub const S_PEAK_NM: f64 = 419.0;
+/// λmax of the human tetrachromat's fourth pigment Q, nm (paper S-07).
+pub const HUMAN_Q_PEAK_NM: f64 = 545.0;
+/// λmax of the pigeon-like fourth pigment Q, nm (paper S-07).
+pub const PIGEON_Q_PEAK_NM: f64 = 506.0;
+/// Peak optical density used by the official code's Carroll/Neitz template (official §2.2).
+pub const OFFICIAL_OPTICAL_DENSITY: f64 = 0.001;
+/// Spacing (nm) of the dense sampling used to find each curve's peak for normalisation.
+pub const PEAK_SEARCH_STEP_NM: f64 = 0.1;
+
+/// A cone class: a name and the pigment's λmax (the template's shift parameter, nm).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ConeClass {
+    /// Display name, e.g. `L`.
+    pub name: String,
+    /// Pigment λmax, nm (before the lens; the effective peak after the lens is longer).
+    pub peak_nm: f64,
+}
+
+impl ConeClass {
+    /// A class with any name and peak.
+    pub fn custom(name: impl Into<String>, peak_nm: f64) -> Self {
+        ConeClass {
+            name: name.into(),
+            peak_nm,
+        }
+    }
+    /// L cone, λmax 560 nm.
+    pub fn l() -> Self {
+        Self::custom("L", L_PEAK_NM)
+    }
+    /// M cone, λmax 530 nm.
+    pub fn m() -> Self {
+        Self::custom("M", M_PEAK_NM)
+    }
+    /// S cone, λmax 419 nm.
+    pub fn s() -> Self {
+        Self::custom("S", S_PEAK_NM)
+    }
+    /// Human tetrachromat Q, λmax 545 nm.
+    pub fn human_q() -> Self {
+        Self::custom("Q", HUMAN_Q_PEAK_NM)
+    }
+    /// Pigeon-like Q, λmax 506 nm.
+    pub fn pigeon_q() -> Self {
+        Self::custom("Q", PIGEON_Q_PEAK_NM)
+    }
+    /// `[L, M, S]`.
+    pub fn lms() -> Vec<Self> {
+        vec![Self::l(), Self::m(), Self::s()]
+    }
+}
+
+/// Which pigment template, and its options.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum ConeTemplate {
+    /// Carroll/Neitz `spectsens` with peak optical density and optional lens.
+    CarrollNeitz {
+        /// Peak optical density (official 0.001; the Neitz lab default 0.2).
+        optical_density: f64,
+        /// Multiply by the lens transmittance.
+        lens: bool,
+    },
+    /// Govardovskii 2000 A1 template.
+    Govardovskii {
+        /// Include the β (cis) band.
+        beta_band: bool,
+        /// Peak optical density for self-screening (use ≈0 for the bare template).
+        optical_density: f64,
+        /// Multiply by the lens transmittance.
+        lens: bool,
+    },
+    /// Tabulated Stockman & Sharpe 2000 2° energy fundamentals (L/M/S only).
+    StockmanSharpe2deg,
+}
+
+impl Default for ConeTemplate {
+    /// The official choice: Carroll/Neitz, OD 0.001, with lens (official §2.2).
+    fn default() -> Self {
+        ConeTemplate::CarrollNeitz {
+            optical_density: OFFICIAL_OPTICAL_DENSITY,
+            lens: true,
+        }
+    }
+}
+
+const NEITZ: [f64; 25] = [
+    0.417050601,  // A
+    0.002072146,  // B
+    0.000163888,  // C
+    -1.922880605, // D
+    -16.05774461, // E
+    0.001575426,  // F
+    5.11376e-05,  // G
+    0.00157981,   // H
+    6.58428e-05,  // I
+    6.68402e-05,  // J
+    0.002310442,  // K
+    7.31313e-05,  // L
+    1.86269e-05,  // M
+    0.002008124,  // N
+    5.40717e-05,  // O
+    5.14736e-06,  // P
+    0.001455413,  // Q
+    4.21764e-05,  // R
+    4.8e-06,      // S
+    0.001809022,  // T
+    3.86677e-05,  // U
+    2.99e-05,     // V
+    0.001757315,  // W
+    1.47344e-05,  // X
+    1.51e-05,     // Y
+];
+
+fn phi(z: f64) -> f64 {
+    (-0.5 * z * z).exp() / (2.0 * std::f64::consts::PI).sqrt()
+}
+
+/// log10 of the Carroll/Neitz low-density extinction (≈ 0 at the peak), FORMULAS.md §2.
+pub fn neitz_log10_extinction(peak_nm: f64, wavelength_nm: f64) -> f64 {
+    let [a, b, c, d, e, f, g, h, i, j, k, l, m, n, o, p, q, r, s, t, u, v, w, x, y] = NEITZ;
+    let z = peak_nm / 558.5 / wavelength_nm;
+    (-e + e * (-(z - f) / g).tanh()).log10() + d + a * (-(z - b) / c).tanh()
+        - (j / i) * phi((z - h) / i)
+        - (m / l) * phi((z - k) / l)
+        - (p / o) * phi((z - n) / o)
+        + (s / r) * phi((z - q) / r)
+        + (v / u) * phi((z - t) / u) / 10.0
+        + (y / x) * phi((z - w) / x) / 100.0
+}
+
+/// Self-screening: absorptance of a pigment of peak density OD with low-density absorbance
+/// `ext`, normalised to 1 where `ext = 1`. Uses `Z = OD + 1e-8` (as the Neitz-lab code).
+pub fn self_screen(ext: f64, optical_density: f64) -> f64 {
+    let zd = optical_density + 1e-8;
+    (1.0 - 10f64.powf(-zd * ext)) / (1.0 - 10f64.powf(-zd))
+}
+
+/// Carroll/Neitz sensitivity with self-screening (no lens, no renormalisation).
+pub fn neitz_sensitivity(peak_nm: f64, wavelength_nm: f64, optical_density: f64) -> f64 {
+    self_screen(
+        10f64.powf(neitz_log10_extinction(peak_nm, wavelength_nm)),
+        optical_density,
+    )
+}
+
+/// Govardovskii 2000 A1 α band, FORMULAS.md §1 (peak ≈ 1.0008, not renormalised).
+pub fn govardovskii_alpha(peak_nm: f64, wavelength_nm: f64) -> f64 {
+    let x = peak_nm / wavelength_nm;
+    let a = 0.8795 + 0.0459 * (-(peak_nm - 300.0).powi(2) / 11940.0).exp();
+    1.0 / ((69.7 * (a - x)).exp()
+        + (28.0 * (0.922 - x)).exp()
+        + (-14.9 * (1.104 - x)).exp()
+        + 0.674)
+}
+
+/// Govardovskii 2000 β band alone.
+pub fn govardovskii_beta(peak_nm: f64, wavelength_nm: f64) -> f64 {
+    let lm = 189.0 + 0.315 * peak_nm;
+    let bw = -40.5 + 0.195 * peak_nm;
+    0.26 * (-((wavelength_nm - lm) / bw).powi(2)).exp()
+}
+
+/// Lens (ocular media) transmittance `10^(−d_lens(λ))`, Stockman–Sharpe 32-year density,
+/// linearly interpolated from the 1 nm table (390–830 nm). Error outside that range.
+pub fn lens_transmittance(wavelength_nm: f64) -> Result<f64> {
+    let d = data::ocular_media_density().interpolate("ocular_media_od_32yr", wavelength_nm)?;
+    Ok(10f64.powf(-d))
+}
+
+/// Cone sensitivities on a grid: `values[w * n_classes + c]`, each class peak 1.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ConeFundamentals {
+    /// The wavelength grid (rows).
+    pub grid: WavelengthGrid,
+    /// The classes (columns).
+    pub classes: Vec<ConeClass>,
+    /// Row-major `(grid.len() × classes.len())`.
+    pub values: Vec<f64>,
+}
+
+impl ConeFundamentals {
+    /// Number of classes.
+    pub fn n_classes(&self) -> usize {
+        self.classes.len()
+    }
+    /// Number of wavelengths.
+    pub fn n_wavelengths(&self) -> usize {
+        self.grid.len()
+    }
+    /// Sensitivity of class `c` at grid index `w`.
+    pub fn get(&self, w: usize, c: usize) -> f64 {
+        self.values[w * self.classes.len() + c]
+    }
+    /// All classes at grid index `w`.
+    pub fn row(&self, w: usize) -> &[f64] {
+        let k = self.classes.len();
+        &self.values[w * k..(w + 1) * k]
+    }
+    /// Class `c` over the grid.
+    pub fn column(&self, c: usize) -> Vec<f64> {
+        (0..self.grid.len()).map(|w| self.get(w, c)).collect()
+    }
+    /// Index of the first class with this name.
+    pub fn class_index(&self, name: &str) -> Option<usize> {
+        self.classes.iter().position(|c| c.name == name)
+    }
+    /// Wavelength (nm) of class `c`'s maximum on the grid, refined by the vertex of the parabola
+    /// through the maximum and its two neighbours (when both exist).
+    pub fn effective_peak_nm(&self, c: usize) -> f64 {
+        let col = self.column(c);
+        let w = self.grid.as_slice();
+        let i = (0..col.len())
+            .max_by(|&a, &b| col[a].total_cmp(&col[b]))
+            .expect("grid is non-empty");
+        if i == 0 || i + 1 == col.len() {
+            return w[i];
+        }
+        let (x0, x1, x2) = (w[i - 1], w[i], w[i + 1]);
+        let (y0, y1, y2) = (col[i - 1], col[i], col[i + 1]);
+        let d0 = (y1 - y0) / (x1 - x0);
+        let d1 = (y2 - y1) / (x2 - x1);
+        let curv = (d1 - d0) / (x2 - x0);
+        if curv >= 0.0 {
+            return x1;
+        }
+        // p(x) = y0 + d0·(x − x0) + curv·(x − x0)·(x − x1); p'(x) = 0 at the vertex.
+        (0.5 * (x0 + x1) - d0 / (2.0 * curv)).clamp(x0, x2)
+    }
+    /// Cone excitations of a spectrum on the same grid: `Σ_w spectrum[w]·F[w, c]` (plain sum
+    /// over samples, no Δλ, as the official pre-integration).
+    ///
+    /// # Panics
+    /// If `spectrum.len() != n_wavelengths()`.
+    pub fn excitations(&self, spectrum: &[f64]) -> Vec<f64> {
+        let mut out = vec![0.0; self.n_classes()];
+        self.excitations_into(spectrum, &mut out);
+        out
+    }
+    /// [`ConeFundamentals::excitations`] into a caller buffer of length `n_classes()`.
+    pub fn excitations_into(&self, spectrum: &[f64], out: &mut [f64]) {
+        assert_eq!(
+            spectrum.len(),
+            self.n_wavelengths(),
+            "ConeFundamentals::excitations: spectrum length {} vs grid length {}",
+            spectrum.len(),
+            self.n_wavelengths()
+        );
+        assert_eq!(
+            out.len(),
+            self.n_classes(),
+            "excitations_into: output length"
+        );
+        out.fill(0.0);
+        for (w, &s) in spectrum.iter().enumerate() {
+            if s != 0.0 {
+                for (o, &f) in out.iter_mut().zip(self.row(w)) {
+                    *o += s * f;
+                }
+            }
+        }
+    }
+}
+
+/// Sensitivities of `classes` on `grid` with `template`, each normalised to peak 1.
+///
+/// Errors: the grid reaches outside the lens table (390–830 nm) or the Stockman–Sharpe table;
+/// a Stockman–Sharpe class whose peak is not 560/530/419 nm; a non-positive peak.
+pub fn sensitivities(
+    classes: &[ConeClass],
+    template: &ConeTemplate,
+    grid: &WavelengthGrid,
+) -> Result<ConeFundamentals> {
+    let (lo, hi) = (grid.min_nm(), grid.max_nm());
+    let n_dense = ((hi - lo) / PEAK_SEARCH_STEP_NM).floor() as usize + 1;
+    let dense: Vec<f64> = (0..n_dense)
+        .map(|i| lo + i as f64 * PEAK_SEARCH_STEP_NM)
+        .chain(grid.as_slice().iter().copied())
+        .collect();
+    let lens_table = data::ocular_media_density();
+    let lens_col = lens_table.column_index("ocular_media_od_32yr")?;
+    let uses_lens = matches!(
+        template,
+        ConeTemplate::CarrollNeitz { lens: true, .. }
+            | ConeTemplate::Govardovskii { lens: true, .. }
+    );
+    if uses_lens {
+        lens_table.check_covers(lo, hi)?;
+    }
+    let k = classes.len();
+    let mut values = vec![0.0; grid.len() * k];
+    for (c, class) in classes.iter().enumerate() {
+        if !(class.peak_nm > 0.0 && class.peak_nm.is_finite()) {
+            return Err(ColorimetryError::setting(
+                format!("cone class {} peak_nm", class.name),
+                format!("{} is not a positive wavelength", class.peak_nm),
+            ));
+        }
+        let curve: Box<dyn Fn(f64) -> f64> = match template {
+            ConeTemplate::CarrollNeitz {
+                optical_density,
+                lens,
+            } => {
+                let (od, lens) = (*optical_density, *lens);
+                let peak = class.peak_nm;
+                Box::new(move |w| {
+                    let t = if lens {
+                        10f64.powf(-lens_table.interpolate_index(lens_col, w).unwrap_or(0.0))
+                    } else {
+                        1.0
+                    };
+                    neitz_sensitivity(peak, w, od) * t
+                })
+            }
+            ConeTemplate::Govardovskii {
+                beta_band,
+                optical_density,
+                lens,
+            } => {
+                let (od, lens, beta) = (*optical_density, *lens, *beta_band);
+                let peak = class.peak_nm;
+                Box::new(move |w| {
+                    let mut a = govardovskii_alpha(peak, w);
+                    if beta {
+                        a += govardovskii_beta(peak, w);
+                    }
+                    let t = if lens {
+                        10f64.powf(-lens_table.interpolate_index(lens_col, w).unwrap_or(0.0))
+                    } else {
+                        1.0
+                    };
+                    self_screen(a, od) * t
+                })
+            }
+            ConeTemplate::StockmanSharpe2deg => {
+                let table = data::stockman_sharpe_2deg();
+                table.check_covers(lo, hi)?;
+                let col = stockman_sharpe_column(class)?;
+                let ci = table.column_index(col)?;
+                Box::new(move |w| interp_linear(&table.wavelengths_nm, &table.values[ci], w))
+            }
+        };
+        let peak = dense.iter().map(|&w| curve(w)).fold(f64::MIN, f64::max);
+        if !(peak > 0.0) {
+            return Err(ColorimetryError::setting(
+                format!("cone class {}", class.name),
+                format!("sensitivity is zero everywhere on {lo}–{hi} nm"),
+            ));
+        }
+        for (wi, &w) in grid.as_slice().iter().enumerate() {
+            values[wi * k + c] = curve(w) / peak;
+        }
+    }
+    Ok(ConeFundamentals {
+        grid: grid.clone(),
+        classes: classes.to_vec(),
+        values,
+    })
+}
+
+fn stockman_sharpe_column(class: &ConeClass) -> Result<&'static str> {
+    let p = class.peak_nm;
+    if p == L_PEAK_NM {
+        Ok("l_bar")
+    } else if p == M_PEAK_NM {
+        Ok("m_bar")
+    } else if p == S_PEAK_NM {
+        Ok("s_bar")
+    } else {
+        Err(ColorimetryError::setting(
+            format!("cone class {} peak_nm", class.name),
+            format!(
+                "{p} nm: the tabulated Stockman–Sharpe template has only L ({L_PEAK_NM}), \
+                 M ({M_PEAK_NM}) and S ({S_PEAK_NM}); use an analytic template for other peaks"
+            ),
+        ))
+    }
+}
+
+#[cfg(test)]
+mod tests;

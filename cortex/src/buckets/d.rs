@@ -1,0 +1,40 @@
+//! D, the demosaicker (official §3.4; paper S-03 "Learning ... Interpolation D"): the U-Net of
+//! `autodiff::nn::unet`, N channels in and out, no residual; or the identity (the S-05 baseline
+//! "no demosaicker").
+//!
+//! Shapes: `(B, N, n, n) → (B, N, n, n)`. Parameters under `d.` (see the U-Net docs).
+
+use crate::config::{CortexConfig, DMode};
+use autodiff::nn::unet::{UNet, UNetConfig};
+use autodiff::{Float, ParamStore, Tape, Var};
+
+/// The D bucket.
+#[derive(Clone, Debug)]
+pub enum DBucket {
+    /// The U-Net.
+    UNet(UNet),
+    /// D = identity.
+    Identity,
+}
+
+impl DBucket {
+    /// Adds the U-Net's parameters (seeded from `train.seed`) unless D is the identity.
+    pub fn new<T: Float>(params: &mut ParamStore<T>, cfg: &CortexConfig) -> Self {
+        match cfg.d.mode {
+            DMode::Identity => DBucket::Identity,
+            DMode::UNet => {
+                let n = cfg.percept_channels;
+                let uc = UNetConfig { in_channels: n, out_channels: n, widths: cfg.d.widths.clone(), seed: cfg.train.seed };
+                DBucket::UNet(UNet::new(params, "d", uc))
+            }
+        }
+    }
+
+    /// Records D on the tape.
+    pub fn forward<T: Float>(&self, tape: &mut Tape<T>, params: &ParamStore<T>, x: Var) -> Var {
+        match self {
+            DBucket::UNet(net) => net.forward(tape, params, x),
+            DBucket::Identity => x,
+        }
+    }
+}

@@ -1,0 +1,119 @@
+//! P, the cell positions (official §3.5, §3.7; paper S-03 "Learning Cell Positions"), and the
+//! efficient warp that predicts the next percept.
+//!
+//! - [`PMode::Flow`]: the RealNVP of `autodiff::nn::realnvp` (official: 8 couplings, MLP
+//!   1→16→16→2, last layer zero, so the identity at start; 2 704 parameters under `p.`).
+//!   `xy = P(uv)` is a cell's believed position in the visual field; `uv ∈ [−1, 1]²` is the ONS
+//!   grid (align-corners). The efficient warp (official §3.7), for every ONS pixel uv:
+//!   `xy = P(uv)`, `xy' = xy + d̂_b`, `uv' = P⁻¹(xy')`, `V̂(uv) = bilinear(V, uv')` (zeros
+//!   outside), `mask(uv)` = nearest sample of ones at uv'. Gradients reach P only through the
+//!   sampling coordinates uv'.
+//! - [`PMode::IdentityIntegerShift`] (sandbox): positions are the ONS grid; the motion is
+//!   rounded to whole pixels (`round(d · motion_ons_px_per_unit)`) and applied by
+//!   [`super::shift::integer_shift_warp`].
+//!
+//! Every warp returns `(warped (B, C, n, n), mask (B, 1, n, n))`; `extra` images (the blurred
+//! ONS of the learned motion estimator) are warped through the same sampling grid.
+
+use super::shift::integer_shift_warp;
+use crate::config::{CortexConfig, PMode};
+use crate::motion::sampling::unit_grid;
+use crate::motion::{IdentityFlow, PlainFlow};
+use crate::rng::CortexRng;
+use crate::CortexError;
+use autodiff::nn::realnvp::{RealNvp, RealNvpConfig};
+use autodiff::{ParamStore, Tape, Tensor, Var};
+
+/// The P bucket.
+pub enum PBucket {
+    /// The learned flow, with the ONS grid `(n², 2)` as f32 `(u_x, u_y)` pairs.
+    Flow { flow: RealNvp, uv: Vec<f32>, n: usize },
+    /// Identity positions, integer shifts.
+    IdentityIntegerShift {
+        /// ONS pixels per unit of motion.
+        px_per_unit: f64,
+    },
+}
+
+impl PBucket {
+    /// Builds P (adding the flow's parameters when P is learned).
+    pub fn new(params: &mut ParamStore<f32>, cfg: &CortexConfig) -> Result<Self, CortexError> {
+        match cfg.p.mode {
+            PMode::IdentityIntegerShift => Ok(PBucket::IdentityIntegerShift { px_per_unit: cfg.p.motion_ons_px_per_unit }),
+            PMode::Flow => {
+                let mut rng = CortexRng::seed_from(cfg.train.seed ^ 0x5043_454c_4c53); // "PCELLS"
+                let flow = RealNvp::new(params, "p", RealNvpConfig { blocks: cfg.p.couplings, hidden: cfg.p.hidden }, &mut rng);
+                let n = cfg.ons_size_px;
+                let uv = unit_grid(n).into_iter().flatten().map(|v| v as f32).collect();
+                Ok(PBucket::Flow { flow, uv, n })
+            }
+        }
+    }
+
+    /// P as a plain f64 map (for M's de-warping and for evaluation).
+    pub fn plain<'a>(&'a self, params: &'a ParamStore<f32>) -> Box<dyn PlainFlow + 'a> {
+        match self {
+            PBucket::Flow { flow, .. } => Box::new(FlowPlain { flow, params }),
+            PBucket::IdentityIntegerShift { .. } => Box::new(IdentityFlow),
+        }
+    }
+
+    /// Warps `v` (and each of `extra`) by `motion` (field units, per sample).
+    pub fn warp(&self, tape: &mut Tape<f32>, params: &ParamStore<f32>, v: Var, extra: &[Var], motion: &[[f64; 2]]) -> (Var, Var, Vec<Var>) {
+        match self {
+            PBucket::Flow { flow, uv, n } => {
+                let (b, nn) = (motion.len(), n * n);
+                let vars = flow.record(tape, params);
+                let uv = tape.constant_from([nn, 2], uv);
+                let xy = flow.forward_with(tape, &vars, uv);
+                let mut d = tape.alloc([b, nn, 2]);
+                for (chunk, m) in d.data_mut().chunks_mut(2 * nn).zip(motion) {
+                    for p in chunk.chunks_mut(2) {
+                        p[0] = m[0] as f32;
+                        p[1] = m[1] as f32;
+                    }
+                }
+                let d = tape.constant(d);
+                let xy_moved = tape.add_broadcast(d, xy);
+                let xy_moved = tape.reshape(xy_moved, [b * nn, 2]);
+                let uv_moved = flow.inverse_with(tape, &vars, xy_moved);
+                let grid = tape.reshape(uv_moved, [b, *n, *n, 2]);
+                let warped = tape.grid_sample(v, grid);
+                let mask = tape.grid_sample_mask(grid, *n, *n);
+                let ex = extra.iter().map(|&e| tape.grid_sample(e, grid)).collect();
+                (warped, mask, ex)
+            }
+            PBucket::IdentityIntegerShift { px_per_unit } => {
+                let shifts: Vec<[i64; 2]> = motion.iter().map(|d| [(d[0] * px_per_unit).round() as i64, (d[1] * px_per_unit).round() as i64]).collect();
+                let (w, m) = integer_shift_warp(tape, v, &shifts);
+                let ex = extra.iter().map(|&e| integer_shift_warp(tape, e, &shifts).0).collect();
+                (w, m, ex)
+            }
+        }
+    }
+}
+
+/// The flow evaluated in plain f64 (M's de-warping, evaluation).
+struct FlowPlain<'a> {
+    flow: &'a RealNvp,
+    params: &'a ParamStore<f32>,
+}
+
+impl FlowPlain<'_> {
+    fn map(&self, pts: &mut [[f64; 2]], inverse: bool) {
+        let t = Tensor::from_vec([pts.len(), 2], pts.iter().flatten().copied().collect());
+        let out = if inverse { self.flow.inverse_points(self.params, &t) } else { self.flow.forward_points(self.params, &t) };
+        for (p, q) in pts.iter_mut().zip(out.data().chunks(2)) {
+            *p = [q[0], q[1]];
+        }
+    }
+}
+
+impl PlainFlow for FlowPlain<'_> {
+    fn forward(&self, pts: &mut [[f64; 2]]) {
+        self.map(pts, false)
+    }
+    fn inverse(&self, pts: &mut [[f64; 2]]) {
+        self.map(pts, true)
+    }
+}

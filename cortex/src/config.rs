@@ -1,0 +1,395 @@
+//! Every number of the cortex as a config value, and the four presets (shared/SPEC.md §4).
+//!
+//! A [`CortexConfig`] is plain data (serde, TOML-friendly: tables per bucket). Physical or
+//! pixel-valued numbers carry their unit in the name (`ons_size_px`, `blur_sigma_px`); each
+//! default cites its source: "official §x" is `shared/reference/official-implementation.md`,
+//! "paper S-03" the paper's supplement.
+//!
+//! Presets (named sets of values, [`CortexConfig::preset`]):
+//! - `tiny`: tests in seconds. 32×32 ONS, U-Net 8/16, N = 8, batch 4, oracle motion.
+//! - `quick`: the default CPU run. 64×64 ONS, U-Net 16/32/64, learned W and P, block matching.
+//! - `sandbox`: the official sandbox (official §3.11): 64×64, W identity, P identity with
+//!   integer shifts, oracle motion, U-Net 16/32/64.
+//! - `paper`: official everything (official §1, §3): 256×256, U-Net 16/32/64/128, block matching.
+
+use serde::{Deserialize, Serialize};
+
+/// How the W bucket (lateral-inhibition weights) acts.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum WMode {
+    /// Free complex frequency response on the (2n−1)² grid (official §3.2).
+    Learned,
+    /// No-op, as in the official sandbox (official §3.2 `Identity`).
+    Identity,
+}
+
+/// How the D bucket (demosaicker) acts.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum DMode {
+    /// The U-Net (official §3.4).
+    UNet,
+    /// D = identity: the "no demosaicker" baseline of paper S-05.
+    Identity,
+}
+
+/// How the P bucket (cell positions) acts.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PMode {
+    /// RealNVP flow, identity at start, efficient warp (official §3.5, §3.7).
+    Flow,
+    /// Identity positions; the motion is rounded to whole ONS pixels and applied as a zero-padded
+    /// gather (official §3.5, sandbox variant). Nothing to learn.
+    IdentityIntegerShift,
+}
+
+/// Where the eye motion d̂ comes from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum MMode {
+    /// The true motion supplied with the batch (official §3.6 `GroundTruth`).
+    Oracle,
+    /// Coarse-to-fine pyramid block matching on blurred, P-de-warped ONS (official §3.6).
+    BlockMatching,
+    /// Block matching refined to sub-pixel precision by Gauss–Newton on the blurred warp error,
+    /// with P also trained on that blurred objective (paper S-03, "Learning Eye Motion
+    /// Estimation"). See [`crate::motion::learned`].
+    Learned,
+}
+
+/// The paper's S-05 baselines. `None` is the full model.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Baseline {
+    /// The full cortex.
+    None,
+    /// Φ = identity: the percept is the ONS itself (one channel), Ψ = identity; only the warp
+    /// (P, M) remains.
+    IdentityPercept,
+    /// Cone activations as the ONS. The cortex is unchanged; the **data source** must deliver
+    /// cone activations instead of laterally inhibited signals (the root package honours this).
+    ConeActivationsAsOns,
+    /// No demosaicker: D = identity.
+    NoDemosaicker,
+}
+
+/// W bucket settings.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct WConfig {
+    /// Learned or identity.
+    pub mode: WMode,
+    /// ε of the guarded inverse X·conj(W)/(|W|² + ε) (official §11; the official code has none).
+    pub inverse_guard: f64,
+}
+
+/// C bucket settings.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CConfig {
+    /// ε of the per-cell normalisation C = raw/(‖raw‖ + ε) (official §3.3: 1e-5).
+    pub norm_eps: f64,
+}
+
+/// D bucket settings.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DConfig {
+    /// U-Net or identity.
+    pub mode: DMode,
+    /// Encoder widths, one per level (official §3.4: 16/32/64/128; sandbox 16/32/64).
+    pub widths: Vec<usize>,
+}
+
+/// P bucket settings.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PConfig {
+    /// Flow or identity with integer shifts.
+    pub mode: PMode,
+    /// Affine coupling blocks of the RealNVP (official §3.5: 8).
+    pub couplings: usize,
+    /// Hidden width of each coupling MLP 1→h→h→2 (official §3.5: 16).
+    pub hidden: usize,
+    /// ONS pixels per unit of motion, used only by `identity_integer_shift` to turn d into whole
+    /// pixels. The oracle is shift/(R/2) with R the field in px (official §2.10); in the sandbox
+    /// the field is the ONS, so this is n/2.
+    pub motion_ons_px_per_unit: f64,
+}
+
+/// M (eye-motion) settings.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MConfig {
+    /// Oracle, block matching, or learned.
+    pub mode: MMode,
+    /// Side of the Gaussian blur kernel B (official §3.6: 9).
+    pub blur_kernel_px: usize,
+    /// σ of B (official §3.6: 2 px).
+    pub blur_sigma_px: f64,
+    /// Integer search radius per pyramid level (official §3.6: 2, i.e. 25 candidates).
+    pub search_radius_px: i32,
+    /// Side of the coarsest pyramid level (official §3.6: 4).
+    pub coarsest_level_px: usize,
+    /// Block-matching candidates overlapping less than this fraction of the valid pixels are
+    /// skipped (our addition; 0 = official behaviour, see [`crate::motion::block_matching`]).
+    pub min_overlap_fraction: f64,
+    /// Gauss–Newton iterations of the learned estimator's sub-pixel refinement.
+    pub refine_iterations: usize,
+    /// Central-difference step of the refinement's Jacobian, in de-warped pixels.
+    pub refine_fd_step_px: f64,
+    /// Pixel stride of the refinement's samples (cost control at large n).
+    pub refine_stride_px: usize,
+    /// Largest refinement per iteration, in de-warped pixels (a trust region).
+    pub refine_max_step_px: f64,
+    /// Weight of the blurred warp objective added to the loss for P (learned mode only).
+    pub blur_loss_weight: f64,
+}
+
+/// Loss settings.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LossConfig {
+    /// Border dropped on each side (official §3.8: ⌊7/2⌋ = 3 px).
+    pub border_px: usize,
+}
+
+/// Optimisation settings.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TrainConfig {
+    /// Samples per step (official §3.9: 8).
+    pub batch_size: usize,
+    /// Adam learning rate (official §3.9: 1e-3).
+    pub learning_rate: f64,
+    /// Adam β₁ (official §3.9: PyTorch default 0.9).
+    pub adam_beta1: f64,
+    /// Adam β₂ (official §3.9: 0.999).
+    pub adam_beta2: f64,
+    /// Adam ε (official §3.9: 1e-8).
+    pub adam_eps: f64,
+    /// Seed of parameter initialisation (official §3.9: 1234).
+    pub seed: u64,
+    /// Gradient updates of a run (official §3.9: 100 000).
+    pub steps: u64,
+    /// Steps between checkpoints of a run (0: none but the last).
+    pub checkpoint_every_steps: u64,
+}
+
+/// The whole cortex configuration.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CortexConfig {
+    /// Side n of the square ONS (official §1: 256).
+    pub ons_size_px: usize,
+    /// Percept dimension N (official §1: 8).
+    pub percept_channels: usize,
+    /// Baseline of paper S-05, or `none`.
+    pub baseline: Baseline,
+    pub w: WConfig,
+    pub c: CConfig,
+    pub d: DConfig,
+    pub p: PConfig,
+    pub m: MConfig,
+    pub loss: LossConfig,
+    pub train: TrainConfig,
+}
+
+/// Names accepted by [`CortexConfig::preset`].
+pub const PRESETS: &[&str] = &["tiny", "quick", "sandbox", "paper"];
+
+impl CortexConfig {
+    /// The official full model (official §1, §3) at `paper` size.
+    pub fn paper() -> Self {
+        CortexConfig {
+            ons_size_px: 256,
+            percept_channels: 8,
+            baseline: Baseline::None,
+            w: WConfig { mode: WMode::Learned, inverse_guard: 1e-6 },
+            c: CConfig { norm_eps: 1e-5 },
+            d: DConfig { mode: DMode::UNet, widths: vec![16, 32, 64, 128] },
+            p: PConfig {
+                mode: PMode::Flow,
+                couplings: 8,
+                hidden: 16,
+                motion_ons_px_per_unit: 128.0,
+            },
+            m: MConfig {
+                mode: MMode::BlockMatching,
+                blur_kernel_px: 9,
+                blur_sigma_px: 2.0,
+                search_radius_px: 2,
+                coarsest_level_px: 4,
+                min_overlap_fraction: 0.5,
+                refine_iterations: 2,
+                refine_fd_step_px: 0.25,
+                refine_stride_px: 4,
+                refine_max_step_px: 1.0,
+                blur_loss_weight: 1.0,
+            },
+            loss: LossConfig { border_px: 3 },
+            train: TrainConfig {
+                batch_size: 8,
+                learning_rate: 1e-3,
+                adam_beta1: 0.9,
+                adam_beta2: 0.999,
+                adam_eps: 1e-8,
+                seed: 1234,
+                steps: 100_000,
+                checkpoint_every_steps: 1000,
+            },
+        }
+    }
+
+    /// The default CPU run: 64×64, full model with learned W and P, U-Net 16/32/64.
+    pub fn quick() -> Self {
+        let mut c = Self::paper();
+        c.ons_size_px = 64;
+        c.d.widths = vec![16, 32, 64];
+        c.p.motion_ons_px_per_unit = 32.0;
+        c.m.refine_stride_px = 1;
+        c.train.steps = 5_000;
+        c.train.checkpoint_every_steps = 500;
+        c
+    }
+
+    /// The official sandbox (official §3.11): W identity, P identity with integer shifts,
+    /// oracle motion, 2-level U-Net.
+    pub fn sandbox() -> Self {
+        let mut c = Self::quick();
+        c.w.mode = WMode::Identity;
+        c.p.mode = PMode::IdentityIntegerShift;
+        c.m.mode = MMode::Oracle;
+        c
+    }
+
+    /// Tests in seconds: 32×32, U-Net 8/16, batch 4, oracle motion.
+    pub fn tiny() -> Self {
+        let mut c = Self::quick();
+        c.ons_size_px = 32;
+        c.d.widths = vec![8, 16];
+        c.p.motion_ons_px_per_unit = 16.0;
+        c.m.mode = MMode::Oracle;
+        c.train.batch_size = 4;
+        c.train.steps = 300;
+        c.train.checkpoint_every_steps = 100;
+        c
+    }
+
+    /// A preset by name (see [`PRESETS`]).
+    pub fn preset(name: &str) -> Result<Self, crate::CortexError> {
+        match name {
+            "tiny" => Ok(Self::tiny()),
+            "quick" => Ok(Self::quick()),
+            "sandbox" => Ok(Self::sandbox()),
+            "paper" => Ok(Self::paper()),
+            other => Err(crate::CortexError::UnknownPreset(other.to_string())),
+        }
+    }
+
+    /// Checks the values that would otherwise panic deep inside an op.
+    pub fn validate(&self) -> Result<(), crate::CortexError> {
+        let bad = |field: &str, why: String| {
+            Err(crate::CortexError::InvalidConfig { field: field.to_string(), reason: why })
+        };
+        let n = self.ons_size_px;
+        if n < 8 {
+            return bad("ons_size_px", format!("{n} is below the minimum of 8"));
+        }
+        if self.percept_channels == 0 {
+            return bad("percept_channels", "must be at least 1".into());
+        }
+        if self.d.mode == DMode::UNet {
+            if self.d.widths.is_empty() {
+                return bad("d.widths", "a U-Net needs at least one level".into());
+            }
+            let div = 1usize << (self.d.widths.len() - 1);
+            if n % div != 0 {
+                return bad("d.widths", format!("{} levels need ons_size_px divisible by {div}, got {n}", self.d.widths.len()));
+            }
+        }
+        if 2 * self.loss.border_px >= n {
+            return bad("loss.border_px", format!("{} leaves no pixels of a {n}² ONS", self.loss.border_px));
+        }
+        if self.m.blur_kernel_px % 2 == 0 || self.m.blur_kernel_px / 2 >= n {
+            return bad("m.blur_kernel_px", format!("{} must be odd and smaller than the ONS", self.m.blur_kernel_px));
+        }
+        if !(self.m.blur_sigma_px > 0.0) {
+            return bad("m.blur_sigma_px", format!("{} must be positive", self.m.blur_sigma_px));
+        }
+        if self.m.coarsest_level_px < 2 || !self.m.coarsest_level_px.is_power_of_two() {
+            return bad("m.coarsest_level_px", format!("{} must be a power of two ≥ 2", self.m.coarsest_level_px));
+        }
+        if self.train.batch_size == 0 {
+            return bad("train.batch_size", "must be at least 1".into());
+        }
+        if !(self.train.learning_rate > 0.0) {
+            return bad("train.learning_rate", format!("{} must be positive", self.train.learning_rate));
+        }
+        if self.p.mode == PMode::Flow && (self.p.couplings == 0 || self.p.hidden == 0) {
+            return bad("p", "a flow needs couplings ≥ 1 and hidden ≥ 1".into());
+        }
+        if !(self.w.inverse_guard >= 0.0) || !(self.c.norm_eps >= 0.0) {
+            return bad("w.inverse_guard / c.norm_eps", "must be ≥ 0".into());
+        }
+        Ok(())
+    }
+
+    /// Channels of the percept: N, or 1 for the Φ = identity baseline.
+    pub fn percept_dim(&self) -> usize {
+        if self.baseline == Baseline::IdentityPercept {
+            1
+        } else {
+            self.percept_channels
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn presets_validate_and_round_trip_through_toml() {
+        for name in PRESETS {
+            let c = CortexConfig::preset(name).unwrap();
+            c.validate().unwrap();
+            let text = toml::to_string(&c).unwrap();
+            let back: CortexConfig = toml::from_str(&text).unwrap();
+            assert_eq!(back, c, "{name}");
+        }
+        assert!(CortexConfig::preset("huge").is_err());
+    }
+
+    #[test]
+    fn presets_follow_the_official_numbers() {
+        let p = CortexConfig::paper();
+        assert_eq!((p.ons_size_px, p.percept_channels, p.train.batch_size), (256, 8, 8));
+        assert_eq!(p.train.learning_rate, 1e-3);
+        assert_eq!(p.d.widths, vec![16, 32, 64, 128]);
+        let s = CortexConfig::sandbox();
+        assert_eq!((s.w.mode, s.p.mode, s.m.mode), (WMode::Identity, PMode::IdentityIntegerShift, MMode::Oracle));
+        assert_eq!(s.d.widths, vec![16, 32, 64]);
+    }
+
+    #[test]
+    fn typo_in_a_field_is_an_error_naming_it() {
+        let mut text = toml::to_string(&CortexConfig::tiny()).unwrap();
+        text = text.replace("border_px", "boarder_px");
+        let err = toml::from_str::<CortexConfig>(&text).unwrap_err().to_string();
+        assert!(err.contains("boarder_px"), "{err}");
+    }
+
+    #[test]
+    fn validate_rejects_bad_values_by_field() {
+        let mut c = CortexConfig::tiny();
+        c.ons_size_px = 31;
+        let e = c.validate().unwrap_err().to_string();
+        assert!(e.contains("d.widths"), "{e}");
+        let mut c = CortexConfig::tiny();
+        c.m.blur_kernel_px = 8;
+        assert!(c.validate().unwrap_err().to_string().contains("m.blur_kernel_px"));
+    }
+}

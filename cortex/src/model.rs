@@ -1,0 +1,259 @@
+//! The cortex: buckets W, C, D, P and M wired into decode, translate and re-encode (official
+//! §3.1; paper §4, S-03).
+//!
+//! One prediction, for ONS `O_t`, `O_{t+1}` of shape `(B, 1, n, n)`:
+//! 1. decode Φ: `pa = Φ_W(O_t)` (guarded inverse filter) → `X = pa·C` → `V_t = D(X)`
+//!    `(B, N, n, n)`. The percept stays in ONS coordinates (official §3.1).
+//! 2. motion d̂ from M (oracle, block matching, or learned), no gradient.
+//! 3. translate Ω through P: `V̂_{t+1}, mask = warp(V_t, d̂)` (official §3.7).
+//! 4. re-encode Ψ: `Ô_{t+1} = Ψ_W(⟨V̂_{t+1}, C⟩)`.
+//! 5. loss = masked squared error with a `border_px` border, official normalisation (§3.8);
+//!    plus, for the learned M, `blur_loss_weight ×` the same error between the warped blurred
+//!    `B(O_t)` and `B(O_{t+1})`.
+//!
+//! Baselines (paper S-05): `identity_percept` skips W, C and D (the percept is the ONS);
+//! `no_demosaicker` uses D = identity; `cone_activations_as_ons` changes only the data.
+//!
+//! Every stretch of the tape is tagged with its [`Bucket`] so the trainer can time forward and
+//! backward per bucket.
+
+use crate::buckets::{c::CBucket, d::DBucket, p::PBucket, w::WBucket};
+use crate::config::{Baseline, CortexConfig, MMode};
+use crate::motion::block_matching::{BlockMatcher, DewarpGrid};
+use crate::motion::learned::SubpixelRefiner;
+use crate::CortexError;
+use autodiff::{ParamStore, Tape, Tensor, Var};
+use std::time::Instant;
+
+/// The parts of a step that are timed separately.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Bucket {
+    W = 0,
+    C = 1,
+    D = 2,
+    P = 3,
+    M = 4,
+    Loss = 5,
+}
+
+/// Number of [`Bucket`]s.
+pub const BUCKETS: usize = 6;
+/// Names of the buckets, indexed by `Bucket as usize`.
+pub const BUCKET_NAMES: [&str; BUCKETS] = ["W", "C", "D", "P", "M", "loss"];
+
+/// Where each bucket's stretch of the tape begins, and when (ops run as they are recorded, so
+/// the wall-clock time between marks is that bucket's forward time).
+#[derive(Clone, Debug, Default)]
+pub struct Marks {
+    starts: Vec<(usize, Bucket, Instant)>,
+    end: Option<Instant>,
+}
+
+impl Marks {
+    fn enter(&mut self, tape: &Tape<f32>, b: Bucket) {
+        self.starts.push((tape.len(), b, Instant::now()));
+    }
+
+    /// Closes the last stretch (call when recording is done).
+    pub fn finish(&mut self) {
+        self.end = Some(Instant::now());
+    }
+
+    /// The bucket that recorded node `index`.
+    pub fn bucket_of(&self, index: usize) -> Option<Bucket> {
+        let k = self.starts.partition_point(|(start, _, _)| *start <= index);
+        (k > 0).then(|| self.starts[k - 1].1)
+    }
+
+    /// Forward milliseconds per bucket.
+    pub fn forward_ms(&self) -> [f64; BUCKETS] {
+        let mut out = [0.0; BUCKETS];
+        for (i, (_, b, t)) in self.starts.iter().enumerate() {
+            let next = self.starts.get(i + 1).map(|s| s.2).or(self.end);
+            if let Some(next) = next {
+                out[*b as usize] += (next - *t).as_secs_f64() * 1e3;
+            }
+        }
+        out
+    }
+}
+
+/// What one recorded prediction leaves on the tape.
+#[derive(Clone, Copy, Debug)]
+pub struct Prediction {
+    /// The training loss (main + blurred objective when M is learned).
+    pub loss: Var,
+    /// The main loss alone.
+    pub main_loss: Var,
+    /// The percept `V_t`, `(B, N, n, n)`.
+    pub percept: Var,
+    /// The predicted `Ô_{t+1}`, `(B, 1, n, n)`.
+    pub predicted: Var,
+    /// The warp's validity mask, `(B, 1, n, n)`.
+    pub mask: Var,
+}
+
+/// The cortex model: its config, parameters and buckets.
+pub struct Cortex {
+    /// The configuration it was built from.
+    pub config: CortexConfig,
+    /// Every learnable parameter (`w.*`, `c.*`, `d.*`, `p.*`).
+    pub params: ParamStore<f32>,
+    pub w: WBucket,
+    /// `None` in the identity-percept baseline.
+    pub c: Option<CBucket>,
+    pub d: DBucket,
+    pub p: PBucket,
+    matcher: BlockMatcher,
+    refiner: SubpixelRefiner,
+}
+
+/// The motion of one batch.
+#[derive(Clone, Debug)]
+pub struct MotionOut {
+    /// Per sample `[dx, dy]` used for the warp, field units.
+    pub motion: Vec<[f64; 2]>,
+    /// The blurred frames `(B, n, n)` each, when M computed them.
+    pub blurred: Option<(Vec<f32>, Vec<f32>)>,
+}
+
+impl Cortex {
+    /// Builds the buckets from `config` (validated first), initialised as official: W and P
+    /// identity, C = e₁ everywhere, the U-Net with PyTorch's default init seeded by `train.seed`.
+    pub fn new(config: CortexConfig) -> Result<Self, CortexError> {
+        config.validate()?;
+        let mut params = ParamStore::new();
+        let identity = config.baseline == Baseline::IdentityPercept;
+        let mut wcfg = config.clone();
+        if identity {
+            wcfg.w.mode = crate::config::WMode::Identity;
+            wcfg.d.mode = crate::config::DMode::Identity;
+        }
+        if config.baseline == Baseline::NoDemosaicker {
+            wcfg.d.mode = crate::config::DMode::Identity;
+        }
+        let w = WBucket::new(&mut params, &wcfg);
+        let c = (!identity).then(|| CBucket::new(&mut params, &wcfg));
+        let d = DBucket::new(&mut params, &wcfg);
+        let p = PBucket::new(&mut params, &wcfg)?;
+        let matcher = BlockMatcher::from_config(&config.m);
+        let refiner = SubpixelRefiner::from_config(&config);
+        Ok(Cortex { config, params, w, c, d, p, matcher, refiner })
+    }
+
+    /// ONS side n.
+    pub fn n(&self) -> usize {
+        self.config.ons_size_px
+    }
+
+    /// Channels of the percept (N, or 1 for the identity-percept baseline).
+    pub fn percept_dim(&self) -> usize {
+        self.config.percept_dim()
+    }
+
+    /// Records decode Φ of `ons (B, 1, n, n)`; returns the percept and the shared W, C vars.
+    pub fn record_decode(&self, tape: &mut Tape<f32>, ons: Var, marks: &mut Marks) -> (Var, Option<Var>, Option<Var>) {
+        marks.enter(tape, Bucket::W);
+        let r = self.w.record(tape, &self.params);
+        let pa = self.w.decode(tape, r, ons);
+        let Some(cb) = &self.c else {
+            return (pa, r, None);
+        };
+        marks.enter(tape, Bucket::C);
+        let c = cb.record(tape, &self.params);
+        let x = cb.inject(tape, c, pa);
+        marks.enter(tape, Bucket::D);
+        let v = self.d.forward(tape, &self.params, x);
+        (v, r, Some(c))
+    }
+
+    /// Estimates the motion of frames `(B, n, n)` each (no gradient). `oracle` is required in
+    /// oracle mode.
+    pub fn estimate_motion(&self, frame_t: &[f32], frame_t1: &[f32], oracle: Option<&[[f32; 2]]>) -> Result<MotionOut, CortexError> {
+        let n = self.n();
+        match self.config.m.mode {
+            MMode::Oracle => {
+                let o = oracle.ok_or_else(|| CortexError::InvalidBatch {
+                    field: "oracle_motion",
+                    reason: "this run uses oracle motion (m.mode = \"oracle\") but the batch carries none".into(),
+                })?;
+                Ok(MotionOut { motion: o.iter().map(|d| [d[0] as f64, d[1] as f64]).collect(), blurred: None })
+            }
+            MMode::BlockMatching | MMode::Learned => {
+                let flow = self.p.plain(&self.params);
+                let b1 = self.matcher.blur(frame_t, n);
+                let b2 = self.matcher.blur(frame_t1, n);
+                let grid = DewarpGrid::new(flow.as_ref(), n, 2 * n.next_power_of_two());
+                let est = self.matcher.estimate_blurred(&b1, &b2, n, &grid);
+                if self.config.m.mode == MMode::BlockMatching {
+                    return Ok(MotionOut { motion: est.motion, blurred: None });
+                }
+                let motion = self.refiner.refine(&b1, &b2, n, flow.as_ref(), &grid, &est.motion);
+                Ok(MotionOut { motion, blurred: Some((b1, b2)) })
+            }
+        }
+    }
+
+    /// Records one whole prediction and its loss. `o1`, `o2` are `(B, 1, n, n)` constants.
+    pub fn record_prediction(&self, tape: &mut Tape<f32>, o1: Var, o2: Var, motion: &MotionOut, marks: &mut Marks) -> Prediction {
+        let (b, _, n, _) = tape.shape(o1).bchw("Cortex::record_prediction");
+        let (v1, r, c) = self.record_decode(tape, o1, marks);
+        marks.enter(tape, Bucket::P);
+        let extra: Vec<Var> = match &motion.blurred {
+            Some((b1, _)) => vec![tape.constant_from([b, 1, n, n], b1)],
+            None => Vec::new(),
+        };
+        let (v2, mask, extra_w) = self.p.warp(tape, &self.params, v1, &extra, &motion.motion);
+        let pa2 = match (&self.c, c) {
+            (Some(cb), Some(c)) => {
+                marks.enter(tape, Bucket::C);
+                cb.sample(tape, c, v2)
+            }
+            _ => v2,
+        };
+        marks.enter(tape, Bucket::W);
+        let pred = self.w.encode(tape, r, pa2);
+        marks.enter(tape, Bucket::Loss);
+        let border = self.config.loss.border_px;
+        let main = tape.masked_sq_error(pred, o2, mask, border);
+        let loss = match (&motion.blurred, extra_w.first()) {
+            (Some((_, b2)), Some(&bw)) if self.config.m.blur_loss_weight > 0.0 => {
+                let b2v = tape.constant_from([b, 1, n, n], b2);
+                let e = tape.masked_sq_error(bw, b2v, mask, border);
+                let e = tape.scale(e, self.config.m.blur_loss_weight);
+                tape.add(main, e)
+            }
+            _ => main,
+        };
+        marks.finish();
+        Prediction { loss, main_loss: main, percept: v1, predicted: pred, mask }
+    }
+
+    /// Decodes ONS frames `(B, n, n)` to percepts `(B, N, n, n)` (evaluation; no learning).
+    pub fn decode_frames(&self, ons: &[f32], batch: usize) -> Vec<f32> {
+        let n = self.n();
+        assert_eq!(ons.len(), batch * n * n, "Cortex::decode_frames: {} values for (B={batch}, {n}, {n})", ons.len());
+        let mut tape = Tape::<f32>::new();
+        let o = tape.constant_from([batch, 1, n, n], ons);
+        let (v, _, _) = self.record_decode(&mut tape, o, &mut Marks::default());
+        tape.value(v).data().to_vec()
+    }
+
+    /// The learned cone types, `(n, n, N)` unit vectors (`None` in the identity baseline).
+    pub fn learned_c(&self) -> Option<Tensor<f64>> {
+        self.c.as_ref().map(|c| c.effective(&self.params))
+    }
+
+    /// The learned cell positions `xy = P(uv)` of every ONS cell, `(n, n, 2)` (x, y).
+    pub fn learned_positions(&self) -> Tensor<f64> {
+        let n = self.n();
+        let mut pts = crate::motion::sampling::unit_grid(n);
+        self.p.plain(&self.params).forward(&mut pts);
+        Tensor::from_vec([n, n, 2], pts.into_iter().flatten().collect())
+    }
+
+    /// The learned lateral-inhibition kernel, `k×k` around its origin (official logging: 7).
+    pub fn learned_w_kernel(&self, k: usize) -> Option<Tensor<f64>> {
+        self.w.kernel(&self.params, k)
+    }
+}

@@ -1,0 +1,266 @@
+//! The official motion estimator (official §3.6, `M_Default`): coarse-to-fine pyramid block
+//! matching on Gaussian-blurred ONS de-warped with the current P. No parameters, no gradients.
+//!
+//! Steps, per sample:
+//! 1. Blur both frames with B ([`super::blur`], 9×9, σ 2 px, reflect).
+//! 2. De-warp to a Euclidean `R'×R'` image ([`DewarpGrid`]): the xy of the four corner cells
+//!    from P, a bilinear grid between them, mapped back with P⁻¹ and sampled bilinearly (zeros
+//!    outside); the validity mask is a nearest sample of ones. R' is the power of two that holds
+//!    the grid at the current predicted spacing of the central cells (= n at identity P).
+//! 3. A pyramid by 2× average pooling (max pooling for the mask) down to `coarsest_level_px`.
+//! 4. Coarse to fine: try every integer shift in [−r, r]² (r = 2: 25 candidates) on top of the
+//!    doubled estimate from the coarser level; score = masked mean |frame_t(p + s) − frame_t+1(p)|
+//!    (the official code calls it "ncc"; it is a mean absolute difference); keep the argmin.
+//!    **Deviation:** candidates whose overlap is below `min_overlap_fraction` of the valid area
+//!    are skipped. Without it the mean over a sliver of a 4×4 level is noise and wins the
+//!    argmin: on our synthetic 1/f² ONS at n = 64, 160 of 200 shifts in [−15, 14] were
+//!    recovered with 0 (official), 192 of 200 with 0.5 (the test below).
+//! 5. Convert the finest-level shift to field units with the grid's xy steps per pixel.
+//!
+//! Sign convention as everywhere: frame t+1 at p shows frame t at p + d.
+
+use super::blur::blur_planes;
+use super::sampling::{bilinear, nearest_inside};
+use super::PlainFlow;
+use rayon::prelude::*;
+
+/// The de-warping grid: points `uv = P⁻¹(xy)` for a regular `side×side` lattice in xy.
+#[derive(Clone, Debug)]
+pub struct DewarpGrid {
+    /// R', a power of two.
+    pub side: usize,
+    /// `side²` points in ONS units, row-major.
+    pub uv: Vec<[f64; 2]>,
+    /// xy displacement of one grid step along columns (`[0]`) and rows (`[1]`).
+    pub xy_step: [[f64; 2]; 2],
+}
+
+impl DewarpGrid {
+    /// Builds the grid for an `n×n` ONS under `flow`, with `side` capped at `max_side`.
+    pub fn new(flow: &dyn PlainFlow, n: usize, max_side: usize) -> Self {
+        let mut corners = [[-1.0, -1.0], [1.0, -1.0], [-1.0, 1.0], [1.0, 1.0]];
+        flow.forward(&mut corners);
+        // predicted spacing of the central cells
+        let h = 2.0 / (n as f64 - 1.0);
+        let mut centre = [[0.0, 0.0], [h, 0.0], [0.0, h]];
+        flow.forward(&mut centre);
+        let dist = |a: [f64; 2], b: [f64; 2]| ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2)).sqrt();
+        let spacing = dist(centre[0], centre[1]).min(dist(centre[0], centre[2])).max(1e-12);
+        let extent = dist(corners[0], corners[1]).max(dist(corners[0], corners[2]));
+        let cells = (extent / spacing).round() as usize + 1;
+        let side = cells.next_power_of_two().clamp(4, max_side.max(4));
+        let s = (side - 1) as f64;
+        let lerp = |a: [f64; 2], b: [f64; 2], t: f64| [a[0] + (b[0] - a[0]) * t, a[1] + (b[1] - a[1]) * t];
+        let mut uv = Vec::with_capacity(side * side);
+        for y in 0..side {
+            let ty = y as f64 / s;
+            let left = lerp(corners[0], corners[2], ty);
+            let right = lerp(corners[1], corners[3], ty);
+            for x in 0..side {
+                uv.push(lerp(left, right, x as f64 / s));
+            }
+        }
+        flow.inverse(&mut uv);
+        let ex = [(corners[1][0] - corners[0][0]) / s, (corners[1][1] - corners[0][1]) / s];
+        let ey = [(corners[2][0] - corners[0][0]) / s, (corners[2][1] - corners[0][1]) / s];
+        DewarpGrid { side, uv, xy_step: [ex, ey] }
+    }
+
+    /// Samples one `n×n` plane onto the grid: image and validity mask, `side²` each.
+    pub fn sample(&self, plane: &[f32], n: usize, img: &mut [f32], mask: &mut [f32]) {
+        for (k, &p) in self.uv.iter().enumerate() {
+            img[k] = bilinear(plane, n, n, p) as f32;
+            mask[k] = if nearest_inside(n, n, p) { 1.0 } else { 0.0 };
+        }
+    }
+}
+
+/// The pyramid search's settings (official §3.6).
+#[derive(Clone, Debug)]
+pub struct BlockMatcher {
+    pub blur_kernel_px: usize,
+    pub blur_sigma_px: f64,
+    pub search_radius_px: i32,
+    pub coarsest_level_px: usize,
+    /// Candidates whose overlap holds fewer than this fraction of the valid pixels of frame
+    /// t+1 are skipped (see [`crate::config::MConfig::min_overlap_fraction`]).
+    pub min_overlap_fraction: f64,
+}
+
+/// What the search found for one batch.
+#[derive(Clone, Debug)]
+pub struct MotionEstimate {
+    /// Per sample `[dx, dy]` in field units.
+    pub motion: Vec<[f64; 2]>,
+    /// Per sample integer shift in de-warped grid pixels.
+    pub shift_px: Vec<[i32; 2]>,
+}
+
+fn pool2(img: &[f32], mask: &[f32], side: usize) -> (Vec<f32>, Vec<f32>) {
+    let h = side / 2;
+    let mut pi = vec![0.0; h * h];
+    let mut pm = vec![0.0; h * h];
+    for y in 0..h {
+        for x in 0..h {
+            let idx = [(2 * y) * side + 2 * x, (2 * y) * side + 2 * x + 1, (2 * y + 1) * side + 2 * x, (2 * y + 1) * side + 2 * x + 1];
+            pi[y * h + x] = idx.iter().map(|&i| img[i]).sum::<f32>() * 0.25;
+            pm[y * h + x] = idx.iter().map(|&i| mask[i]).fold(0.0, f32::max);
+        }
+    }
+    (pi, pm)
+}
+
+/// Masked mean |a(p + s) − b(p)| over the overlap; `f64::INFINITY` when the overlap holds fewer
+/// than `min_count` valid pixels.
+#[allow(clippy::too_many_arguments)]
+fn score(a: &[f32], ma: &[f32], b: &[f32], mb: &[f32], side: usize, s: [i64; 2], min_count: f64) -> f64 {
+    let n = side as i64;
+    let (mut num, mut den) = (0.0f64, 0.0f64);
+    for y in 0..n {
+        let ya = y + s[1];
+        if ya < 0 || ya >= n {
+            continue;
+        }
+        for x in 0..n {
+            let xa = x + s[0];
+            if xa < 0 || xa >= n {
+                continue;
+            }
+            let (ia, ib) = ((ya * n + xa) as usize, (y * n + x) as usize);
+            let m = (ma[ia] * mb[ib]) as f64;
+            num += m * (a[ia] - b[ib]).abs() as f64;
+            den += m;
+        }
+    }
+    if den > 0.0 && den >= min_count {
+        num / den
+    } else {
+        f64::INFINITY
+    }
+}
+
+impl BlockMatcher {
+    /// From the M settings of a config.
+    pub fn from_config(m: &crate::config::MConfig) -> Self {
+        BlockMatcher {
+            blur_kernel_px: m.blur_kernel_px,
+            blur_sigma_px: m.blur_sigma_px,
+            search_radius_px: m.search_radius_px,
+            coarsest_level_px: m.coarsest_level_px,
+            min_overlap_fraction: m.min_overlap_fraction,
+        }
+    }
+
+    /// Blurs `(B, n, n)` planes with B.
+    pub fn blur(&self, planes: &[f32], n: usize) -> Vec<f32> {
+        let mut out = vec![0.0; planes.len()];
+        blur_planes(planes, &mut out, n, self.blur_kernel_px, self.blur_sigma_px);
+        out
+    }
+
+    /// Estimates the motion from frames `t` and `t+1`, each `(B, n, n)`, under `flow`.
+    pub fn estimate(&self, frame_t: &[f32], frame_t1: &[f32], n: usize, flow: &dyn PlainFlow) -> MotionEstimate {
+        assert_eq!(frame_t.len(), frame_t1.len(), "block matching: frame t has {} values, t+1 {}", frame_t.len(), frame_t1.len());
+        let b1 = self.blur(frame_t, n);
+        let b2 = self.blur(frame_t1, n);
+        let grid = DewarpGrid::new(flow, n, 2 * n.next_power_of_two());
+        self.estimate_blurred(&b1, &b2, n, &grid)
+    }
+
+    /// As [`BlockMatcher::estimate`], on frames already blurred and a grid already built.
+    pub fn estimate_blurred(&self, b1: &[f32], b2: &[f32], n: usize, grid: &DewarpGrid) -> MotionEstimate {
+        let nn = n * n;
+        let batch = b1.len() / nn;
+        let side = grid.side;
+        let levels = (side.trailing_zeros() as i64 - self.coarsest_level_px.trailing_zeros() as i64).max(0) as usize;
+        let r = self.search_radius_px as i64;
+        let shifts: Vec<[i32; 2]> = (0..batch)
+            .into_par_iter()
+            .map(|b| {
+                let mut img = [vec![0.0; side * side], vec![0.0; side * side]];
+                let mut msk = [vec![0.0; side * side], vec![0.0; side * side]];
+                grid.sample(&b1[b * nn..(b + 1) * nn], n, &mut img[0], &mut msk[0]);
+                grid.sample(&b2[b * nn..(b + 1) * nn], n, &mut img[1], &mut msk[1]);
+                // pyramid[0] = finest
+                let mut pyr = vec![(img, msk, side)];
+                for _ in 0..levels {
+                    let (im, mk, s) = pyr.last().unwrap();
+                    let (a, ma) = pool2(&im[0], &mk[0], *s);
+                    let (c, mc) = pool2(&im[1], &mk[1], *s);
+                    pyr.push(([a, c], [ma, mc], s / 2));
+                }
+                let mut acc = [0i64; 2];
+                for (level, (im, mk, s)) in pyr.iter().enumerate().rev() {
+                    if level != levels {
+                        acc = [acc[0] * 2, acc[1] * 2];
+                    }
+                    let valid = mk[1].iter().map(|&m| m as f64).sum::<f64>();
+                    let min_count = self.min_overlap_fraction * valid;
+                    let mut best = (f64::INFINITY, acc);
+                    for dy in -r..=r {
+                        for dx in -r..=r {
+                            let cand = [acc[0] + dx, acc[1] + dy];
+                            let sc = score(&im[0], &mk[0], &im[1], &mk[1], *s, cand, min_count);
+                            if sc < best.0 {
+                                best = (sc, cand);
+                            }
+                        }
+                    }
+                    acc = best.1;
+                }
+                [acc[0] as i32, acc[1] as i32]
+            })
+            .collect();
+        let motion = shifts
+            .iter()
+            .map(|s| {
+                let [ex, ey] = grid.xy_step;
+                [s[0] as f64 * ex[0] + s[1] as f64 * ey[0], s[0] as f64 * ex[1] + s[1] as f64 * ey[1]]
+            })
+            .collect();
+        MotionEstimate { motion, shift_px: shifts }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::data::DataSource;
+    use crate::motion::IdentityFlow;
+    use crate::synthetic::{SyntheticConfig, SyntheticSource};
+
+    fn matcher() -> BlockMatcher {
+        BlockMatcher::from_config(&crate::CortexConfig::quick().m)
+    }
+
+    #[test]
+    fn identity_grid_is_the_ons_grid() {
+        let g = DewarpGrid::new(&IdentityFlow, 64, 128);
+        assert_eq!(g.side, 64);
+        let want = crate::motion::sampling::unit_grid(64);
+        for (a, b) in g.uv.iter().zip(&want) {
+            assert!((a[0] - b[0]).abs() < 1e-12 && (a[1] - b[1]).abs() < 1e-12);
+        }
+    }
+
+    /// Issue 4, must-show 3: random integer shifts in [−15, 14] on noise-free ONS (identity P)
+    /// are recovered in ≥ 95 % of trials.
+    #[test]
+    fn block_matching_recovers_integer_shifts() {
+        let n = 64;
+        let mut src = SyntheticSource::new(SyntheticConfig::lms(n, 11));
+        let trials = 200;
+        let batch = src.next_batch(trials);
+        let (mut f0, mut f1) = (Vec::new(), Vec::new());
+        batch.frames(0, &mut f0);
+        batch.frames(1, &mut f1);
+        let est = matcher().estimate(&f0, &f1, n, &IdentityFlow);
+        let hits = est.shift_px.iter().zip(&src.last_shifts).filter(|(a, b)| a == b).count();
+        println!("block matching recovered {hits} of {trials} shifts");
+        assert!(hits * 100 >= 95 * trials, "recovered {hits} of {trials}");
+        // field units: one pixel is 2/(n−1) at identity P
+        for (d, s) in est.motion.iter().zip(&est.shift_px) {
+            assert!((d[0] * 31.5 - s[0] as f64).abs() < 1e-9 && (d[1] * 31.5 - s[1] as f64).abs() < 1e-9);
+        }
+    }
+}

@@ -1,0 +1,98 @@
+//! Checkpoints of a [`Trainer`], exact resume, continuing on a new data source, and the run
+//! loop with periodic checkpoints (see [`crate::checkpoint`] for the files).
+
+use crate::checkpoint::{self, CheckpointMeta, CHECKPOINT_FORMAT};
+use crate::config::CortexConfig;
+use crate::data::DataSource;
+use crate::rng::CortexRng;
+use crate::trainer::{adam, StepStats, Trainer};
+use crate::CortexError;
+use std::path::{Path, PathBuf};
+
+impl Trainer {
+    /// The metadata a checkpoint of the current state would carry.
+    pub fn checkpoint_meta(&self, source: Option<&dyn DataSource>) -> CheckpointMeta {
+        CheckpointMeta {
+            format: CHECKPOINT_FORMAT,
+            step: self.step,
+            config: self.cortex.config.clone(),
+            rng: self.rng.clone(),
+            data_source_state: source.and_then(|s| s.save_state()),
+            continued_from_step: self.continued_from_step,
+            last_loss: self.last_loss,
+        }
+    }
+
+    /// Writes a checkpoint of the current step under `dir` (atomically) and remembers it as the
+    /// last good one. Pass the data source to make the resume exact.
+    pub fn save_checkpoint(&mut self, dir: &Path, source: Option<&dyn DataSource>) -> Result<PathBuf, CortexError> {
+        let meta = self.checkpoint_meta(source);
+        let path = checkpoint::write_checkpoint(dir, &meta, &self.cortex.params, &self.optim)?;
+        self.last_checkpoint = Some(path.clone());
+        Ok(path)
+    }
+
+    /// Rebuilds the trainer of the checkpoint at `path`: parameters, Adam state, step, RNG; and
+    /// restores `source`'s state when the checkpoint holds one. Continuing from here gives
+    /// bit-identical parameters to a run that never stopped (same thread count).
+    pub fn resume(path: &Path, source: Option<&mut dyn DataSource>) -> Result<Trainer, CortexError> {
+        let meta = checkpoint::read_meta(path)?;
+        let mut t = Trainer::new(meta.config.clone())?;
+        checkpoint::load_params(path, &mut t.cortex.params)?;
+        checkpoint::load_optim(path, &mut t.optim, &t.cortex.params)?;
+        t.step = meta.step;
+        t.rng = meta.rng;
+        t.continued_from_step = meta.continued_from_step;
+        t.last_loss = meta.last_loss;
+        t.last_checkpoint = Some(path.to_path_buf());
+        if let (Some(src), Some(state)) = (source, meta.data_source_state.as_ref()) {
+            src.load_state(state)?;
+        }
+        Ok(t)
+    }
+
+    /// Keeps training the cortex of the checkpoint at `path` on a **new** data source
+    /// (dimensionality boosting, gene therapy; official §3.9): parameters are loaded, Adam is
+    /// recreated (its state is not restored, as official), the step count continues.
+    /// `config` may change training settings (steps, learning rate, M); the buckets' shapes
+    /// must match the checkpoint.
+    pub fn continue_from(path: &Path, config: Option<CortexConfig>) -> Result<Trainer, CortexError> {
+        let meta = checkpoint::read_meta(path)?;
+        let cfg = config.unwrap_or_else(|| meta.config.clone());
+        let mut t = Trainer::new(cfg)?;
+        checkpoint::load_params(path, &mut t.cortex.params)?;
+        t.optim = adam(&t.cortex.config);
+        t.step = meta.step;
+        t.rng = CortexRng::seed_from(t.cortex.config.train.seed ^ meta.step);
+        t.continued_from_step = Some(meta.step);
+        t.last_checkpoint = Some(path.to_path_buf());
+        Ok(t)
+    }
+
+    /// Runs `steps` updates from `source`, writing a checkpoint every
+    /// `train.checkpoint_every_steps` and at the end when `checkpoint_dir` is given; calls
+    /// `on_step` after each update. Stops at the first error (a non-finite loss included) with
+    /// the checkpoints already written intact.
+    pub fn run(
+        &mut self,
+        source: &mut dyn DataSource,
+        steps: u64,
+        checkpoint_dir: Option<&Path>,
+        mut on_step: impl FnMut(&StepStats, &Trainer),
+    ) -> Result<(), CortexError> {
+        let every = self.cortex.config.train.checkpoint_every_steps;
+        let bs = self.cortex.config.train.batch_size;
+        for k in 0..steps {
+            let batch = source.next_batch(bs);
+            let stats = self.step(&batch)?;
+            on_step(&stats, self);
+            if let Some(dir) = checkpoint_dir {
+                let last = k + 1 == steps;
+                if last || (every > 0 && self.step % every == 0) {
+                    self.save_checkpoint(dir, Some(&*source))?;
+                }
+            }
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,255 @@
+//! Training: one [`Trainer`] owns the cortex, Adam (with its state), the step counter, an RNG
+//! and the tape; [`Trainer::step`] turns one [`TrainingBatch`] into one gradient update.
+//!
+//! - Credit assignment goes through `autodiff::learn::LearningRule` (backprop by default;
+//!   [`Trainer::set_learning_rule`] swaps in feedback alignment or a user rule).
+//! - A non-finite loss or gradient stops with [`CortexError::NonFiniteLoss`] *before* the update,
+//!   so the parameters stay those of the last good step and checkpoints on disk are untouched.
+//! - Checkpoints ([`crate::checkpoint`]) hold parameters, Adam state, step, config, RNG and the
+//!   data source's state; [`Trainer::resume`] continues bit-identically (same seed, same
+//!   thread count). [`Trainer::continue_from`] keeps the cortex and recreates Adam, as the
+//!   official dimensionality boosting / gene therapy does (official §3.9).
+//! - Neural Scope stays outside: with [`Trainer::set_keep_percept`] the trainer keeps a detached
+//!   copy of the last percept for the caller to fit; nothing flows back.
+
+use crate::config::CortexConfig;
+use crate::data::TrainingBatch;
+use crate::model::{Bucket, Cortex, Marks, BUCKETS, BUCKET_NAMES};
+use crate::rng::CortexRng;
+use crate::CortexError;
+use autodiff::learn::{LearningRule, ParamGrads};
+use autodiff::optim::{Adam, Optimizer};
+use autodiff::{BackwardHooks, NodeView, Tape, Tensor};
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// What one step did and where the time went (milliseconds).
+#[derive(Clone, Debug, PartialEq)]
+pub struct StepStats {
+    /// Steps done after this one.
+    pub step: u64,
+    /// The training loss (main + blurred objective when M is learned).
+    pub loss: f64,
+    /// The main prediction loss (official §3.8 normalisation).
+    pub main_loss: f64,
+    /// Forward time per bucket, indexed by [`Bucket`] (M is motion estimation).
+    pub forward_ms: [f64; BUCKETS],
+    /// Backward time per bucket (measured only with the default backprop rule; else zeros and
+    /// the total in `credit_ms`).
+    pub backward_ms: [f64; BUCKETS],
+    /// Whole credit assignment (backward sweep and gradient gathering).
+    pub credit_ms: f64,
+    /// Adam update.
+    pub optimizer_ms: f64,
+    /// Everything in `step`.
+    pub total_ms: f64,
+}
+
+impl StepStats {
+    /// `"W 1.2+0.8 ms, C …"`: forward+backward per bucket.
+    pub fn bucket_summary(&self) -> String {
+        (0..BUCKETS)
+            .map(|i| format!("{} {:.1}+{:.1}", BUCKET_NAMES[i], self.forward_ms[i], self.backward_ms[i]))
+            .collect::<Vec<_>>()
+            .join(", ")
+    }
+}
+
+/// Held-out prediction quality of one batch.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PredictionError {
+    /// Mean squared error of the cortex's prediction of frame t+1 (inside the border and mask).
+    pub model_mse: f64,
+    /// Mean squared error of "frame t+1 = frame t" over the same pixels.
+    pub identity_mse: f64,
+}
+
+impl PredictionError {
+    /// `identity_mse / model_mse`: how many times better than predicting no change.
+    pub fn improvement(&self) -> f64 {
+        self.identity_mse / self.model_mse
+    }
+}
+
+/// Backward hooks that time the sweep per bucket from the tape's marks.
+struct TimingHooks<'a> {
+    marks: &'a Marks,
+    last: Option<(Instant, Bucket)>,
+    acc: [f64; BUCKETS],
+}
+
+impl BackwardHooks<f32> for TimingHooks<'_> {
+    fn on_grad(&mut self, node: &NodeView<'_, f32>, _grad: &mut Tensor<f32>) {
+        let now = Instant::now();
+        if let Some((t, b)) = self.last {
+            self.acc[b as usize] += (now - t).as_secs_f64() * 1e3;
+        }
+        self.last = self.marks.bucket_of(node.var.index()).map(|b| (now, b));
+    }
+}
+
+/// The training loop's state.
+pub struct Trainer {
+    /// The model being trained.
+    pub cortex: Cortex,
+    pub(crate) optim: Optimizer<f32, Adam>,
+    pub(crate) rule: Option<Box<dyn LearningRule<f32>>>,
+    pub(crate) step: u64,
+    pub(crate) rng: CortexRng,
+    pub(crate) tape: Tape<f32>,
+    pub(crate) grads: ParamGrads<f32>,
+    pub(crate) frames: [Vec<f32>; 2],
+    pub(crate) keep_percept: bool,
+    pub(crate) last_percept: Vec<f32>,
+    pub(crate) last_batch: usize,
+    pub(crate) last_checkpoint: Option<PathBuf>,
+    pub(crate) continued_from_step: Option<u64>,
+    pub(crate) last_loss: Option<f64>,
+}
+
+pub(crate) fn adam(cfg: &CortexConfig) -> Optimizer<f32, Adam> {
+    let t = &cfg.train;
+    Optimizer::new(Adam { lr: t.learning_rate, beta1: t.adam_beta1, beta2: t.adam_beta2, eps: t.adam_eps })
+}
+
+impl Trainer {
+    /// A fresh cortex from `config`, step 0.
+    pub fn new(config: CortexConfig) -> Result<Self, CortexError> {
+        let rng = CortexRng::seed_from(config.train.seed);
+        let optim = adam(&config);
+        let cortex = Cortex::new(config)?;
+        Ok(Trainer {
+            cortex,
+            optim,
+            rule: None,
+            step: 0,
+            rng,
+            tape: Tape::new(),
+            grads: ParamGrads::new(),
+            frames: [Vec::new(), Vec::new()],
+            keep_percept: false,
+            last_percept: Vec::new(),
+            last_batch: 0,
+            last_checkpoint: None,
+            continued_from_step: None,
+            last_loss: None,
+        })
+    }
+
+    /// Gradient updates done.
+    pub fn step_count(&self) -> u64 {
+        self.step
+    }
+
+    /// The config.
+    pub fn config(&self) -> &CortexConfig {
+        &self.cortex.config
+    }
+
+    /// The trainer's RNG (seeded from `train.seed`, saved in checkpoints) for callers that need
+    /// randomness tied to the run.
+    pub fn rng(&mut self) -> &mut CortexRng {
+        &mut self.rng
+    }
+
+    /// Replaces backprop by another credit-assignment rule (feedback alignment, …).
+    pub fn set_learning_rule(&mut self, rule: Box<dyn LearningRule<f32>>) {
+        self.rule = Some(rule);
+    }
+
+    /// Keep a detached copy of each step's percept for Neural Scope ([`Trainer::last_percept`]).
+    pub fn set_keep_percept(&mut self, keep: bool) {
+        self.keep_percept = keep;
+    }
+
+    /// The last step's percept `V_t`, `(B, N, n, n)`, and B; empty unless kept.
+    pub fn last_percept(&self) -> (&[f32], usize) {
+        (&self.last_percept, self.last_batch)
+    }
+
+    /// The last checkpoint written or loaded.
+    pub fn last_checkpoint(&self) -> Option<&Path> {
+        self.last_checkpoint.as_deref()
+    }
+
+    pub(crate) fn check_batch(&self, batch: &TrainingBatch) -> Result<(), CortexError> {
+        batch.validate()?;
+        if batch.n != self.cortex.n() {
+            return Err(CortexError::InvalidBatch { field: "n", reason: format!("batch ONS is {0}×{0}, the cortex expects {1}×{1}", batch.n, self.cortex.n()) });
+        }
+        Ok(())
+    }
+
+    /// One gradient update from `batch`.
+    pub fn step(&mut self, batch: &TrainingBatch) -> Result<StepStats, CortexError> {
+        let t0 = Instant::now();
+        self.check_batch(batch)?;
+        let (b, n) = (batch.batch, batch.n);
+        let mut fwd = [0.0; BUCKETS];
+        batch.frames(0, &mut self.frames[0]);
+        batch.frames(1, &mut self.frames[1]);
+        let tm = Instant::now();
+        let motion = self.cortex.estimate_motion(&self.frames[0], &self.frames[1], batch.oracle_motion.as_deref())?;
+        fwd[Bucket::M as usize] = tm.elapsed().as_secs_f64() * 1e3;
+
+        self.tape.clear();
+        let mut marks = Marks::default();
+        let o1 = self.tape.constant_from([b, 1, n, n], &self.frames[0]);
+        let o2 = self.tape.constant_from([b, 1, n, n], &self.frames[1]);
+        let pred = self.cortex.record_prediction(&mut self.tape, o1, o2, &motion, &mut marks);
+        for (f, m) in fwd.iter_mut().zip(marks.forward_ms()) {
+            *f += m;
+        }
+        let loss = self.tape.value(pred.loss).item() as f64;
+        let main_loss = self.tape.value(pred.main_loss).item() as f64;
+        if !loss.is_finite() {
+            return Err(CortexError::NonFiniteLoss { step: self.step + 1, value: loss, last_checkpoint: self.last_checkpoint.clone() });
+        }
+        if self.keep_percept {
+            self.last_percept.clear();
+            self.last_percept.extend_from_slice(self.tape.value(pred.percept).data());
+            self.last_batch = b;
+        }
+
+        let tc = Instant::now();
+        let mut bwd = [0.0; BUCKETS];
+        match &mut self.rule {
+            None => {
+                let mut hooks = TimingHooks { marks: &marks, last: None, acc: [0.0; BUCKETS] };
+                self.tape.backward_with(pred.loss, &mut hooks);
+                if let Some((t, bk)) = hooks.last {
+                    hooks.acc[bk as usize] += t.elapsed().as_secs_f64() * 1e3;
+                }
+                bwd = hooks.acc;
+                self.grads.fill_from_tape(&self.tape);
+            }
+            Some(rule) => rule.assign_credit_into(&mut self.tape, pred.loss, &self.cortex.params, &mut self.grads),
+        }
+        let credit_ms = tc.elapsed().as_secs_f64() * 1e3;
+        if let Some((id, _)) = self.grads.iter().find(|(_, g)| g.data().iter().any(|v| !v.is_finite())) {
+            return Err(CortexError::NonFiniteGradient {
+                step: self.step + 1,
+                param: self.cortex.params.name(id).to_string(),
+                last_checkpoint: self.last_checkpoint.clone(),
+            });
+        }
+        let to = Instant::now();
+        self.optim
+            .step(&mut self.cortex.params, &self.grads)
+            .map_err(|e| CortexError::InvalidConfig { field: "optimizer".into(), reason: e.to_string() })?;
+        let optimizer_ms = to.elapsed().as_secs_f64() * 1e3;
+        self.step += 1;
+        self.last_loss = Some(loss);
+
+        Ok(StepStats {
+            step: self.step,
+            loss,
+            main_loss,
+            forward_ms: fwd,
+            backward_ms: bwd,
+            credit_ms,
+            optimizer_ms,
+            total_ms: t0.elapsed().as_secs_f64() * 1e3,
+        })
+    }
+}

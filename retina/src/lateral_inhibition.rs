@@ -1,0 +1,335 @@
+//! Lateral inhibition: difference-of-Gaussians on the cone lattice (official §2.7, paper S-02).
+//!
+//! Stage `LateralInhibition::compute(input, out)`:
+//! - input: cone activations `(n, n)` row-major f32 (lattice order, not visual space — the
+//!   paper's "cone diameters" are lattice pitches);
+//! - output: the bipolar signal `(n, n)`, `out = K ⊛ input`, a zero-padded linear ("same")
+//!   2-D convolution (the official FFT on a (2n−1)² grid is exactly this).
+//!
+//! Kernel: size `ceil(6·σs)` bumped to odd (7 for σs = 0.9); `K = Gc − w·Gs` with Gc, Gs
+//! Gaussians of σc = 0.15 and σs = 0.9 cells sampled on the integer offsets, each normalised to
+//! sum 1, and w = 0.91, so ΣK = 0.09 (the paper's "non-zero mean 0.09"). Centre tap ≈ 0.821,
+//! nearest neighbours ≈ −0.0965, diagonals ≈ −0.052. K is symmetric, so convolution and
+//! correlation coincide.
+//!
+//! Two paths that must agree to 1e-6: direct (49 row AXPYs per output row, the default) and FFT
+//! (rustfft, f64, on a padded grid ≥ n + size − 1).
+//!
+//! Noise after LI: `out ← out · (1 + s · r · ε)`, s = 0.01, ε ~ N(0, 1) per cell, r the batch's
+//! noise ratio ([`crate::cones::NoiseConfig`]).
+
+use std::sync::Arc;
+
+use rand::Rng;
+use rand_distr::StandardNormal;
+use rustfft::num_complex::Complex64;
+use rustfft::{Fft, FftPlanner};
+use serde::{Deserialize, Serialize};
+
+/// Centre σ, lattice cells (official §2.7).
+pub const OFFICIAL_SIGMA_CENTRE_CELLS: f64 = 0.15;
+/// Surround σ, lattice cells (official §2.7).
+pub const OFFICIAL_SIGMA_SURROUND_CELLS: f64 = 0.9;
+/// Surround weight (official §2.7), giving DC gain 1 − 0.91 = 0.09.
+pub const OFFICIAL_SURROUND_WEIGHT: f64 = 0.91;
+
+/// Which convolution path.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum ConvMethod {
+    /// Direct spatial convolution.
+    Direct,
+    /// FFT convolution (f64).
+    Fft,
+}
+
+/// DoG settings.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct DogConfig {
+    /// Centre Gaussian σ, lattice cells.
+    pub sigma_centre_cells: f64,
+    /// Surround Gaussian σ, lattice cells.
+    pub sigma_surround_cells: f64,
+    /// Weight of the (unit-sum) surround.
+    pub surround_weight: f64,
+    /// Convolution path.
+    pub method: ConvMethod,
+}
+
+impl Default for DogConfig {
+    fn default() -> Self {
+        DogConfig {
+            sigma_centre_cells: OFFICIAL_SIGMA_CENTRE_CELLS,
+            sigma_surround_cells: OFFICIAL_SIGMA_SURROUND_CELLS,
+            surround_weight: OFFICIAL_SURROUND_WEIGHT,
+            method: ConvMethod::Direct,
+        }
+    }
+}
+
+impl DogConfig {
+    /// Kernel side: `ceil(6·σs)`, bumped to odd.
+    pub fn kernel_size(&self) -> usize {
+        let s = (6.0 * self.sigma_surround_cells).ceil().max(1.0) as usize;
+        if s % 2 == 0 {
+            s + 1
+        } else {
+            s
+        }
+    }
+
+    /// The kernel, `(size, size)` row-major f64.
+    pub fn kernel(&self) -> Vec<f64> {
+        let size = self.kernel_size();
+        let r = (size / 2) as f64;
+        let gauss = |sigma: f64| {
+            let mut g: Vec<f64> = (0..size * size)
+                .map(|i| {
+                    let (y, x) = ((i / size) as f64 - r, (i % size) as f64 - r);
+                    (-(x * x + y * y) / (2.0 * sigma * sigma)).exp()
+                })
+                .collect();
+            let s: f64 = g.iter().sum();
+            g.iter_mut().for_each(|v| *v /= s);
+            g
+        };
+        let (c, s) = (
+            gauss(self.sigma_centre_cells),
+            gauss(self.sigma_surround_cells),
+        );
+        c.iter()
+            .zip(&s)
+            .map(|(a, b)| a - self.surround_weight * b)
+            .collect()
+    }
+}
+
+/// The LI stage for one lattice size (kernel and FFT plans precomputed).
+pub struct LateralInhibition {
+    /// Settings.
+    pub config: DogConfig,
+    /// Lattice side.
+    pub n: usize,
+    /// Kernel side.
+    pub size: usize,
+    /// Kernel `(size, size)`, f64.
+    pub kernel: Vec<f64>,
+    kernel_f32: Vec<f32>,
+    fft_len: usize,
+    fft_fwd: Arc<dyn Fft<f64>>,
+    fft_inv: Arc<dyn Fft<f64>>,
+    kernel_spectrum: Vec<Complex64>,
+}
+
+impl std::fmt::Debug for LateralInhibition {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("LateralInhibition")
+            .field("config", &self.config)
+            .field("n", &self.n)
+            .field("size", &self.size)
+            .finish()
+    }
+}
+
+/// In-place 2-D FFT of a `len × len` buffer (rows, then columns through a transpose).
+fn fft2(fft: &Arc<dyn Fft<f64>>, buf: &mut [Complex64], tmp: &mut [Complex64], len: usize) {
+    fft.process(buf);
+    for y in 0..len {
+        for x in 0..len {
+            tmp[x * len + y] = buf[y * len + x];
+        }
+    }
+    fft.process(tmp);
+    for y in 0..len {
+        for x in 0..len {
+            buf[x * len + y] = tmp[y * len + x];
+        }
+    }
+}
+
+impl LateralInhibition {
+    /// Precompute the kernel (and its spectrum for the FFT path) for an `n × n` lattice.
+    pub fn new(config: DogConfig, n: usize) -> Self {
+        let size = config.kernel_size();
+        let kernel = config.kernel();
+        let fft_len = n + size - 1;
+        let mut planner = FftPlanner::<f64>::new();
+        let fft_fwd = planner.plan_fft_forward(fft_len);
+        let fft_inv = planner.plan_fft_inverse(fft_len);
+        let mut kernel_spectrum = vec![Complex64::new(0.0, 0.0); fft_len * fft_len];
+        for y in 0..size {
+            for x in 0..size {
+                kernel_spectrum[y * fft_len + x] = Complex64::new(kernel[y * size + x], 0.0);
+            }
+        }
+        let mut tmp = vec![Complex64::new(0.0, 0.0); fft_len * fft_len];
+        fft2(&fft_fwd, &mut kernel_spectrum, &mut tmp, fft_len);
+        LateralInhibition {
+            config,
+            n,
+            size,
+            kernel_f32: kernel.iter().map(|&v| v as f32).collect(),
+            kernel,
+            fft_len,
+            fft_fwd,
+            fft_inv,
+            kernel_spectrum,
+        }
+    }
+
+    /// Sum of the kernel (the DC gain, 0.09 officially).
+    pub fn dc_gain(&self) -> f64 {
+        self.kernel.iter().sum()
+    }
+
+    fn check(&self, input: &[f32], out: &[f32]) {
+        let nn = self.n * self.n;
+        assert!(
+            input.len() == nn && out.len() == nn,
+            "LateralInhibition: input {} and out {} must both be {}×{}",
+            input.len(),
+            out.len(),
+            self.n,
+            self.n
+        );
+    }
+
+    /// Configured path.
+    pub fn compute(&self, input: &[f32], out: &mut [f32]) {
+        match self.config.method {
+            ConvMethod::Direct => self.compute_direct(input, out),
+            ConvMethod::Fft => self.compute_fft(input, out),
+        }
+    }
+
+    /// Direct zero-padded "same" convolution.
+    pub fn compute_direct(&self, input: &[f32], out: &mut [f32]) {
+        self.check(input, out);
+        let (n, size) = (self.n, self.size);
+        let r = (size / 2) as isize;
+        out.fill(0.0);
+        for y in 0..n {
+            let orow = &mut out[y * n..(y + 1) * n];
+            for ky in 0..size {
+                let yy = y as isize + ky as isize - r;
+                if yy < 0 || yy >= n as isize {
+                    continue;
+                }
+                let irow = &input[yy as usize * n..(yy as usize + 1) * n];
+                for kx in 0..size {
+                    let k = self.kernel_f32[ky * size + kx];
+                    let dx = kx as isize - r;
+                    // out[x] += k · in[x + dx] over the x where x + dx is inside.
+                    let x0 = (-dx).max(0) as usize;
+                    let x1 = (n as isize - dx).min(n as isize) as usize;
+                    let src = &irow[(x0 as isize + dx) as usize..(x1 as isize + dx) as usize];
+                    for (o, &s) in orow[x0..x1].iter_mut().zip(src) {
+                        *o += k * s;
+                    }
+                }
+            }
+        }
+    }
+
+    /// FFT path (f64): same result as [`LateralInhibition::compute_direct`].
+    pub fn compute_fft(&self, input: &[f32], out: &mut [f32]) {
+        self.check(input, out);
+        let (n, len) = (self.n, self.fft_len);
+        let r = self.size / 2;
+        let mut buf = vec![Complex64::new(0.0, 0.0); len * len];
+        let mut tmp = vec![Complex64::new(0.0, 0.0); len * len];
+        for y in 0..n {
+            for x in 0..n {
+                buf[y * len + x] = Complex64::new(input[y * n + x] as f64, 0.0);
+            }
+        }
+        fft2(&self.fft_fwd, &mut buf, &mut tmp, len);
+        for (b, k) in buf.iter_mut().zip(&self.kernel_spectrum) {
+            *b *= k;
+        }
+        fft2(&self.fft_inv, &mut buf, &mut tmp, len);
+        let scale = 1.0 / (len * len) as f64;
+        // Full linear convolution index (y + r, x + r) is the "same" output (y, x).
+        for y in 0..n {
+            for x in 0..n {
+                out[y * n + x] = (buf[(y + r) * len + x + r].re * scale) as f32;
+            }
+        }
+    }
+}
+
+/// `x ← x · (1 + scale · r · ε)` in place (module docs).
+pub fn add_multiplicative_noise<R: Rng + ?Sized>(rng: &mut R, x: &mut [f32], scale: f32, r: f32) {
+    if r == 0.0 || scale == 0.0 {
+        return;
+    }
+    let s = scale * r;
+    for v in x.iter_mut() {
+        let e: f32 = rng.sample(StandardNormal);
+        *v += *v * s * e;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::rngs::StdRng;
+    use rand::SeedableRng;
+
+    #[test]
+    fn official_kernel_numbers() {
+        let c = DogConfig::default();
+        assert_eq!(c.kernel_size(), 7);
+        let li = LateralInhibition::new(c, 16);
+        assert!((li.dc_gain() - 0.09).abs() < 1e-12, "{}", li.dc_gain());
+        let k = &li.kernel;
+        assert!((k[3 * 7 + 3] - 0.821).abs() < 1e-3, "centre {}", k[24]);
+        assert!((k[3 * 7 + 4] + 0.0965).abs() < 1e-3, "neighbour {}", k[25]);
+        assert!((k[2 * 7 + 2] + 0.052).abs() < 1e-3, "diagonal {}", k[16]);
+    }
+
+    #[test]
+    fn fft_path_equals_direct_to_1e6() {
+        let mut rng = StdRng::seed_from_u64(3);
+        for n in [5usize, 32, 64] {
+            let li = LateralInhibition::new(DogConfig::default(), n);
+            let x: Vec<f32> = (0..n * n).map(|_| rng.random::<f32>() * 1.1).collect();
+            let (mut a, mut b) = (vec![0.0; n * n], vec![0.0; n * n]);
+            li.compute_direct(&x, &mut a);
+            li.compute_fft(&x, &mut b);
+            let err = a.iter().zip(&b).map(|(p, q)| (p - q).abs()).fold(0.0f32, f32::max);
+            assert!(err <= 1e-6, "n {n}: max |direct − fft| = {err}");
+        }
+    }
+
+    #[test]
+    fn convolution_is_zero_padded_same() {
+        // An impulse in the corner gives the kernel's lower-right quadrant; a constant image
+        // gives 0.09 inside and less near the zero-padded border.
+        let n = 9;
+        let li = LateralInhibition::new(DogConfig::default(), n);
+        let mut x = vec![0.0f32; n * n];
+        x[0] = 1.0;
+        let mut y = vec![0.0; n * n];
+        li.compute_direct(&x, &mut y);
+        for dy in 0..4 {
+            for dx in 0..4 {
+                let k = li.kernel[(3 + dy) * 7 + 3 + dx] as f32;
+                assert!((y[dy * n + dx] - k).abs() < 1e-7);
+            }
+        }
+        assert!(y[4 * n + 4].abs() < 1e-12 && y[5].abs() < 1e-12);
+        let ones = vec![1.0f32; n * n];
+        li.compute_direct(&ones, &mut y);
+        assert!((y[4 * n + 4] - 0.09).abs() < 1e-6);
+        assert!(y[0] > 0.09 + 0.1);
+    }
+
+    #[test]
+    fn multiplicative_noise_scale() {
+        let mut rng = StdRng::seed_from_u64(0);
+        let mut x = vec![2.0f32; 100_000];
+        add_multiplicative_noise(&mut rng, &mut x, 0.01, 1.0);
+        let sd = (x.iter().map(|&v| ((v - 2.0) as f64).powi(2)).sum::<f64>() / 1e5).sqrt();
+        assert!((sd - 0.02).abs() < 0.0005, "{sd}");
+    }
+}

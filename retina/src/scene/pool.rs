@@ -1,0 +1,400 @@
+//! A pool of pre-generated scene tiles that training crops are drawn from.
+//!
+//! Stage `ScenePool::new(config, projection, levels, rng)`:
+//! - output: `tiles` square tiles of `tile_px`, each projected ONCE onto the mosaic's classes
+//!   (plus the reference L, M, S for ground truth), white-balanced where the official code
+//!   does, and filtered into a full-resolution mip stack ([`MipStack`], `(levels, planes, tile,
+//!   tile)`). A training sample picks a tile and a field origin inside it; an integer eye shift
+//!   moves the origin.
+//!
+//! Sources, in order of precedence:
+//! 1. `files` — spectral OpenEXR (`.exr`, resampled onto the sensitivity grid) and RGB photographs
+//!    (`.png`, through the simulated display or the official matrix, `rgb_path`). Images
+//!    smaller than a tile are upscaled bilinearly so that their short side fits (official §2.1
+//!    step 3); each tile is a random crop.
+//! 2. otherwise synthetic dead leaves ([`super::dead_leaves`]), with a fraction
+//!    `tetra.fraction` of tiles from a tetrachromatic environment ([`super::tetra`]; the
+//!    paper's 100 patches on 900 images is 0.1).
+//!
+//! White balance (official §2.1 step 4, per image and per plane: divide by the maximum, multiply
+//! by the class's response to the sRGB white) is applied to spectral sources — dead leaves,
+//! tetra environments, EXR files — when `white_balance` is on (the default). RGB photographs are
+//! not balanced: their white is already the sRGB white (the official RGB path has no balance).
+//!
+//! `refresh_every_batches` > 0 replaces one tile (round robin) every that many batches, so long
+//! runs see fresh scenes at a small amortised cost.
+
+use std::path::PathBuf;
+
+use colorimetry::cone_rgb::ConeRgb;
+use colorimetry::{sensitivities, ConeClass, ConeTemplate, WavelengthGrid};
+use rand::rngs::StdRng;
+use rand::{Rng, SeedableRng};
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use super::dead_leaves::{DeadLeavesConfig, LeafScene};
+use super::exr_io::read_spectral_exr_on;
+use super::library::ReflectanceLibrary;
+use super::rgb::{class_planes_by_matrix, Display, RgbImage};
+use super::tetra::{
+    idealised_class_planes, optimal_colour_library, patch_config, TetraEnvironment,
+    OPTIMAL_LIBRARY_SIZE,
+};
+use super::{ClassPlanes, Projector, SpectralImage};
+use crate::error::{Result, RetinaError};
+use crate::foveation::MipStack;
+
+/// How RGB photographs become cone excitations.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum RgbPath {
+    /// Spectra through the simulated display (paper).
+    Display,
+    /// The linear sRGB → cone matrix (official).
+    Matrix,
+}
+
+/// Tetrachromatic augmentation.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct TetraMix {
+    /// Which environment.
+    pub environment: TetraEnvironment,
+    /// Fraction of tiles drawn from it.
+    pub fraction: f64,
+}
+
+/// Pool settings.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ScenePoolConfig {
+    /// Number of tiles.
+    pub tiles: usize,
+    /// Tile side, px (≥ field + 2·max shift).
+    pub tile_px: usize,
+    /// Dead-leaves settings (`size_px` is replaced by `tile_px`).
+    pub dead_leaves: DeadLeavesConfig,
+    /// Tetrachromatic augmentation (`None`: natural scenes only).
+    pub tetra: Option<TetraMix>,
+    /// Scene files; when non-empty they replace the synthetic scenes.
+    pub files: Vec<PathBuf>,
+    /// RGB photograph path.
+    pub rgb_path: RgbPath,
+    /// Per-image white balance of spectral sources.
+    pub white_balance: bool,
+    /// Replace one tile every this many batches (0 = never).
+    pub refresh_every_batches: usize,
+}
+
+/// The projection of scenes onto a mosaic's classes, and the whites and matrices around it.
+#[derive(Debug, Clone)]
+pub struct SceneProjection {
+    /// Sensitivity grid.
+    pub grid: WavelengthGrid,
+    /// One class per plane: the k mosaic classes, then any reference class they lack.
+    pub plane_classes: Vec<ConeClass>,
+    /// Number of mosaic classes.
+    pub k: usize,
+    /// Plane indices of the reference L, M, S.
+    pub reference_lms: [usize; 3],
+    /// Spectra → planes.
+    pub projector: Projector,
+    /// Linear sRGB ↔ planes (official matrix path) for all planes.
+    pub cone_rgb: ConeRgb,
+    /// Response of each plane to the sRGB white (1, 1, 1).
+    pub white: Vec<f64>,
+    /// Reference L, M, S → linear sRGB, row-major (3 × 3): `rgb = lms · m`.
+    pub lms_to_rgb: [[f64; 3]; 3],
+}
+
+impl SceneProjection {
+    /// For the mosaic `classes` under `template` on `grid`.
+    pub fn new(classes: &[ConeClass], template: &ConeTemplate, grid: &WavelengthGrid) -> Result<Self> {
+        let k = classes.len();
+        let mut plane_classes = classes.to_vec();
+        let mut reference_lms = [0usize; 3];
+        for (r, rc) in ConeClass::lms().into_iter().enumerate() {
+            reference_lms[r] = match plane_classes.iter().position(|c| *c == rc) {
+                Some(i) => i,
+                None => {
+                    plane_classes.push(ConeClass::custom(format!("ref_{}", rc.name), rc.peak_nm));
+                    plane_classes.len() - 1
+                }
+            };
+        }
+        let f = sensitivities(&plane_classes, template, grid)?;
+        let projector = Projector::cones(&f);
+        let cone_rgb = ConeRgb::fit(&f)?;
+        let white = (0..plane_classes.len())
+            .map(|c| (0..3).map(|r| cone_rgb.rgb_to_cone[r * plane_classes.len() + c]).sum())
+            .collect();
+        let ref_f = sensitivities(&ConeClass::lms(), template, grid)?;
+        let ref_rgb = ConeRgb::fit(&ref_f)?;
+        let mut lms_to_rgb = [[0.0; 3]; 3];
+        for (c, row) in lms_to_rgb.iter_mut().enumerate() {
+            for (r, v) in row.iter_mut().enumerate() {
+                *v = ref_rgb.cone_to_rgb[c * 3 + r];
+            }
+        }
+        Ok(SceneProjection {
+            grid: grid.clone(),
+            plane_classes,
+            k,
+            reference_lms,
+            projector,
+            cone_rgb,
+            white,
+            lms_to_rgb,
+        })
+    }
+
+    /// Number of planes.
+    pub fn n_planes(&self) -> usize {
+        self.plane_classes.len()
+    }
+
+    /// Project a spectral image (on [`SceneProjection::grid`]).
+    pub fn project(&self, img: &SpectralImage) -> ClassPlanes {
+        self.wrap(img.h, img.w, self.projector.project_image(img))
+    }
+
+    /// Wrap `(n_planes, h, w)` data.
+    pub fn wrap(&self, h: usize, w: usize, planes: Vec<f32>) -> ClassPlanes {
+        assert_eq!(planes.len(), self.n_planes() * h * w, "SceneProjection::wrap: shape");
+        ClassPlanes {
+            h,
+            w,
+            k: self.k,
+            n_planes: self.n_planes(),
+            planes,
+            reference_lms: self.reference_lms,
+        }
+    }
+}
+
+enum LoadedFile {
+    Spectral(SpectralImage),
+    Rgb(RgbImage),
+}
+
+/// Bilinear resize of `(planes, h, w)` data to `(planes, nh, nw)` (align-corners mapping).
+pub fn resize_bilinear(data: &[f32], planes: usize, h: usize, w: usize, nh: usize, nw: usize) -> Vec<f32> {
+    let mut out = vec![0.0f32; planes * nh * nw];
+    let sy = if nh > 1 { (h - 1) as f32 / (nh - 1) as f32 } else { 0.0 };
+    let sx = if nw > 1 { (w - 1) as f32 / (nw - 1) as f32 } else { 0.0 };
+    for p in 0..planes {
+        let src = &data[p * h * w..(p + 1) * h * w];
+        for y in 0..nh {
+            let fy = y as f32 * sy;
+            let y0 = (fy.floor() as usize).min(h.saturating_sub(2));
+            let ty = fy - y0 as f32;
+            let y1 = (y0 + 1).min(h - 1);
+            for x in 0..nw {
+                let fx = x as f32 * sx;
+                let x0 = (fx.floor() as usize).min(w.saturating_sub(2));
+                let tx = fx - x0 as f32;
+                let x1 = (x0 + 1).min(w - 1);
+                let top = src[y0 * w + x0] * (1.0 - tx) + src[y0 * w + x1] * tx;
+                let bot = src[y1 * w + x0] * (1.0 - tx) + src[y1 * w + x1] * tx;
+                out[p * nh * nw + y * nw + x] = top * (1.0 - ty) + bot * ty;
+            }
+        }
+    }
+    out
+}
+
+/// Random `size × size` crop of `(planes, h, w)` data, upscaling first if it is smaller.
+fn random_crop<R: Rng + ?Sized>(
+    data: &[f32],
+    planes: usize,
+    h: usize,
+    w: usize,
+    size: usize,
+    rng: &mut R,
+) -> Vec<f32> {
+    let (data, h, w) = if h < size || w < size {
+        let s = size as f64 / h.min(w) as f64;
+        let (nh, nw) = (((h as f64 * s).ceil() as usize).max(size), ((w as f64 * s).ceil() as usize).max(size));
+        (resize_bilinear(data, planes, h, w, nh, nw), nh, nw)
+    } else {
+        (data.to_vec(), h, w)
+    };
+    let (y0, x0) = (rng.random_range(0..=h - size), rng.random_range(0..=w - size));
+    let mut out = Vec::with_capacity(planes * size * size);
+    for p in 0..planes {
+        for y in 0..size {
+            let row = p * h * w + (y0 + y) * w + x0;
+            out.extend_from_slice(&data[row..row + size]);
+        }
+    }
+    out
+}
+
+/// Tiles and everything needed to make more.
+pub struct ScenePool {
+    /// Settings.
+    pub config: ScenePoolConfig,
+    /// The projection onto the mosaic.
+    pub projection: SceneProjection,
+    /// Mip levels per tile.
+    pub levels: usize,
+    tiles: Vec<MipStack>,
+    library: ReflectanceLibrary,
+    optimal: ReflectanceLibrary,
+    display: Option<Display>,
+    files: Vec<LoadedFile>,
+    next_refresh: usize,
+}
+
+impl std::fmt::Debug for ScenePool {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("ScenePool")
+            .field("tiles", &self.tiles.len())
+            .field("tile_px", &self.config.tile_px)
+            .field("levels", &self.levels)
+            .finish()
+    }
+}
+
+impl ScenePool {
+    /// Load files, then make `config.tiles` tiles in parallel (each from its own seed drawn
+    /// from `rng`). Errors: unreadable files, EXR grids not covering the sensitivities.
+    pub fn new<R: Rng + ?Sized>(
+        config: ScenePoolConfig,
+        projection: SceneProjection,
+        levels: usize,
+        rng: &mut R,
+    ) -> Result<ScenePool> {
+        if config.tiles == 0 || config.tile_px < 2 {
+            return Err(RetinaError::setting(
+                "scenes",
+                format!("{} tiles of {} px", config.tiles, config.tile_px),
+            ));
+        }
+        let grid = projection.grid.clone();
+        let mut files = Vec::new();
+        for path in &config.files {
+            let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
+            files.push(match ext.as_str() {
+                "exr" => LoadedFile::Spectral(read_spectral_exr_on(path, &grid)?),
+                "png" => LoadedFile::Rgb(RgbImage::read_png(path)?),
+                _ => {
+                    return Err(RetinaError::setting(
+                        "scenes.files",
+                        format!("{}: expected a .exr or .png file", path.display()),
+                    ))
+                }
+            });
+        }
+        let display = match config.rgb_path {
+            RgbPath::Display => Some(Display::srgb_like(&grid)?),
+            RgbPath::Matrix => None,
+        };
+        let mut pool = ScenePool {
+            library: ReflectanceLibrary::measured(&grid)?,
+            optimal: optimal_colour_library(&grid, OPTIMAL_LIBRARY_SIZE, &mut StdRng::seed_from_u64(rng.random())),
+            config,
+            projection,
+            levels,
+            tiles: vec![],
+            display,
+            files,
+            next_refresh: 0,
+        };
+        let seeds: Vec<u64> = (0..pool.config.tiles).map(|_| rng.random()).collect();
+        let tiles = seeds
+            .par_iter()
+            .enumerate()
+            .map(|(i, &s)| pool.make_tile(i, &mut StdRng::seed_from_u64(s)))
+            .collect::<Result<Vec<_>>>()?;
+        pool.tiles = tiles;
+        Ok(pool)
+    }
+
+    /// Make the class planes of tile number `index` (module docs).
+    pub fn make_planes<R: Rng + ?Sized>(&self, index: usize, rng: &mut R) -> Result<ClassPlanes> {
+        let size = self.config.tile_px;
+        let proj = &self.projection;
+        let (mut planes, balance) = if !self.files.is_empty() {
+            match &self.files[index % self.files.len()] {
+                LoadedFile::Spectral(img) => {
+                    let p = proj.project(img);
+                    let data = random_crop(&p.planes, p.n_planes, p.h, p.w, size, rng);
+                    (proj.wrap(size, size, data), true)
+                }
+                LoadedFile::Rgb(rgb) => {
+                    let data = random_crop(&rgb.linear, 3, rgb.h, rgb.w, size, rng);
+                    let crop = RgbImage { h: size, w: size, linear: data };
+                    let planes = match &self.display {
+                        Some(d) => proj.project(&d.spectral_image(&crop)),
+                        None => proj.wrap(size, size, class_planes_by_matrix(&crop, &proj.cone_rgb)),
+                    };
+                    (planes, false)
+                }
+            }
+        } else {
+            let tetra = self.config.tetra.filter(|t| rng.random::<f64>() < t.fraction);
+            match tetra {
+                None => {
+                    let cfg = DeadLeavesConfig { size_px: size, ..self.config.dead_leaves.clone() };
+                    let scene = LeafScene::generate(&cfg, &self.library, rng)?;
+                    (proj.wrap(size, size, scene.render_projected(&self.library, &proj.projector)), true)
+                }
+                Some(t) => {
+                    let scene = LeafScene::generate(&patch_config(size), &self.optimal, rng)?;
+                    let data = match t.environment {
+                        TetraEnvironment::OptimalColours => {
+                            scene.render_projected(&self.optimal, &proj.projector)
+                        }
+                        TetraEnvironment::Idealised => {
+                            // Mosaic classes get independent values; appended reference
+                            // planes copy the mosaic's L/M/S-named planes where they exist.
+                            let mut d = idealised_class_planes(&scene, proj.k, rng);
+                            let nn = size * size;
+                            for p in proj.k..proj.n_planes() {
+                                let name = proj.plane_classes[p].name.trim_start_matches("ref_");
+                                let src = proj.plane_classes[..proj.k].iter().position(|c| c.name == name);
+                                match src {
+                                    Some(s) => d.extend_from_within(s * nn..(s + 1) * nn),
+                                    None => d.extend(std::iter::repeat_n(0.0, nn)),
+                                }
+                            }
+                            d
+                        }
+                    };
+                    (proj.wrap(size, size, data), true)
+                }
+            }
+        };
+        if balance && self.config.white_balance {
+            planes.white_balance(&proj.white);
+        }
+        Ok(planes)
+    }
+
+    fn make_tile<R: Rng + ?Sized>(&self, index: usize, rng: &mut R) -> Result<MipStack> {
+        let p = self.make_planes(index, rng)?;
+        Ok(MipStack::compute(&p.planes, p.n_planes, p.h, p.w, self.levels))
+    }
+
+    /// Replace the next tile (round robin) with a fresh one.
+    pub fn refresh_one<R: Rng + ?Sized>(&mut self, rng: &mut R) -> Result<()> {
+        let i = self.next_refresh % self.tiles.len();
+        self.tiles[i] = self.make_tile(i, rng)?;
+        self.next_refresh += 1;
+        Ok(())
+    }
+
+    /// Number of tiles.
+    pub fn len(&self) -> usize {
+        self.tiles.len()
+    }
+
+    /// Always false after construction.
+    pub fn is_empty(&self) -> bool {
+        self.tiles.is_empty()
+    }
+
+    /// Tile `i`.
+    pub fn tile(&self, i: usize) -> &MipStack {
+        &self.tiles[i]
+    }
+}

@@ -1,0 +1,103 @@
+//! The command line: one option vocabulary shared by every subcommand.
+
+use clap::{Args, Parser, Subcommand};
+use std::path::PathBuf;
+
+/// Emergence of colour vision from the optic nerve signal.
+///
+/// With no subcommand, `colorvision` runs `run`: an LMS eye looks at the built-in scenes, the
+/// `quick` cortex learns from its optic nerve signal alone, and CMF-SIM measures the colour
+/// dimensionality that emerges. Everything lands in a run folder (default `runs/<name>`).
+#[derive(Debug, Parser)]
+#[command(name = "colorvision", version, about, long_about = None)]
+pub struct Cli {
+    /// What to do (default: `run`).
+    #[command(subcommand)]
+    pub command: Option<Command>,
+    /// Options for the default `run`.
+    #[command(flatten)]
+    pub common: CommonOptions,
+}
+
+/// The subcommands.
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Simulate an eye, train the cortex on its optic nerve signal, measure the colour
+    /// dimensionality with CMF-SIM at checkpoints, and write a run folder with summary.json.
+    Run(CommonOptions),
+    /// Simulate the eye only and write a picture of every stage (scene, mosaic, cone
+    /// activations, lateral inhibition, ON/OFF spikes, ONS) and ONS frames under eye motion.
+    Simulate(CommonOptions),
+    /// Train the cortex (no CMF-SIM): progress bar, metrics.csv, checkpoints, pictures.
+    Train(CommonOptions),
+    /// Run CMF-SIM on a trained run folder (`--run DIR`) or on an analytic cone observer
+    /// (`--analytic`, with `--cones`), and write cmf_sim.json and SVG plots.
+    CmfSim(CmfSimOptions),
+    /// Fit Neural Scope on held-out scenes for a trained run and write percept pictures.
+    Scope(RunDirOptions),
+    /// Run a named experiment of the paper (see `colorvision experiment list`).
+    Experiment(ExperimentOptions),
+}
+
+/// Options every subcommand understands.
+#[derive(Debug, Clone, Args)]
+pub struct CommonOptions {
+    /// Named set of settings: tiny (tests, seconds), quick (CPU default), sandbox (official
+    /// sandbox: no foveation, no lateral inhibition, oracle motion), paper (256×256 cones).
+    #[arg(long)]
+    pub preset: Option<String>,
+    /// Cone types of the retina: a named set (L, M, S, LM, LS, MS, LMS, LMSQ, LMS+pigeonQ, ...)
+    /// or custom peaks in nm such as `L:560,S:419`.
+    #[arg(long)]
+    pub cones: Option<String>,
+    /// Seed of every random draw (scenes, mosaic, noise, initialisation).
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// Number of training steps (gradient updates).
+    #[arg(long)]
+    pub steps: Option<usize>,
+    /// Output folder (default: runs/<command>-<preset>-<cones>-seed<seed>).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// A TOML file of settings; command-line options override it.
+    #[arg(long)]
+    pub config: Option<PathBuf>,
+}
+
+/// Options of `cmf-sim`.
+#[derive(Debug, Clone, Args)]
+pub struct CmfSimOptions {
+    /// A run folder written by `run`, `train` or `experiment` (its last checkpoint is tested).
+    #[arg(long)]
+    pub run: Option<PathBuf>,
+    /// Test an analytic observer whose percept is the cone excitations of `--cones`.
+    #[arg(long)]
+    pub analytic: bool,
+    /// Primary sets tried per K before K is declared failed (the paper used 500).
+    #[arg(long)]
+    pub sets_per_k: Option<usize>,
+    /// Shared options (`--cones`, `--seed`, `--out`, ...).
+    #[command(flatten)]
+    pub common: CommonOptions,
+}
+
+/// Options of commands that read a run folder.
+#[derive(Debug, Clone, Args)]
+pub struct RunDirOptions {
+    /// The run folder.
+    #[arg(long)]
+    pub run: PathBuf,
+    /// Shared options.
+    #[command(flatten)]
+    pub common: CommonOptions,
+}
+
+/// Options of `experiment`.
+#[derive(Debug, Clone, Args)]
+pub struct ExperimentOptions {
+    /// The experiment's name, or `list`.
+    pub name: String,
+    /// Shared options.
+    #[command(flatten)]
+    pub common: CommonOptions,
+}
