@@ -1,2 +1,41 @@
-//! Benchmark (being written).
-fn main() {}
+//! Retina speed (criterion; `cargo bench --bench retina`).
+//!
+//! `retina_batch8/<preset>`: one call of `Retina::batch_into` producing 8 ONS pairs
+//! `(8, 2, n, n)` — tile choice, eye shift, mip-mapped cone sampling, photon noise, 7×7 lateral
+//! inhibition and LI noise for both frames, samples in parallel — with the preset's pool refresh
+//! (one tile regenerated every `refresh_every_batches` calls) included, as in training.
+//!
+//! Target (issue 3): ≤ 10 % of one training step at the same scale, so the eye never limits
+//! learning — the quick step target is ~61 ms, so ≤ 6 ms here; paper scale proportionally.
+//! Pool construction (scene generation) happens once, outside the timing.
+
+use criterion::{criterion_group, criterion_main, Criterion};
+use rand::rngs::SmallRng;
+use rand::SeedableRng;
+use retina::{OnsBatch, Retina, RetinaConfig};
+use std::hint::black_box;
+use std::time::Duration;
+
+fn batch8(c: &mut Criterion) {
+    let mut group = c.benchmark_group("retina_batch8");
+    for preset in ["sandbox", "quick", "paper"] {
+        let mut retina = Retina::new(RetinaConfig::preset(preset).expect("preset")).expect("retina");
+        let mut rng = SmallRng::seed_from_u64(0);
+        let mut out = OnsBatch::default();
+        if preset == "paper" {
+            group.sample_size(20).measurement_time(Duration::from_secs(10));
+        } else {
+            group.sample_size(100).measurement_time(Duration::from_secs(5));
+        }
+        group.bench_function(preset, |b| {
+            b.iter(|| {
+                retina.batch_into(&mut rng, 8, &mut out);
+                black_box(&out.ons);
+            })
+        });
+    }
+    group.finish();
+}
+
+criterion_group!(benches, batch8);
+criterion_main!(benches);

@@ -8,6 +8,8 @@
 //! - `matmul_fwd_bwd/*`: `a @ b` forward plus both input gradients through faer's GEMM, f32.
 //!   The loss is `sum(a @ b)`. The throughput line counts multiply-adds: GFLOP/s = 2 × Gelem/s
 //!   (three GEMMs per iteration, counted as 3·m·k·n elements).
+//! - `relu_fwd_bwd/8x16x64x64`: relu forward and backward on a U-Net-sized activation (f32),
+//!   including the copy of the input onto the tape and of the cotangent seed.
 
 use autodiff::{Tape, Tensor};
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
@@ -90,5 +92,29 @@ fn matmul(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, tape_overhead, matmul);
+fn relu(c: &mut Criterion) {
+    let mut group = c.benchmark_group("relu_fwd_bwd");
+    group
+        .sample_size(30)
+        .measurement_time(Duration::from_secs(3))
+        .warm_up_time(Duration::from_secs(1));
+    let shape = [8, 16, 64, 64];
+    let x0 = Tensor::from_fn(shape, |i| ((i * 7919) % 1000) as f32 / 1000.0 - 0.5);
+    let r0 = Tensor::from_fn(shape, |i| ((i * 104729) % 1000) as f32 / 1000.0 - 0.5);
+    let mut tape = Tape::<f32>::new();
+    group.throughput(Throughput::Bytes((x0.numel() * 4) as u64));
+    group.bench_function("8x16x64x64", |b| {
+        b.iter(|| {
+            tape.clear();
+            let x = pooled_leaf(&mut tape, &x0);
+            let y = tape.relu(x);
+            let seed = tape.pool().copy_of(r0.shape(), r0.data());
+            tape.backward_from(&[(y, seed)], &mut autodiff::NoHooks);
+            black_box(tape.grad(x).unwrap().data()[0])
+        })
+    });
+    group.finish();
+}
+
+criterion_group!(benches, tape_overhead, matmul, relu);
 criterion_main!(benches);

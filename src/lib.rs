@@ -7,3 +7,4 @@
 
 pub mod io;
 pub mod cli;
+pub mod observer;

@@ -5,11 +5,13 @@
 //!   colour dimension is the rank of `mixing · F` — K for distinct classes.
 //! - [`ConeObserver::rank_deficient_lms`]: four percept channels L, M, S and (L + M)/2 —
 //!   four "classes" whose sensitivities span three dimensions; dimension 3.
+//! - [`NakaRushtonObserver`]: cone excitations through `e / (e + σ)` — nonlinear, dimension K.
 //! - [`LocationDependentObserver`]: the cone percept rotated by an orthogonal matrix that depends
 //!   on where the patch is, so the same light looks different at two places; its base error
 //!   exceeds the percept energy and CMF-SIM must refuse to give a dimension.
 //!
-//! All are noise-free, ignore the background (black) and are linear in the stimulus.
+//! All are noise-free and ignore the background (black); all but Naka–Rushton are linear in the
+//! stimulus.
 
 use rand::{Rng, SeedableRng};
 
@@ -59,7 +61,7 @@ impl ConeObserver {
     pub fn with_mixing(name: String, fundamentals: ConeFundamentals, mixing: Vec<f64>) -> Self {
         let k = fundamentals.n_classes();
         assert!(
-            k > 0 && mixing.len() % k == 0,
+            k > 0 && mixing.len().is_multiple_of(k),
             "ConeObserver::with_mixing: mixing has {} values, not a multiple of K = {k}",
             mixing.len()
         );
@@ -201,6 +203,47 @@ impl Observer for LocationDependentObserver {
                 *t = (0..n).map(|j| q[i * n + j] * o[j]).sum();
             }
             o.copy_from_slice(&tmp);
+        }
+    }
+}
+
+/// A cone observer with a compressive Naka–Rushton nonlinearity per channel,
+/// `percept = e / (e + σ)`: nonlinear but injective, so its colour dimension is still the number
+/// of classes. Exercises the solver's iterative (damped Gauss–Newton) path.
+#[derive(Debug, Clone)]
+pub struct NakaRushtonObserver {
+    inner: ConeObserver,
+    half_saturation: f64,
+}
+
+impl NakaRushtonObserver {
+    /// Wrap `inner` with half-saturation constant σ (> 0, in excitation units).
+    pub fn new(inner: ConeObserver, half_saturation: f64) -> Self {
+        NakaRushtonObserver {
+            inner,
+            half_saturation,
+        }
+    }
+}
+
+impl Observer for NakaRushtonObserver {
+    fn name(&self) -> String {
+        format!(
+            "Naka–Rushton σ={} {}",
+            self.half_saturation,
+            self.inner.name()
+        )
+    }
+    fn grid(&self) -> &WavelengthGrid {
+        self.inner.grid()
+    }
+    fn percept_dim(&self) -> usize {
+        self.inner.percept_dim()
+    }
+    fn percepts(&self, shows: &[Show], out: &mut [f64]) {
+        self.inner.percepts(shows, out);
+        for v in out.iter_mut() {
+            *v /= v.abs() + self.half_saturation;
         }
     }
 }

@@ -19,6 +19,10 @@
 //! row-major. User input (files, grids, settings) returns [`ColorimetryError`]; mismatched array
 //! lengths inside numeric routines panic naming the routine and both lengths.
 
+// Numeric kernels index several arrays with one loop variable, and `!(x > 0.0)` is used on
+// purpose so that NaN inputs are rejected along with the out-of-range ones.
+#![allow(clippy::needless_range_loop, clippy::neg_cmp_op_on_partial_ord)]
+
 pub mod analytic;
 pub mod cie;
 pub mod cmf_sim;

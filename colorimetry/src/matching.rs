@@ -299,6 +299,8 @@ pub fn solve_matches(pb: &MatchProblem<'_>, settings: &SolverSettings) -> MatchS
                 if !done {
                     still.push(w);
                 }
+            } else if lin.err <= old * (1.0 + settings.rel_tolerance) {
+                // No meaningful change either way: α is at the (local) optimum.
             } else {
                 mu[w] = if mu[w] == 0.0 { 1e-3 } else { mu[w] * 10.0 };
                 if mu[w] < 1e8 {

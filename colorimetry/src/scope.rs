@@ -65,7 +65,7 @@ impl ScopeAccumulator {
     pub fn add_batch(&mut self, percepts: &[f64], rgb: &[f64]) {
         let (n, m) = (self.n, self.n + 1);
         assert!(
-            percepts.len() % n.max(1) == 0 && percepts.len() / n.max(1) * 3 == rgb.len(),
+            percepts.len().is_multiple_of(n.max(1)) && percepts.len() / n.max(1) * 3 == rgb.len(),
             "ScopeAccumulator::add_batch: {} percept values (N = {n}) vs {} rgb values",
             percepts.len(),
             rgb.len()

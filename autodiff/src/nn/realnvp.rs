@@ -282,7 +282,7 @@ impl RealNvp {
                     let c = k % 2;
                     let (t, s) = mlps[k].eval(p[c], &mut hidden);
                     p[1 - c] = if inverse {
-                        (p[1 - c] - t) * (-s).exp() * 1.0001
+                        (p[1 - c] - t) * (-s).exp()
                     } else {
                         p[1 - c] * s.exp() + t
                     };

@@ -12,12 +12,14 @@
 //! Both declare their kernel as the weight input (`weight_inputs() == [1]`), so feedback
 //! alignment can substitute a fixed random kernel in backward.
 //!
-//! Implementation: each image is cut into row tiles whose column matrix (`Cin·k² × pixels`,
-//! [`lowering`]) fits in L2, and each tile is one faer GEMM `W (Cout × Cin·k²) · col`. Backward
-//! re-gathers `col` for `∂W += dy · colᵀ`, then `dcol = Wᵀ · dy` is scattered back by the exact
-//! adjoint of the gather (so reflect borders fold correctly). Tiles run in parallel on rayon
-//! (tiles two apart in backward, so scatters never overlap); GEMMs inside a task are
-//! sequential. Scratch comes from a reused stash: nothing large is allocated per call once warm.
+//! Implementation: each image is copied once into a padded buffer; row tiles of the output
+//! are computed at padded width so that every row of the column matrix (`Cin·k² × pixels`,
+//! see [`lowering`]) is one contiguous window of that buffer, and each tile is one faer GEMM
+//! `W (Cout × Cin·k²) · col`. Backward re-gathers `col` for `∂W += dy · colᵀ`, and scatters
+//! `dcol = Wᵀ · dy` back through the exact adjoints of the gather and the padding (so reflect
+//! borders fold their gradient onto the interior). Images run in parallel on rayon with
+//! sequential GEMMs inside; a single image runs on the calling thread so faer may thread its
+//! GEMMs. Scratch comes from a reused stash: nothing large is allocated per call once warm.
 
 mod lowering;
 mod transpose;

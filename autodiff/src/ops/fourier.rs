@@ -122,53 +122,127 @@ fn with_scratch<T: Float, R>(len: usize, f: impl FnOnce(&mut [Complex<T>]) -> R)
     r
 }
 
-/// Blocked transpose `dst (cols × rows) = scale · srcᵀ`, `src` being `rows × cols`.
-fn transpose_scaled<T: Float>(
+/// Columns per block of the column pass: 8 complex `f32` fill one 64-byte cache line, so a
+/// block reads and writes whole lines and never depends on the row stride (power-of-two
+/// strides thrash a blocked transpose through cache-set conflicts).
+const COLS: usize = 8;
+
+/// Copies columns `c0..c0 + nc` of the `h × w` image `src` into `block`, column after column.
+#[inline(always)]
+fn gather_columns<T: Float>(
     src: &[Complex<T>],
-    dst: &mut [Complex<T>],
-    rows: usize,
-    cols: usize,
-    scale: T,
+    block: &mut [Complex<T>],
+    (h, w): (usize, usize),
+    c0: usize,
+    nc: usize,
 ) {
-    const BLOCK: usize = 16;
-    for r0 in (0..rows).step_by(BLOCK) {
-        for c0 in (0..cols).step_by(BLOCK) {
-            for r in r0..(r0 + BLOCK).min(rows) {
-                let row = &src[r * cols..(r + 1) * cols];
-                for c in c0..(c0 + BLOCK).min(cols) {
-                    dst[c * rows + r] = row[c] * scale;
-                }
+    if nc == COLS {
+        let mut cols: [&mut [Complex<T>]; COLS] = Default::default();
+        for (slot, col) in cols.iter_mut().zip(block.chunks_exact_mut(h)) {
+            *slot = col;
+        }
+        for (r, line) in src.chunks_exact(w).enumerate() {
+            let line: &[Complex<T>; COLS] = line[c0..c0 + COLS].try_into().expect("COLS");
+            for j in 0..COLS {
+                cols[j][r] = line[j];
+            }
+        }
+    } else {
+        for r in 0..h {
+            for j in 0..nc {
+                block[j * h + r] = src[r * w + c0 + j];
             }
         }
     }
 }
 
-/// In-place 2-D DFT of every `H×W` image in `data` (interleaved complex), times `scale`.
-/// `inverse` selects the sign `+` of the exponent (unnormalised; pass `scale = 1/(H·W)`).
-pub(crate) fn dft2_in_place<T: Float>(data: &mut [T], h: usize, w: usize, inverse: bool, scale: T) {
+/// `dst[:, c0..c0 + nc] (=|+=) scale · block`, the inverse of [`gather_columns`].
+#[inline(always)]
+fn scatter_columns<T: Float>(
+    block: &[Complex<T>],
+    dst: &mut [Complex<T>],
+    (h, w): (usize, usize),
+    c0: usize,
+    nc: usize,
+    scale: T,
+    accumulate: bool,
+) {
+    if nc == COLS {
+        let mut cols: [&[Complex<T>]; COLS] = [&[]; COLS];
+        for (slot, col) in cols.iter_mut().zip(block.chunks_exact(h)) {
+            *slot = col;
+        }
+        for (r, line) in dst.chunks_exact_mut(w).enumerate() {
+            let line: &mut [Complex<T>; COLS] = (&mut line[c0..c0 + COLS]).try_into().expect("COLS");
+            let v: [Complex<T>; COLS] = std::array::from_fn(|j| cols[j][r] * scale);
+            if accumulate {
+                for j in 0..COLS {
+                    line[j] = line[j] + v[j];
+                }
+            } else {
+                *line = v;
+            }
+        }
+    } else {
+        for r in 0..h {
+            let line = &mut dst[r * w + c0..][..nc];
+            for (j, d) in line.iter_mut().enumerate() {
+                let v = block[j * h + r] * scale;
+                *d = if accumulate { *d + v } else { v };
+            }
+        }
+    }
+}
+
+/// 2-D DFT of every `H×W` complex image of `src` (interleaved `(re, im)`) into `dst`, which is
+/// overwritten or, with `accumulate`, added to: `dst (=|+=) scale · DFT2(src)`. `inverse`
+/// selects the `+` sign of the exponent (unnormalised; pass `scale = 1/(H·W)`).
+///
+/// Per image: the row FFTs go from `src` into a thread-local image buffer; then, for each block
+/// of [`COLS`] columns, the block is gathered into a contiguous `COLS × H` buffer, transformed,
+/// and scattered (scaled, or added) into `dst`. The source is read once and the destination
+/// written once; the intermediate passes stay in this thread's cache.
+pub(crate) fn dft2<T: Float>(
+    src: &[T],
+    dst: &mut [T],
+    (h, w): (usize, usize),
+    inverse: bool,
+    scale: T,
+    accumulate: bool,
+) {
+    assert_eq!(src.len(), dst.len(), "dft2: source and destination lengths differ");
     let plane = h * w;
-    if plane == 0 {
+    if plane == 0 || src.is_empty() {
         return;
     }
     let (fft_w, fft_h) = (plan::<T>(w, inverse), plan::<T>(h, inverse));
     let scratch_len = fft_w
-        .get_inplace_scratch_len()
+        .get_immutable_scratch_len()
         .max(fft_h.get_inplace_scratch_len());
-    let one_image = |img: &mut [T]| {
-        let img = as_complex_mut(img);
-        with_scratch::<T, _>(scratch_len + plane, |buf| {
-            let (scratch, tbuf) = buf.split_at_mut(scratch_len);
-            fft_w.process_with_scratch(img, scratch);
-            transpose_scaled(img, tbuf, h, w, T::one());
-            fft_h.process_with_scratch(tbuf, scratch);
-            transpose_scaled(tbuf, img, w, h, scale);
+    let one_image = |(src, dst): (&[T], &mut [T])| {
+        let (src, dst) = (as_complex(src), as_complex_mut(dst));
+        with_scratch::<T, _>(scratch_len + plane + COLS * h, |buf| {
+            let (scratch, rest) = buf.split_at_mut(scratch_len);
+            let (rows, block) = rest.split_at_mut(plane);
+            fft_w.process_immutable_with_scratch(src, rows, scratch);
+            for c0 in (0..w).step_by(COLS) {
+                let nc = COLS.min(w - c0);
+                let block = &mut block[..nc * h];
+                gather_columns(rows, block, (h, w), c0, nc);
+                fft_h.process_with_scratch(block, scratch);
+                scatter_columns(block, dst, (h, w), c0, nc, scale, accumulate);
+            }
         });
     };
-    let images = data.len() / (2 * plane);
-    if images > 1 && data.len() >= 1 << 12 {
-        data.par_chunks_mut(2 * plane).for_each(one_image);
+    let images = src.len() / (2 * plane);
+    if images > 1 && src.len() >= 1 << 12 {
+        src.par_chunks(2 * plane)
+            .zip(dst.par_chunks_mut(2 * plane))
+            .for_each(one_image);
     } else {
-        data.chunks_mut(2 * plane).for_each(one_image);
+        src.chunks(2 * plane)
+            .zip(dst.chunks_mut(2 * plane))
+            .for_each(one_image);
     }
 }
 
@@ -203,8 +277,15 @@ impl<T: Float> Op<T> for Dft2 {
 
     fn forward(&mut self, inputs: &[&Tensor<T>], out: &mut Tensor<T>) {
         let (_, h, w) = complex_dims("fft2", out.shape());
-        out.data_mut().copy_from_slice(inputs[0].data());
-        dft2_in_place(out.data_mut(), h, w, self.inverse, self.scale(h, w));
+        let scale = self.scale(h, w);
+        dft2(
+            inputs[0].data(),
+            out.data_mut(),
+            (h, w),
+            self.inverse,
+            scale,
+            false,
+        );
     }
 
     /// `fft2`: `g_x = conj(F)·g_y` (unnormalised inverse); `ifft2`: `g_x = F·g_y / (H·W)`.
@@ -213,24 +294,9 @@ impl<T: Float> Op<T> for Dft2 {
             return;
         }
         let (_, h, w) = complex_dims("fft2", cx.dy.shape());
-        let mut g = dx.scratch(cx.dy.shape());
-        g.data_mut().copy_from_slice(cx.dy.data());
-        dft2_in_place(g.data_mut(), h, w, !self.inverse, self.scale(h, w));
-        add_into(dx.slot_data(0).expect("wanted"), g.data());
-        dx.recycle(g);
-    }
-}
-
-/// `acc += g`, in parallel for large buffers.
-pub(crate) fn add_into<T: Float>(acc: &mut [T], g: &[T]) {
-    const CHUNK: usize = 1 << 14;
-    let add = |(a, b): (&mut [T], &[T])| a.iter_mut().zip(b).for_each(|(a, &b)| *a += b);
-    if acc.len() > CHUNK {
-        acc.par_chunks_mut(CHUNK)
-            .zip(g.par_chunks(CHUNK))
-            .for_each(add);
-    } else {
-        add((acc, g));
+        let scale = self.scale(h, w);
+        let g = dx.slot_data(0).expect("wanted");
+        dft2(cx.dy.data(), g, (h, w), !self.inverse, scale, true);
     }
 }
 
@@ -466,5 +532,51 @@ mod tests {
         let mut tape = Tape::<f32>::new();
         let x = tape.constant(Tensor::zeros([2, 3, 3]));
         tape.fft2(x);
+    }
+}
+#[cfg(test)]
+mod tmp_timing {
+    use super::*;
+    #[test]
+    #[ignore]
+    fn tmp_time_dft2() {
+        let (h, w) = (256, 256);
+        let x: Vec<f32> = (0..8 * 2 * h * w).map(|i| (i as f32 * 0.37).sin()).collect();
+        let mut y = vec![0f32; x.len()];
+        for _ in 0..3 { dft2(&x, &mut y, (h, w), false, 1.0, false); }
+        let t = std::time::Instant::now();
+        for _ in 0..20 { dft2(&x, &mut y, (h, w), false, 1.0, false); }
+        eprintln!("dft2 8x256^2 par: {:?}", t.elapsed() / 20);
+        let one = &x[..2 * h * w];
+        let mut yo = vec![0f32; one.len()];
+        let t = std::time::Instant::now();
+        for _ in 0..50 { dft2(one, &mut yo, (h, w), false, 1.0, false); }
+        eprintln!("dft2 1x256^2: {:?}", t.elapsed() / 50);
+        let f = plan::<f32>(256, false);
+        let mut buf: Vec<Complex<f32>> = as_complex(one).to_vec();
+        let mut scratch = vec![Complex::new(0f32, 0.0); f.get_inplace_scratch_len()];
+        let t = std::time::Instant::now();
+        for _ in 0..50 { f.process_with_scratch(&mut buf, &mut scratch); }
+        eprintln!("256 row ffts in place: {:?}", t.elapsed() / 50);
+        let mut out = buf.clone();
+        let mut scratch = vec![Complex::new(0f32, 0.0); f.get_immutable_scratch_len()];
+        let t = std::time::Instant::now();
+        for _ in 0..50 { f.process_immutable_with_scratch(&buf, &mut out, &mut scratch); }
+        eprintln!("256 row ffts immutable: {:?}", t.elapsed() / 50);
+        let mut scratch = vec![Complex::new(0f32, 0.0); f.get_outofplace_scratch_len()];
+        let t = std::time::Instant::now();
+        for _ in 0..50 { f.process_outofplace_with_scratch(&mut buf, &mut out, &mut scratch); }
+        eprintln!("256 row ffts outofplace: {:?}", t.elapsed() / 50);
+        let mut block = vec![Complex::new(0f32, 0.0); 8 * h];
+        let t = std::time::Instant::now();
+        for _ in 0..50 { for c0 in (0..w).step_by(8) { gather_columns(&buf, &mut block, (h, w), c0, 8); } }
+        eprintln!("gather: {:?}", t.elapsed() / 50);
+        let t = std::time::Instant::now();
+        for _ in 0..50 { for c0 in (0..w).step_by(8) { scatter_columns(&block, &mut out, (h, w), c0, 8, 1.0, false); } }
+        eprintln!("scatter: {:?}", t.elapsed() / 50);
+        let mut scratch = vec![Complex::new(0f32, 0.0); f.get_inplace_scratch_len()];
+        let t = std::time::Instant::now();
+        for _ in 0..50 { for _c0 in (0..w).step_by(8) { f.process_with_scratch(&mut block, &mut scratch); } }
+        eprintln!("column ffts in blocks: {:?}", t.elapsed() / 50);
     }
 }

@@ -19,7 +19,7 @@ pub use rules::{Adam, Sgd};
 
 use crate::learn::ParamGrads;
 use crate::params::{read_safetensors, write_safetensors, SafetensorsError};
-use crate::{Float, ParamId, ParamStore, Shape, Tensor};
+use crate::{Float, ParamId, ParamStore, Tensor};
 use std::collections::BTreeMap;
 use std::path::Path;
 
@@ -42,8 +42,8 @@ pub enum OptimError {
     #[error("optimiser: gradient of {name:?} has shape {grad:?}, parameter has {param:?}")]
     GradShape {
         name: String,
-        param: Shape,
-        grad: Shape,
+        param: Vec<usize>,
+        grad: Vec<usize>,
     },
     /// A gradient refers to a parameter the store does not have.
     #[error("optimiser: gradient for unknown parameter id {0:?}")]
@@ -103,8 +103,8 @@ impl<T: Float, R: UpdateRule<T>> Optimizer<T, R> {
             if p.shape() != g.shape() {
                 return Err(OptimError::GradShape {
                     name: params.name(id).into(),
-                    param: p.shape(),
-                    grad: g.shape(),
+                    param: p.dims().to_vec(),
+                    grad: g.dims().to_vec(),
                 });
             }
         }
@@ -324,7 +324,7 @@ mod tests {
         let err = opt.step(&mut params, &grads).unwrap_err();
         assert!(
             err.to_string()
-                .contains("\"b\" has shape (2,), parameter has (1,)"),
+                .contains("\"b\" has shape [2], parameter has [1]"),
             "{err}"
         );
         grads.remove(ParamId(1));

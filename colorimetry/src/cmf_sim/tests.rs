@@ -4,7 +4,7 @@
 //! for the location-independent observers, the default 400–700 nm / 10 nm grid.
 
 use super::*;
-use crate::analytic::{ConeObserver, LocationDependentObserver};
+use crate::analytic::{ConeObserver, LocationDependentObserver, NakaRushtonObserver};
 use crate::cones::{ConeClass, ConeTemplate};
 
 fn fast(seed: u64) -> CmfSimSettings {
@@ -84,6 +84,17 @@ fn rank_deficient_observer_has_dimension_3() {
     assert_eq!(o.percept_dim(), 4);
     let r = dimension_of(&o, 5);
     assert_eq!(r.dimension, 3, "{}", r.verdict);
+}
+
+#[test]
+fn nonlinear_observer_is_solved_iteratively() {
+    // The L excitation of a unit monochromatic light at its peak is ≈ 1 on the 10 nm grid, so
+    // σ = 0.5 compresses strongly; the match is still exact in cone space.
+    let o = NakaRushtonObserver::new(cones(&ConeClass::lms()), 0.5);
+    let r = dimension_of(&o, 21);
+    assert_eq!(r.dimension, 3, "{} {:?}", r.verdict, r.per_k);
+    let worst: Vec<String> = r.curves.iter().map(|c| format!("{:.2e}", c.worst_ratio)).collect();
+    eprintln!("Naka–Rushton: worst ratios per K {worst:?}, {} observer calls", r.observer_calls);
 }
 
 #[test]

@@ -214,9 +214,11 @@ impl ConeSampler {
         let bilerp = |k: usize| {
             let d = stack.plane(k, plane);
             let (a, b, c, e) = (d[idx], d[idx + 1], d[idx + w], d[idx + w + 1]);
-            let top = a + tap.fx * (b - a);
-            let bottom = c + tap.fx * (e - c);
-            top + tap.fy * (bottom - top)
+            // (1 − t)·p + t·q is exact at t = 0 and t = 1 (pixel-aligned cones).
+            let (gx, gy) = (1.0 - tap.fx, 1.0 - tap.fy);
+            let top = a * gx + b * tap.fx;
+            let bottom = c * gx + e * tap.fx;
+            top * gy + bottom * tap.fy
         };
         let k = tap.level as usize;
         let v = bilerp(k);

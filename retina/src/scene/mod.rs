@@ -243,3 +243,6 @@ impl ClassPlanes {
         &self.planes[p * hw..(p + 1) * hw]
     }
 }
+
+#[cfg(test)]
+mod tests;

@@ -24,7 +24,7 @@
 //! for a well-conditioned `R` it undoes [`Tape::fft_convolve_same`] up to what the crop of the
 //! convolution cut off at the image border.
 
-use super::{complex_dims, dft2_in_place};
+use super::{complex_dims, dft2};
 use crate::{Float, Tape, Tensor, Var};
 
 /// The `(H, W)` of the image `x` after checking that `response` is `(2H − 1, 2W − 1, 2)`.
@@ -105,8 +105,16 @@ pub fn kernel_response<T: Float>(kernel: &Tensor<f64>, h: usize, w: usize) -> Te
             grid.data_mut()[2 * ((top + i) * gw + left + j)] = kernel.data()[i * kw + j];
         }
     }
-    dft2_in_place(grid.data_mut(), gh, gw, false, 1.0);
-    grid.cast()
+    let mut response = Tensor::<f64>::zeros(grid.shape());
+    dft2(
+        grid.data(),
+        response.data_mut(),
+        (gh, gw),
+        false,
+        1.0,
+        false,
+    );
+    response.cast()
 }
 
 /// The response of the identity filter for `n × n` images: the FFT of a delta at the centre
@@ -126,8 +134,17 @@ pub fn response_kernel<T: Float>(response: &Tensor<T>, k: usize) -> Tensor<f64> 
         "response_kernel: expected a response (2H−1, 2W−1, 2) and an odd k no larger than it, got {:?} and k = {k}",
         response.shape()
     );
-    let mut grid: Tensor<f64> = response.cast();
-    dft2_in_place(grid.data_mut(), gh, gw, true, 1.0 / (gh * gw) as f64);
+    let spectrum: Tensor<f64> = response.cast();
+    let mut grid = Tensor::<f64>::zeros(spectrum.shape());
+    let scale = 1.0 / (gh * gw) as f64;
+    dft2(
+        spectrum.data(),
+        grid.data_mut(),
+        (gh, gw),
+        true,
+        scale,
+        false,
+    );
     let (top, left) = ((gh - 1) / 2 - k / 2, (gw - 1) / 2 - k / 2);
     Tensor::from_fn([k, k], |i| {
         grid.data()[2 * ((top + i / k) * gw + left + i % k)]

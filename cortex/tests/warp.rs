@@ -1,0 +1,150 @@
+//! Bucket identities and the warp (issue 4, must-shows 1 and 2).
+
+use autodiff::{Tape, Tensor};
+use cortex::config::{CortexConfig, PMode};
+use cortex::motion::sampling::{bilinear, nearest_inside, unit_grid};
+use cortex::rng::CortexRng;
+use cortex::synthetic::{SyntheticConfig, SyntheticSource};
+use cortex::{Cortex, Trainer};
+
+/// A cortex whose flow P is far from the identity (every `p.*` parameter random).
+fn bent_cortex() -> Cortex {
+    let mut c = Cortex::new(CortexConfig::tiny()).unwrap();
+    let mut rng = CortexRng::seed_from(77);
+    let ids: Vec<_> = c.params.ids().filter(|&id| c.params.name(id).starts_with("p.")).collect();
+    assert_eq!(ids.len(), 48);
+    for id in ids {
+        for v in c.params.get_mut(id).data_mut() {
+            *v = (0.15 * rng.normal()) as f32;
+        }
+    }
+    c
+}
+
+fn percept(b: usize, ch: usize, n: usize) -> Tensor<f32> {
+    Tensor::from_fn([b, ch, n, n], |i| {
+        let (x, y, c) = ((i % n) as f32, ((i / n) % n) as f32, (i / (n * n)) as f32);
+        (0.3 * x + 0.1 * c).sin() + (0.23 * y - 0.2 * c).cos()
+    })
+}
+
+#[test]
+fn p_inverse_after_forward_is_identity() {
+    let c = bent_cortex();
+    let flow = c.p.plain(&c.params);
+    let grid = unit_grid(32);
+    let mut pts = grid.clone();
+    flow.forward(&mut pts);
+    let moved = pts.iter().zip(&grid).map(|(a, b)| (a[0] - b[0]).abs() + (a[1] - b[1]).abs()).fold(0.0, f64::max);
+    assert!(moved > 0.05, "the test flow must be non-trivial, moved {moved}");
+    flow.inverse(&mut pts);
+    let err = pts.iter().zip(&grid).map(|(a, b)| (a[0] - b[0]).abs().max((a[1] - b[1]).abs())).fold(0.0, f64::max);
+    assert!(err < 1e-12, "P⁻¹∘P error {err}");
+}
+
+#[test]
+fn zero_motion_warps_nothing() {
+    let c = bent_cortex();
+    let n = 32;
+    let mut tape = Tape::<f32>::new();
+    let v = tape.constant(percept(2, 3, n));
+    let (w, m, _) = c.p.warp(&mut tape, &c.params, v, &[], &[[0.0, 0.0], [0.0, 0.0]]);
+    assert!(tape.value(w).max_abs_diff(tape.value(v)) < 1e-4);
+    assert!(tape.value(m).data().iter().all(|&x| x == 1.0));
+}
+
+#[test]
+fn identity_p_and_integer_shift_equals_the_shifted_percept() {
+    let n = 32;
+    let unit = 2.0 / (n as f64 - 1.0);
+    let shifts = [[3i64, -2], [-5, 7]];
+    let motion: Vec<[f64; 2]> = shifts.iter().map(|s| [s[0] as f64 * unit, s[1] as f64 * unit]).collect();
+    let pv = percept(2, 3, n);
+    let expect = |t: &Tensor<f32>, exact: bool| {
+        for (b, s) in shifts.iter().enumerate() {
+            for c in 0..3 {
+                for y in 0..n as i64 {
+                    for x in 0..n as i64 {
+                        let (ys, xs) = (y + s[1], x + s[0]);
+                        if ys < 0 || xs < 0 || ys >= n as i64 || xs >= n as i64 {
+                            continue;
+                        }
+                        let got = t.data()[((b * 3 + c) * n + y as usize) * n + x as usize];
+                        let want = pv.data()[((b * 3 + c) * n + ys as usize) * n + xs as usize];
+                        if exact {
+                            assert_eq!(got, want, "b {b} c {c} y {y} x {x}");
+                        } else {
+                            assert!((got - want).abs() < 1e-5, "b {b} c {c} y {y} x {x}: {got} vs {want}");
+                        }
+                    }
+                }
+            }
+        }
+    };
+    // sandbox P: exact gather
+    let mut cfg = CortexConfig::tiny();
+    cfg.p.mode = PMode::IdentityIntegerShift;
+    cfg.p.motion_ons_px_per_unit = 1.0 / unit;
+    let sandbox = Cortex::new(cfg).unwrap();
+    let mut tape = Tape::<f32>::new();
+    let v = tape.constant(pv.clone());
+    let (w, _, _) = sandbox.p.warp(&mut tape, &sandbox.params, v, &[], &motion);
+    expect(tape.value(w), true);
+    // the learned flow at its identity start: bilinear at (f32-rounded) pixel centres
+    let flow = Cortex::new(CortexConfig::tiny()).unwrap();
+    let (w, _, _) = flow.p.warp(&mut tape, &flow.params, v, &[], &motion);
+    expect(tape.value(w), false);
+}
+
+#[test]
+fn nontrivial_p_warp_matches_independent_resampling() {
+    let c = bent_cortex();
+    let n = 32;
+    let motion = [[0.11, -0.07], [-0.2, 0.05]];
+    let pv = percept(2, 2, n);
+    let mut tape = Tape::<f32>::new();
+    let v = tape.constant(pv.clone());
+    let (w, m, _) = c.p.warp(&mut tape, &c.params, v, &[], &motion);
+    // independently: the flow's coordinates in f64, then our own bilinear sampler
+    let flow = c.p.plain(&c.params);
+    let mut max_err = 0.0f64;
+    let mut inside = 0;
+    for (b, d) in motion.iter().enumerate() {
+        let mut pts = unit_grid(n);
+        flow.forward(&mut pts);
+        for p in pts.iter_mut() {
+            *p = [p[0] + d[0], p[1] + d[1]];
+        }
+        flow.inverse(&mut pts);
+        for ch in 0..2 {
+            let plane = &pv.data()[(b * 2 + ch) * n * n..(b * 2 + ch + 1) * n * n];
+            for (k, &p) in pts.iter().enumerate() {
+                let want = bilinear(plane, n, n, p);
+                let got = tape.value(w).data()[(b * 2 + ch) * n * n + k] as f64;
+                max_err = max_err.max((got - want).abs());
+                let mk = tape.value(m).data()[b * n * n + k];
+                assert_eq!(mk == 1.0, nearest_inside(n, n, p), "mask at b {b} pixel {k}");
+                inside += (mk == 1.0) as usize;
+            }
+        }
+    }
+    assert!(inside > n * n, "most pixels should stay inside");
+    assert!(max_err < 1e-4, "warp vs independent resampling: {max_err}");
+}
+
+#[test]
+fn c_stays_unit_norm_through_training() {
+    let cfg = CortexConfig::tiny();
+    let mut t = Trainer::new(cfg.clone()).unwrap();
+    let mut src = SyntheticSource::new(SyntheticConfig::lms(cfg.ons_size_px, 8));
+    t.run(&mut src, 20, None, |_, _| {}).unwrap();
+    let c = t.cortex.learned_c().unwrap();
+    let n_ch = cfg.percept_channels;
+    let mut moved = 0.0f64;
+    for cell in c.data().chunks(n_ch) {
+        let norm = cell.iter().map(|v| v * v).sum::<f64>().sqrt();
+        assert!((norm - 1.0).abs() < 1e-4, "‖C‖ = {norm}");
+        moved = moved.max(cell[1..].iter().map(|v| v.abs()).fold(0.0, f64::max));
+    }
+    assert!(moved > 1e-3, "C should have learned something, max off-e1 component {moved}");
+}

@@ -1,0 +1,199 @@
+//! Retina configuration and the SPEC §4 presets.
+//!
+//! Every number is a field here (or in the stage configs it holds), with its unit in its name
+//! and its source in the stage's docs. Presets are named sets of values:
+//!
+//! | preset | cones | field | layout | LI | max shift | tiles × px | notes |
+//! |---|---|---|---|---|---|---|---|
+//! | `tiny` | 32² | 64 px | foveated | yes | 2 px | 8 × 96 | tests, seconds |
+//! | `quick` | 64² | 128 px | foveated | yes | 4 px | 32 × 192 | the default CPU run |
+//! | `sandbox` | 64² | 64 px | identity | no | 5 px | 32 × 96 | official sandbox (MSS 5) |
+//! | `paper` | 256² | 512 px | foveated | yes | 15 px | 8 × 576 | official everything |
+//!
+//! Field sizes keep the official ratio of 2 field px per cone for foveated layouts (official
+//! §2.5: 256 cones sample a 512-px field); the maximum shift scales with the field
+//! ([`EyeMotionConfig::scaled_for_field`]). Scenes are synthetic dead leaves by default.
+
+use colorimetry::{ConeTemplate, WavelengthGrid};
+use serde::{Deserialize, Serialize};
+
+use crate::cones::NoiseConfig;
+use crate::error::{Result, RetinaError};
+use crate::eye_motion::EyeMotionConfig;
+use crate::foveation::{FoveationConfig, LayoutConfig};
+use crate::lateral_inhibition::DogConfig;
+use crate::scene::dead_leaves::DeadLeavesConfig;
+use crate::scene::pool::{RgbPath, ScenePoolConfig};
+use crate::spikes::LifConfig;
+
+/// A uniform wavelength grid, nm.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct GridConfig {
+    /// First wavelength, nm.
+    pub start_nm: f64,
+    /// Last wavelength, nm.
+    pub end_nm: f64,
+    /// Step, nm.
+    pub step_nm: f64,
+}
+
+impl Default for GridConfig {
+    /// 400–700 nm every 10 nm (SPEC §3.1; the NTIRE bands).
+    fn default() -> Self {
+        GridConfig {
+            start_nm: 400.0,
+            end_nm: 700.0,
+            step_nm: 10.0,
+        }
+    }
+}
+
+impl GridConfig {
+    /// The grid.
+    pub fn grid(&self) -> Result<WavelengthGrid> {
+        Ok(WavelengthGrid::range(self.start_nm, self.end_nm, self.step_nm)?)
+    }
+}
+
+/// Everything that defines a simulated eye.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RetinaConfig {
+    /// Preset name this came from (informational).
+    pub name: String,
+    /// Cones per side of the lattice (the ONS is n × n).
+    pub cones_per_side: usize,
+    /// Side of the scene field the cones sample, px.
+    pub field_px: usize,
+    /// Mosaic specification (`LMS`, `LMSQ,Q:506`, `MS+L_coexpress_M`, …; see `mosaic`).
+    pub cones: String,
+    /// Seed of the mosaic (official: 0).
+    pub mosaic_seed: u64,
+    /// Cone positions.
+    pub layout: LayoutConfig,
+    /// Seed of the positional jitter (official: torch seed 0).
+    pub layout_seed: u64,
+    /// Wavelength grid of spectra and sensitivities.
+    pub grid: GridConfig,
+    /// Cone template.
+    pub template: ConeTemplate,
+    /// Eye motion.
+    pub eye_motion: EyeMotionConfig,
+    /// Photon and LI noise.
+    pub noise: NoiseConfig,
+    /// Lateral inhibition (`None`: the cone activations are the ONS, as in the sandbox).
+    pub lateral_inhibition: Option<DogConfig>,
+    /// LIF settings of the optional spiking path.
+    pub lif: LifConfig,
+    /// Scene pool.
+    pub scenes: ScenePoolConfig,
+    /// Seed of the scene pool.
+    pub scene_seed: u64,
+}
+
+fn pool(tiles: usize, tile_px: usize, refresh_every_batches: usize) -> ScenePoolConfig {
+    ScenePoolConfig {
+        tiles,
+        tile_px,
+        dead_leaves: DeadLeavesConfig::default(),
+        tetra: None,
+        files: vec![],
+        rgb_path: RgbPath::Display,
+        white_balance: true,
+        refresh_every_batches,
+    }
+}
+
+impl RetinaConfig {
+    fn foveated(name: &str, n: usize, field_px: usize, tiles: usize, tile_px: usize, refresh: usize) -> Self {
+        RetinaConfig {
+            name: name.into(),
+            cones_per_side: n,
+            field_px,
+            cones: "LMS".into(),
+            mosaic_seed: 0,
+            layout: LayoutConfig::Foveated(FoveationConfig::default()),
+            layout_seed: 0,
+            grid: GridConfig::default(),
+            template: ConeTemplate::default(),
+            eye_motion: EyeMotionConfig::scaled_for_field(field_px),
+            noise: NoiseConfig::default(),
+            lateral_inhibition: Some(DogConfig::default()),
+            lif: LifConfig::default(),
+            scenes: pool(tiles, tile_px, refresh),
+            scene_seed: 1234,
+        }
+    }
+
+    /// 32² cones, for tests.
+    pub fn tiny() -> Self {
+        Self::foveated("tiny", 32, 64, 8, 96, 0)
+    }
+
+    /// 64² cones, full pipeline (foveation + LI): the default CPU run.
+    pub fn quick() -> Self {
+        Self::foveated("quick", 64, 128, 32, 192, 32)
+    }
+
+    /// The official sandbox: 64² cones on a 64-px field, identity layout, no LI, shift 5 px.
+    pub fn sandbox() -> Self {
+        RetinaConfig {
+            name: "sandbox".into(),
+            field_px: 64,
+            layout: LayoutConfig::Identity,
+            eye_motion: EyeMotionConfig { max_shift_px: 5 },
+            lateral_inhibition: None,
+            scenes: pool(32, 96, 32),
+            ..Self::foveated("sandbox", 64, 64, 32, 96, 32)
+        }
+    }
+
+    /// 256² cones in a 512-px field, official everything.
+    pub fn paper() -> Self {
+        Self::foveated("paper", 256, 512, 8, 576, 16)
+    }
+
+    /// A preset by name: `tiny`, `quick`, `sandbox`, `paper`.
+    pub fn preset(name: &str) -> Result<Self> {
+        match name {
+            "tiny" => Ok(Self::tiny()),
+            "quick" => Ok(Self::quick()),
+            "sandbox" => Ok(Self::sandbox()),
+            "paper" => Ok(Self::paper()),
+            _ => Err(RetinaError::setting(
+                "preset",
+                format!("`{name}` is not tiny, quick, sandbox or paper"),
+            )),
+        }
+    }
+
+    /// Check the values that must agree with each other.
+    pub fn validate(&self) -> Result<()> {
+        let n = self.cones_per_side;
+        if n < 2 {
+            return Err(RetinaError::setting("cones_per_side", format!("{n} < 2")));
+        }
+        if matches!(self.layout, LayoutConfig::Identity) && self.field_px != n {
+            return Err(RetinaError::setting(
+                "field_px",
+                format!("identity layout needs field_px = cones_per_side ({} vs {n})", self.field_px),
+            ));
+        }
+        if self.field_px < 2 {
+            return Err(RetinaError::setting("field_px", format!("{} < 2", self.field_px)));
+        }
+        if self.eye_motion.max_shift_px < 1 {
+            return Err(RetinaError::setting("eye_motion.max_shift_px", "must be ≥ 1"));
+        }
+        let need = self.field_px + 2 * self.eye_motion.max_shift_px as usize;
+        if self.scenes.tile_px < need {
+            return Err(RetinaError::setting(
+                "scenes.tile_px",
+                format!(
+                    "{} px is smaller than field + 2·max shift = {need} px",
+                    self.scenes.tile_px
+                ),
+            ));
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,130 @@
+//! Issue 3, must-show 8: spectral dimensionality and spatial statistics of the scenes; pool
+//! mechanics.
+
+use super::dead_leaves::{DeadLeavesConfig, LeafScene};
+use super::library::ReflectanceLibrary;
+use super::pool::{RgbPath, SceneProjection, ScenePool, ScenePoolConfig};
+use super::rgb::{Display, RgbImage};
+use super::*;
+use crate::analysis::{pca_components_for_variance, power_spectrum_slope};
+use colorimetry::{ConeClass, ConeTemplate};
+use rand::rngs::StdRng;
+use rand::SeedableRng;
+
+/// Each pixel's spectrum divided by its Euclidean norm (spectral shape; shading removed).
+fn normalise_spectra(img: &SpectralImage) -> Vec<f32> {
+    let (d, hw) = (img.grid.len(), img.h * img.w);
+    let mut out = img.data.clone();
+    for p in 0..hw {
+        let norm = (0..d).map(|l| img.data[l * hw + p].powi(2)).sum::<f32>().sqrt();
+        if norm > 0.0 {
+            for l in 0..d {
+                out[l * hw + p] /= norm;
+            }
+        }
+    }
+    out
+}
+
+fn astronaut() -> RgbImage {
+    RgbImage::read_png(
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/data/images/astronaut.png"),
+    )
+    .unwrap()
+}
+
+#[test]
+fn synthetic_scenes_need_at_least_six_components_rgb_scenes_three() {
+    let g = WavelengthGrid::default();
+    let lib = ReflectanceLibrary::measured(&g).unwrap();
+    let cfg = DeadLeavesConfig { size_px: 256, ..DeadLeavesConfig::default() };
+    for seed in 0..3 {
+        let img = LeafScene::generate(&cfg, &lib, &mut StdRng::seed_from_u64(seed))
+            .unwrap()
+            .render_spectral(&lib);
+        let shape = pca_components_for_variance(&normalise_spectra(&img), 31, 0.99);
+        let raw = pca_components_for_variance(&img.data, 31, 0.99);
+        eprintln!(
+            "dead leaves seed {seed}: 99 % of variance needs {shape} components of spectral shape \
+             (norm-normalised pixel spectra), {raw} of raw radiance"
+        );
+        assert!(shape >= 6, "seed {seed}: {shape}");
+        // Raw radiance is dominated by shading, but still exceeds what RGB can carry.
+        assert!(raw > 3, "seed {seed}: raw {raw}");
+    }
+    let d = Display::srgb_like(&g).unwrap();
+    let img = d.spectral_image(&astronaut());
+    let shape = pca_components_for_variance(&normalise_spectra(&img), 31, 0.99);
+    let raw = pca_components_for_variance(&img.data, 31, 0.99);
+    eprintln!("astronaut through the display: {shape} (shape), {raw} (raw) components");
+    assert!(shape <= 3 && raw <= 3, "{shape} {raw}");
+    // Rank 3: three components hold all the variance.
+    assert!(pca_components_for_variance(&img.data, 31, 0.999_999) <= 3);
+}
+
+#[test]
+fn synthetic_scenes_have_natural_power_spectra() {
+    let g = WavelengthGrid::default();
+    let lib = ReflectanceLibrary::measured(&g).unwrap();
+    let xyz = Projector::xyz(&g).unwrap();
+    let cfg = DeadLeavesConfig { size_px: 256, ..DeadLeavesConfig::default() };
+    let mut slopes = vec![];
+    for seed in 0..4 {
+        let scene = LeafScene::generate(&cfg, &lib, &mut StdRng::seed_from_u64(seed)).unwrap();
+        let y = &scene.render_projected(&lib, &xyz)[256 * 256..2 * 256 * 256];
+        // 4 … 64 cycles per image (2 … 0.25 cycles/px is past the leaves' 1.5 px minimum).
+        slopes.push(power_spectrum_slope(y, 256, 4.0, 0.5));
+    }
+    let mean = slopes.iter().sum::<f64>() / slopes.len() as f64;
+    eprintln!("luminance power-spectrum slopes {slopes:.3?}, mean {mean:.3}");
+    for s in &slopes {
+        assert!((-2.4..=-1.6).contains(s), "slope {s}");
+    }
+}
+
+#[test]
+fn pool_white_balance_and_reference_planes() {
+    let g = WavelengthGrid::default();
+    let classes = vec![ConeClass::l(), ConeClass::m(), ConeClass::s(), ConeClass::human_q()];
+    let proj = SceneProjection::new(&classes, &ConeTemplate::default(), &g).unwrap();
+    assert_eq!(proj.reference_lms, [0, 1, 2]);
+    assert_eq!(proj.n_planes(), 4);
+    for (w, want) in proj.white.iter().zip([1.083, 1.006, 0.520]) {
+        assert!((w - want).abs() < 0.01, "{:?}", proj.white);
+    }
+    let cfg = ScenePoolConfig {
+        tiles: 3,
+        tile_px: 48,
+        dead_leaves: DeadLeavesConfig::default(),
+        tetra: None,
+        files: vec![],
+        rgb_path: RgbPath::Display,
+        white_balance: true,
+        refresh_every_batches: 0,
+    };
+    let pool = ScenePool::new(cfg.clone(), proj.clone(), 2, &mut StdRng::seed_from_u64(0)).unwrap();
+    for t in 0..3 {
+        let stack = pool.tile(t);
+        for (p, w) in proj.white.iter().enumerate() {
+            let max = stack.plane(0, p).iter().copied().fold(0.0f32, f32::max);
+            assert!((max as f64 - w).abs() < 1e-5, "tile {t} plane {p}: {max} vs {w}");
+        }
+    }
+    // A dichromat lacks S: the reference S is appended as an extra plane.
+    let ls = SceneProjection::new(&[ConeClass::l(), ConeClass::s()], &ConeTemplate::default(), &g)
+        .unwrap();
+    assert_eq!(ls.reference_lms, [0, 2, 1]);
+    assert_eq!(ls.plane_classes[2].name, "ref_M");
+    // PNG files through the matrix path: not white balanced, exact official matrix.
+    let png = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../shared/data/images/astronaut.png");
+    let files = ScenePoolConfig {
+        files: vec![png],
+        rgb_path: RgbPath::Matrix,
+        tiles: 1,
+        ..cfg
+    };
+    let pool = ScenePool::new(files, proj, 1, &mut StdRng::seed_from_u64(0)).unwrap();
+    let max_l = pool.tile(0).plane(0, 0).iter().copied().fold(0.0f32, f32::max);
+    assert!(max_l <= 1.0831, "{max_l}");
+}
