@@ -59,11 +59,16 @@ fn bench(name: &str, cfg: CortexConfig, warmup: usize, timed: usize) {
     }
     let adam = median(stats.iter().map(|s| s.optimizer_ms).collect());
     let credit = median(stats.iter().map(|s| s.credit_ms).collect());
-    println!("  per bucket, forward+backward ms: {line}adam {adam:.1}  (whole backward {credit:.1})");
+    println!(
+        "  per bucket, forward+backward ms: {line}adam {adam:.1}  (whole backward {credit:.1})"
+    );
 }
 
 fn main() {
-    let args: Vec<String> = std::env::args().skip(1).filter(|a| !a.starts_with('-')).collect();
+    let args: Vec<String> = std::env::args()
+        .skip(1)
+        .filter(|a| !a.starts_with('-'))
+        .collect();
     let want = |p: &str| args.is_empty() || args.iter().any(|a| a == p);
     println!("rayon threads: {}", rayon::current_num_threads());
     if want("quick") {

@@ -19,13 +19,18 @@ use std::time::Duration;
 fn batch8(c: &mut Criterion) {
     let mut group = c.benchmark_group("retina_batch8");
     for preset in ["sandbox", "quick", "paper"] {
-        let mut retina = Retina::new(RetinaConfig::preset(preset).expect("preset")).expect("retina");
+        let mut retina =
+            Retina::new(RetinaConfig::preset(preset).expect("preset")).expect("retina");
         let mut rng = SmallRng::seed_from_u64(0);
         let mut out = OnsBatch::default();
         if preset == "paper" {
-            group.sample_size(20).measurement_time(Duration::from_secs(10));
+            group
+                .sample_size(20)
+                .measurement_time(Duration::from_secs(10));
         } else {
-            group.sample_size(100).measurement_time(Duration::from_secs(5));
+            group
+                .sample_size(100)
+                .measurement_time(Duration::from_secs(5));
         }
         group.bench_function(preset, |b| {
             b.iter(|| {

@@ -8,3 +8,9 @@
 pub mod io;
 pub mod cli;
 pub mod observer;
+pub mod config;
+pub mod source;
+pub mod pictures;
+pub mod run;
+pub mod commands;
+pub mod experiments;

@@ -1,8 +1,22 @@
+//! `colorvision`: see `colorvision --help`.
+
 use clap::Parser;
 use colorvision::cli::{Cli, Command};
+use colorvision::commands;
 
 fn main() {
     let cli = Cli::parse();
     let command = cli.command.unwrap_or(Command::Run(cli.common));
-    println!("colorvision: {command:?} (being wired)");
+    let result = match &command {
+        Command::Run(o) => commands::run(o),
+        Command::Simulate(o) => commands::simulate(o),
+        Command::Train(o) => commands::train(o),
+        Command::CmfSim(o) => commands::cmf_sim(o),
+        Command::Scope(o) => commands::scope(o),
+        Command::Experiment(o) => commands::experiment(o),
+    };
+    if let Err(e) = result {
+        eprintln!("colorvision: error: {e}");
+        std::process::exit(1);
+    }
 }

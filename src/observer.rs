@@ -18,6 +18,8 @@
 
 use colorimetry::observer::{Observer, Show};
 use colorimetry::WavelengthGrid;
+use autodiff::Tape;
+use cortex::model::Marks;
 use cortex::Cortex;
 use rand::RngCore;
 use rand::SeedableRng;
@@ -26,7 +28,7 @@ use retina::foveation::MipStack;
 use retina::Retina;
 
 /// Settings of the learned observer (see the module docs).
-#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ObserverSettings {
     /// Patch radius as a fraction of the field side (official proposal: 16 px of 512 = 1/32 at
@@ -201,11 +203,19 @@ impl Observer for LearnedObserver<'_> {
         let nn = self.retina.n() * self.retina.n();
         assert_eq!(out.len(), shows.len() * dim, "LearnedObserver::percepts: out has {} values for {} shows", out.len(), shows.len());
         let chunk = self.settings.decode_batch.max(1);
-        out.par_chunks_mut(chunk * dim).zip(shows.par_chunks(chunk)).for_each(|(out, shows)| {
+        // One tape per rayon job, cleared per chunk: its buffer pool makes decoding allocation-free
+        // after the first chunk (fresh pages are expensive on these machines).
+        out.par_chunks_mut(chunk * dim).zip(shows.par_chunks(chunk)).for_each_init(Tape::<f32>::new, |tape, (out, shows)| {
             let ons: Vec<f32> = shows.iter().flat_map(|s| self.render_ons(s)).collect();
-            let percept = match (self.readout, self.cortex) {
-                (Readout::Cortex, Some(c)) => c.decode_frames(&ons, shows.len()),
-                _ => ons,
+            let n = self.retina.n();
+            let percept: &[f32] = match (self.readout, self.cortex) {
+                (Readout::Cortex, Some(c)) => {
+                    tape.clear();
+                    let o = tape.constant_from([shows.len(), 1, n, n], &ons);
+                    let (v, _, _) = c.record_decode(tape, o, &mut Marks::default());
+                    tape.value(v).data()
+                }
+                _ => &ons,
             };
             for (s, show) in shows.iter().enumerate() {
                 let inside = self.cones_inside(self.centre_px(show.location));

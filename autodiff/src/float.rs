@@ -50,6 +50,16 @@ pub trait Float:
         k: usize,
         alpha: Self,
     );
+
+    /// `dst[m×n] (=|+=) alpha · a · b` for strided views `a (m×k)` and `b (k×n)` (any strides,
+    /// overlapping rows allowed); `dst` is contiguous row-major. See [`crate::gemm::MatView`].
+    fn gemm_view(
+        dst: &mut [Self],
+        accumulate: bool,
+        a: crate::gemm::MatView<'_, Self>,
+        b: crate::gemm::MatView<'_, Self>,
+        alpha: Self,
+    );
 }
 
 macro_rules! impl_float {
@@ -88,6 +98,15 @@ macro_rules! impl_float {
                     k,
                     alpha,
                 );
+            }
+            fn gemm_view(
+                dst: &mut [Self],
+                accumulate: bool,
+                a: crate::gemm::MatView<'_, Self>,
+                b: crate::gemm::MatView<'_, Self>,
+                alpha: Self,
+            ) {
+                crate::gemm::gemm_view_impl::<$t>(dst, accumulate, a, b, alpha);
             }
         }
     };

@@ -3,6 +3,10 @@
 //! Every matmul and convolution in the crate goes through [`Float::gemm`](crate::Float::gemm).
 //! A row-major `m×k` slice is viewed as a faer `MatRef` with row stride `k` and column stride 1;
 //! a transposed operand is the same memory read as column-major. faer picks its SIMD kernel.
+//!
+//! [`MatView`] generalises this to any row and column stride into a slice (overlapping rows
+//! included), which lets a convolution multiply shifted windows of a padded image directly,
+//! without building a column matrix ([`Float::gemm_view`](crate::Float::gemm_view)).
 
 use faer::linalg::matmul::matmul;
 use faer::{Accum, MatMut, MatRef, Par};
@@ -32,6 +36,128 @@ pub fn parallelism(flops: usize) -> Par {
     }
 }
 
+/// A read-only `rows × cols` matrix inside a slice: element `(i, j)` is
+/// `data[offset + i·row_stride + j·col_stride]`. Strides may be anything, so rows may overlap
+/// (a sliding window). The constructor checks that every element lies inside `data`.
+#[derive(Clone, Copy, Debug)]
+pub struct MatView<'a, T> {
+    data: &'a [T],
+    offset: usize,
+    rows: usize,
+    cols: usize,
+    row_stride: usize,
+    col_stride: usize,
+}
+
+impl<'a, T> MatView<'a, T> {
+    /// A strided view; panics when an element would fall outside `data`.
+    #[track_caller]
+    pub fn new(
+        data: &'a [T],
+        offset: usize,
+        rows: usize,
+        cols: usize,
+        row_stride: usize,
+        col_stride: usize,
+    ) -> Self {
+        if rows > 0 && cols > 0 {
+            let last = offset + (rows - 1) * row_stride + (cols - 1) * col_stride;
+            assert!(
+                last < data.len(),
+                "MatView: {rows}×{cols} at offset {offset}, strides ({row_stride}, {col_stride}) \
+                 reaches element {last} of a slice of {}",
+                data.len()
+            );
+        }
+        MatView {
+            data,
+            offset,
+            rows,
+            cols,
+            row_stride,
+            col_stride,
+        }
+    }
+
+    /// A contiguous row-major `rows × cols` matrix.
+    #[track_caller]
+    pub fn row_major(data: &'a [T], rows: usize, cols: usize) -> Self {
+        assert_eq!(
+            data.len(),
+            rows * cols,
+            "MatView::row_major: {} elements, want {rows}×{cols}",
+            data.len()
+        );
+        Self::new(data, 0, rows, cols, cols, 1)
+    }
+
+    /// Number of rows.
+    pub fn rows(&self) -> usize {
+        self.rows
+    }
+
+    /// Number of columns.
+    pub fn cols(&self) -> usize {
+        self.cols
+    }
+
+    fn faer(&self) -> MatRef<'a, T> {
+        // SAFETY: `new` checked that every addressed element lies inside `data`, which is
+        // borrowed for 'a; strides fit in isize because the addresses do.
+        unsafe {
+            MatRef::from_raw_parts(
+                self.data.as_ptr().add(self.offset),
+                self.rows,
+                self.cols,
+                self.row_stride as isize,
+                self.col_stride as isize,
+            )
+        }
+    }
+}
+
+/// `dst[m×n] (=|+=) alpha · a · b` for strided views `a (m×k)`, `b (k×n)`; `dst` is contiguous
+/// row-major.
+pub(crate) fn gemm_view_impl<T>(
+    dst: &mut [T],
+    accumulate: bool,
+    a: MatView<'_, T>,
+    b: MatView<'_, T>,
+    alpha: T,
+) where
+    T: faer::traits::ComplexField + Copy,
+{
+    let (m, k, n) = (a.rows, a.cols, b.cols);
+    assert_eq!(
+        b.rows, k,
+        "gemm_view: lhs {m}×{k} and rhs {}×{n} do not fit",
+        b.rows
+    );
+    assert_eq!(
+        dst.len(),
+        m * n,
+        "gemm_view: dst has {} elements, want {m}×{n}",
+        dst.len()
+    );
+    if m == 0 || n == 0 {
+        return;
+    }
+    let out = MatMut::from_row_major_slice_mut(dst, m, n);
+    let accum = if accumulate {
+        Accum::Add
+    } else {
+        Accum::Replace
+    };
+    matmul(
+        out,
+        accum,
+        a.faer(),
+        b.faer(),
+        alpha,
+        parallelism(m * n * k),
+    );
+}
+
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn gemm_impl<T>(
     dst: &mut [T],
@@ -47,9 +173,24 @@ pub(crate) fn gemm_impl<T>(
 ) where
     T: faer::traits::ComplexField + Copy,
 {
-    assert_eq!(dst.len(), m * n, "gemm: dst has {} elements, want {m}×{n}", dst.len());
-    assert_eq!(a.len(), m * k, "gemm: lhs has {} elements, want {m}×{k}", a.len());
-    assert_eq!(b.len(), k * n, "gemm: rhs has {} elements, want {k}×{n}", b.len());
+    assert_eq!(
+        dst.len(),
+        m * n,
+        "gemm: dst has {} elements, want {m}×{n}",
+        dst.len()
+    );
+    assert_eq!(
+        a.len(),
+        m * k,
+        "gemm: lhs has {} elements, want {m}×{k}",
+        a.len()
+    );
+    assert_eq!(
+        b.len(),
+        k * n,
+        "gemm: rhs has {} elements, want {k}×{n}",
+        b.len()
+    );
     if m == 0 || n == 0 {
         return;
     }
@@ -64,6 +205,10 @@ pub(crate) fn gemm_impl<T>(
         MatRef::from_row_major_slice(b, k, n)
     };
     let out = MatMut::from_row_major_slice_mut(dst, m, n);
-    let accum = if accumulate { Accum::Add } else { Accum::Replace };
+    let accum = if accumulate {
+        Accum::Add
+    } else {
+        Accum::Replace
+    };
     matmul(out, accum, lhs, rhs, alpha, parallelism(m * n * k));
 }

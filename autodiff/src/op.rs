@@ -2,8 +2,8 @@
 //! custom-VJP. Built-in ops use exactly these public traits, so a user's op is never second class.
 //!
 //! Conventions:
-//! - `forward` receives the input values and an output tensor that is **zeroed** and already has
-//!   the shape [`Op::output_shape`] returned. It may store whatever backward needs in `self`
+//! - `forward` receives the input values and an output tensor that is **zeroed** (unless the op
+//!   declares [`Op::overwrites_output`]) and already has the shape [`Op::output_shape`] returned. It may store whatever backward needs in `self`
 //!   (saved state: a mask, argmax indices, an FFT of an input).
 //! - `backward` receives `dy = ∂L/∂output` and **adds** `∂L/∂input_i` into each slot that
 //!   [`GradSlots::wants`]; it never overwrites, because several consumers of one value
@@ -26,6 +26,12 @@ pub trait Op<T: Float>: 'static {
 
     /// Adds the vector–Jacobian product `dyᵀ·∂out/∂input_i` into every wanted slot of `dx`.
     fn backward(&self, cx: &BackwardCx<'_, T>, dx: &mut GradSlots<'_, T>);
+
+    /// `true` when `forward` writes every element of `out`, so the tape may hand it a recycled
+    /// buffer with stale contents instead of zero-filling it first. Default `false` (zeroed).
+    fn overwrites_output(&self) -> bool {
+        false
+    }
 
     /// Indices of inputs that act as *weights* (the matrix of a matmul, the kernel of a conv).
     /// Learning rules such as feedback alignment replace these in the backward pass only.

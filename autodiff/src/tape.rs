@@ -57,6 +57,19 @@ impl<T: Float> BufferPool<T> {
         }
     }
 
+    /// A tensor of `shape` whose contents are unspecified (stale values of a recycled buffer, or
+    /// zeros when freshly allocated): for callers that overwrite every element.
+    pub fn uninit(&mut self, shape: Shape) -> Tensor<T> {
+        let n = shape.numel();
+        match self.free.get_mut(&n).and_then(|v| v.pop()) {
+            Some(buf) => Tensor::from_parts(shape, buf),
+            None => {
+                self.fresh_allocations += 1;
+                Tensor::from_parts(shape, vec![T::zero(); n])
+            }
+        }
+    }
+
     /// A tensor of `shape` holding a copy of `data`.
     #[track_caller]
     pub fn copy_of(&mut self, shape: Shape, data: &[T]) -> Tensor<T> {
@@ -309,7 +322,11 @@ impl<T: Float> Tape<T> {
         let out = {
             let input_values: Vec<&Tensor<T>> = ids.iter().map(|&i| &self.values[i as usize]).collect();
             let shape = op.output_shape(&input_values);
-            let mut out = self.pool.zeros(shape);
+            let mut out = if op.overwrites_output() {
+                self.pool.uninit(shape)
+            } else {
+                self.pool.zeros(shape)
+            };
             op.forward(&input_values, &mut out);
             out
         };
@@ -416,7 +433,8 @@ impl<T: Float> Tape<T> {
         for (v, seed) in seeds {
             let i = self.check(*v);
             assert_eq!(self.values[i].shape(), seed.shape(), "backward_from: seed shape for node {i}");
-            let g = self.grads[i].get_or_insert_with(|| Tensor::zeros(seed.shape()));
+            let pool = &mut self.pool;
+            let g = self.grads[i].get_or_insert_with(|| pool.zeros(seed.shape()));
             for (a, &b) in g.data_mut().iter_mut().zip(seed.data()) {
                 *a += b;
             }

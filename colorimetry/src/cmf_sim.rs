@@ -48,6 +48,11 @@ pub struct CmfSimSettings {
     pub sets_per_k: usize,
     /// Location pairs averaged per error evaluation (official §4.2: about 8).
     pub location_pairs: usize,
+    /// Judge every match at the location pairs its base error was measured at (common random
+    /// numbers: the pass test `error < 1.5 × base` then compares like with like). `false`
+    /// draws fresh pairs for every primary set, as the paper's pseudocode does; with few pairs
+    /// that makes the ratio noisy for observers whose percept depends on location.
+    pub reuse_base_pairs: bool,
     /// A set passes when every error < pass_ratio × base (paper Fig. 8: 150 %).
     pub pass_ratio: f64,
     /// Floor on the base error, as a fraction of the largest percept energy.
@@ -71,6 +76,7 @@ impl Default for CmfSimSettings {
             max_primaries: 6,
             sets_per_k: 500,
             location_pairs: 8,
+            reuse_base_pairs: true,
             pass_ratio: 1.5,
             base_error_floor_rel: 1e-8,
             min_primary_separation_nm: 5.0,
@@ -336,13 +342,19 @@ pub fn run_cmf_sim_with_progress(
                     s.min_primary_separation_nm,
                     &mut rng,
                 )?;
-                let pairs = draw_pairs(&mut rng);
+                let fresh;
+                let pairs = if s.reuse_base_pairs {
+                    &base_pairs
+                } else {
+                    fresh = draw_pairs(&mut rng);
+                    &fresh
+                };
                 let pb = MatchProblem {
                     observer,
                     test_wavelengths_nm: &tests,
                     primaries_nm: &prim,
                     intensity,
-                    pairs: &pairs,
+                    pairs,
                     seed: rng.random(),
                 };
                 let sol = solve_matches(&pb, &s.solver);

@@ -71,11 +71,24 @@ pub fn write_checkpoint(
         let mut st_meta = BTreeMap::new();
         st_meta.insert("step".to_string(), meta.step.to_string());
         let p = tmp.join("params.safetensors");
-        params.save_safetensors(&p, &st_meta).map_err(|e| CortexError::Checkpoint { path: p.clone(), reason: e.to_string() })?;
+        params
+            .save_safetensors(&p, &st_meta)
+            .map_err(|e| CortexError::Checkpoint {
+                path: p.clone(),
+                reason: e.to_string(),
+            })?;
         let o = tmp.join("optim.safetensors");
-        optim.save_safetensors(&o, params).map_err(|e| CortexError::Checkpoint { path: o.clone(), reason: e.to_string() })?;
+        optim
+            .save_safetensors(&o, params)
+            .map_err(|e| CortexError::Checkpoint {
+                path: o.clone(),
+                reason: e.to_string(),
+            })?;
         let m = tmp.join("meta.json");
-        let text = serde_json::to_string_pretty(meta).map_err(|e| CortexError::Json { path: m.clone(), source: e })?;
+        let text = serde_json::to_string_pretty(meta).map_err(|e| CortexError::Json {
+            path: m.clone(),
+            source: e,
+        })?;
         std::fs::write(&m, text).map_err(io(&m))?;
         Ok::<(), CortexError>(())
     })();
@@ -99,9 +112,18 @@ pub fn write_checkpoint(
 pub fn read_meta(path: &Path) -> Result<CheckpointMeta, CortexError> {
     let m = path.join("meta.json");
     let text = std::fs::read_to_string(&m).map_err(io(&m))?;
-    let meta: CheckpointMeta = serde_json::from_str(&text).map_err(|e| CortexError::Json { path: m.clone(), source: e })?;
+    let meta: CheckpointMeta = serde_json::from_str(&text).map_err(|e| CortexError::Json {
+        path: m.clone(),
+        source: e,
+    })?;
     if meta.format != CHECKPOINT_FORMAT {
-        return Err(CortexError::Checkpoint { path: m, reason: format!("format {} is not the supported {CHECKPOINT_FORMAT}", meta.format) });
+        return Err(CortexError::Checkpoint {
+            path: m,
+            reason: format!(
+                "format {} is not the supported {CHECKPOINT_FORMAT}",
+                meta.format
+            ),
+        });
     }
     Ok(meta)
 }
@@ -109,14 +131,26 @@ pub fn read_meta(path: &Path) -> Result<CheckpointMeta, CortexError> {
 /// Loads the parameters of the checkpoint at `path` into `params` (names and shapes must match).
 pub fn load_params(path: &Path, params: &mut ParamStore<f32>) -> Result<(), CortexError> {
     let p = path.join("params.safetensors");
-    params.load_into(&p).map_err(|e| CortexError::Checkpoint { path: p.clone(), reason: e.to_string() })?;
+    params.load_into(&p).map_err(|e| CortexError::Checkpoint {
+        path: p.clone(),
+        reason: e.to_string(),
+    })?;
     Ok(())
 }
 
 /// Loads the optimiser state of the checkpoint at `path`.
-pub fn load_optim(path: &Path, optim: &mut Optimizer<f32, Adam>, params: &ParamStore<f32>) -> Result<(), CortexError> {
+pub fn load_optim(
+    path: &Path,
+    optim: &mut Optimizer<f32, Adam>,
+    params: &ParamStore<f32>,
+) -> Result<(), CortexError> {
     let o = path.join("optim.safetensors");
-    optim.load_safetensors(&o, params).map_err(|e| CortexError::Checkpoint { path: o.clone(), reason: e.to_string() })
+    optim
+        .load_safetensors(&o, params)
+        .map_err(|e| CortexError::Checkpoint {
+            path: o.clone(),
+            reason: e.to_string(),
+        })
 }
 
 /// The checkpoint of the highest step under `dir` (complete ones only), if any.
@@ -128,8 +162,12 @@ pub fn latest_checkpoint(dir: &Path) -> Result<Option<PathBuf>, CortexError> {
     for entry in std::fs::read_dir(dir).map_err(io(dir))? {
         let entry = entry.map_err(io(dir))?;
         let name = entry.file_name().to_string_lossy().to_string();
-        let Some(num) = name.strip_prefix("step_") else { continue };
-        let Ok(step) = num.parse::<u64>() else { continue };
+        let Some(num) = name.strip_prefix("step_") else {
+            continue;
+        };
+        let Ok(step) = num.parse::<u64>() else {
+            continue;
+        };
         if !entry.path().join("meta.json").exists() {
             continue;
         }

@@ -6,7 +6,8 @@
 //! "paper S-03" the paper's supplement.
 //!
 //! Presets (named sets of values, [`CortexConfig::preset`]):
-//! - `tiny`: tests in seconds. 32×32 ONS, U-Net 8/16, N = 8, batch 4, oracle motion.
+//! - `tiny`: tests in seconds. 32×32 ONS, U-Net 8/16, N = 8, batch 4, oracle motion (block
+//!   matching, when switched on, starts at 8×8: a 4×4 level of a 32² ONS carries no signal).
 //! - `quick`: the default CPU run. 64×64 ONS, U-Net 16/32/64, learned W and P, block matching.
 //! - `sandbox`: the official sandbox (official §3.11): 64×64, W identity, P identity with
 //!   integer shifts, oracle motion, U-Net 16/32/64.
@@ -207,9 +208,15 @@ impl CortexConfig {
             ons_size_px: 256,
             percept_channels: 8,
             baseline: Baseline::None,
-            w: WConfig { mode: WMode::Learned, inverse_guard: 1e-6 },
+            w: WConfig {
+                mode: WMode::Learned,
+                inverse_guard: 1e-6,
+            },
             c: CConfig { norm_eps: 1e-5 },
-            d: DConfig { mode: DMode::UNet, widths: vec![16, 32, 64, 128] },
+            d: DConfig {
+                mode: DMode::UNet,
+                widths: vec![16, 32, 64, 128],
+            },
             p: PConfig {
                 mode: PMode::Flow,
                 couplings: 8,
@@ -272,6 +279,7 @@ impl CortexConfig {
         c.d.widths = vec![8, 16];
         c.p.motion_ons_px_per_unit = 16.0;
         c.m.mode = MMode::Oracle;
+        c.m.coarsest_level_px = 8;
         c.train.batch_size = 4;
         c.train.steps = 300;
         c.train.checkpoint_every_steps = 100;
@@ -292,7 +300,10 @@ impl CortexConfig {
     /// Checks the values that would otherwise panic deep inside an op.
     pub fn validate(&self) -> Result<(), crate::CortexError> {
         let bad = |field: &str, why: String| {
-            Err(crate::CortexError::InvalidConfig { field: field.to_string(), reason: why })
+            Err(crate::CortexError::InvalidConfig {
+                field: field.to_string(),
+                reason: why,
+            })
         };
         let n = self.ons_size_px;
         if n < 8 {
@@ -306,32 +317,60 @@ impl CortexConfig {
                 return bad("d.widths", "a U-Net needs at least one level".into());
             }
             let div = 1usize << (self.d.widths.len() - 1);
-            if n % div != 0 {
-                return bad("d.widths", format!("{} levels need ons_size_px divisible by {div}, got {n}", self.d.widths.len()));
+            if !n.is_multiple_of(div) {
+                return bad(
+                    "d.widths",
+                    format!(
+                        "{} levels need ons_size_px divisible by {div}, got {n}",
+                        self.d.widths.len()
+                    ),
+                );
             }
         }
         if 2 * self.loss.border_px >= n {
-            return bad("loss.border_px", format!("{} leaves no pixels of a {n}² ONS", self.loss.border_px));
+            return bad(
+                "loss.border_px",
+                format!("{} leaves no pixels of a {n}² ONS", self.loss.border_px),
+            );
         }
-        if self.m.blur_kernel_px % 2 == 0 || self.m.blur_kernel_px / 2 >= n {
-            return bad("m.blur_kernel_px", format!("{} must be odd and smaller than the ONS", self.m.blur_kernel_px));
+        if self.m.blur_kernel_px.is_multiple_of(2) || self.m.blur_kernel_px / 2 >= n {
+            return bad(
+                "m.blur_kernel_px",
+                format!(
+                    "{} must be odd and smaller than the ONS",
+                    self.m.blur_kernel_px
+                ),
+            );
         }
-        if !(self.m.blur_sigma_px > 0.0) {
-            return bad("m.blur_sigma_px", format!("{} must be positive", self.m.blur_sigma_px));
+        if self.m.blur_sigma_px.is_nan() || self.m.blur_sigma_px <= 0.0 {
+            return bad(
+                "m.blur_sigma_px",
+                format!("{} must be positive", self.m.blur_sigma_px),
+            );
         }
         if self.m.coarsest_level_px < 2 || !self.m.coarsest_level_px.is_power_of_two() {
-            return bad("m.coarsest_level_px", format!("{} must be a power of two ≥ 2", self.m.coarsest_level_px));
+            return bad(
+                "m.coarsest_level_px",
+                format!("{} must be a power of two ≥ 2", self.m.coarsest_level_px),
+            );
         }
         if self.train.batch_size == 0 {
             return bad("train.batch_size", "must be at least 1".into());
         }
-        if !(self.train.learning_rate > 0.0) {
-            return bad("train.learning_rate", format!("{} must be positive", self.train.learning_rate));
+        if self.train.learning_rate.is_nan() || self.train.learning_rate <= 0.0 {
+            return bad(
+                "train.learning_rate",
+                format!("{} must be positive", self.train.learning_rate),
+            );
         }
         if self.p.mode == PMode::Flow && (self.p.couplings == 0 || self.p.hidden == 0) {
             return bad("p", "a flow needs couplings ≥ 1 and hidden ≥ 1".into());
         }
-        if !(self.w.inverse_guard >= 0.0) || !(self.c.norm_eps >= 0.0) {
+        if self.w.inverse_guard.is_nan()
+            || self.w.inverse_guard < 0.0
+            || self.c.norm_eps.is_nan()
+            || self.c.norm_eps < 0.0
+        {
             return bad("w.inverse_guard / c.norm_eps", "must be ≥ 0".into());
         }
         Ok(())
@@ -366,11 +405,17 @@ mod tests {
     #[test]
     fn presets_follow_the_official_numbers() {
         let p = CortexConfig::paper();
-        assert_eq!((p.ons_size_px, p.percept_channels, p.train.batch_size), (256, 8, 8));
+        assert_eq!(
+            (p.ons_size_px, p.percept_channels, p.train.batch_size),
+            (256, 8, 8)
+        );
         assert_eq!(p.train.learning_rate, 1e-3);
         assert_eq!(p.d.widths, vec![16, 32, 64, 128]);
         let s = CortexConfig::sandbox();
-        assert_eq!((s.w.mode, s.p.mode, s.m.mode), (WMode::Identity, PMode::IdentityIntegerShift, MMode::Oracle));
+        assert_eq!(
+            (s.w.mode, s.p.mode, s.m.mode),
+            (WMode::Identity, PMode::IdentityIntegerShift, MMode::Oracle)
+        );
         assert_eq!(s.d.widths, vec![16, 32, 64]);
     }
 
@@ -378,7 +423,9 @@ mod tests {
     fn typo_in_a_field_is_an_error_naming_it() {
         let mut text = toml::to_string(&CortexConfig::tiny()).unwrap();
         text = text.replace("border_px", "boarder_px");
-        let err = toml::from_str::<CortexConfig>(&text).unwrap_err().to_string();
+        let err = toml::from_str::<CortexConfig>(&text)
+            .unwrap_err()
+            .to_string();
         assert!(err.contains("boarder_px"), "{err}");
     }
 
@@ -390,6 +437,10 @@ mod tests {
         assert!(e.contains("d.widths"), "{e}");
         let mut c = CortexConfig::tiny();
         c.m.blur_kernel_px = 8;
-        assert!(c.validate().unwrap_err().to_string().contains("m.blur_kernel_px"));
+        assert!(c
+            .validate()
+            .unwrap_err()
+            .to_string()
+            .contains("m.blur_kernel_px"));
     }
 }

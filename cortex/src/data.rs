@@ -30,23 +30,41 @@ impl TrainingBatch {
     pub fn validate(&self) -> Result<(), CortexError> {
         let want = self.batch * 2 * self.n * self.n;
         if self.batch == 0 || self.n == 0 {
-            return Err(CortexError::InvalidBatch { field: "batch/n", reason: format!("batch {} and n {} must be positive", self.batch, self.n) });
+            return Err(CortexError::InvalidBatch {
+                field: "batch/n",
+                reason: format!("batch {} and n {} must be positive", self.batch, self.n),
+            });
         }
         if self.ons.len() != want {
             return Err(CortexError::InvalidBatch {
                 field: "ons",
-                reason: format!("{} values, want B·2·n·n = {}·2·{}·{} = {want}", self.ons.len(), self.batch, self.n, self.n),
+                reason: format!(
+                    "{} values, want B·2·n·n = {}·2·{}·{} = {want}",
+                    self.ons.len(),
+                    self.batch,
+                    self.n,
+                    self.n
+                ),
             });
         }
         if let Some(i) = self.ons.iter().position(|v| !v.is_finite()) {
-            return Err(CortexError::InvalidBatch { field: "ons", reason: format!("value {} at flat index {i} is not finite", self.ons[i]) });
+            return Err(CortexError::InvalidBatch {
+                field: "ons",
+                reason: format!("value {} at flat index {i} is not finite", self.ons[i]),
+            });
         }
         if let Some(m) = &self.oracle_motion {
             if m.len() != self.batch {
-                return Err(CortexError::InvalidBatch { field: "oracle_motion", reason: format!("{} entries for a batch of {}", m.len(), self.batch) });
+                return Err(CortexError::InvalidBatch {
+                    field: "oracle_motion",
+                    reason: format!("{} entries for a batch of {}", m.len(), self.batch),
+                });
             }
             if m.iter().flatten().any(|v| !v.is_finite()) {
-                return Err(CortexError::InvalidBatch { field: "oracle_motion", reason: "contains a non-finite value".into() });
+                return Err(CortexError::InvalidBatch {
+                    field: "oracle_motion",
+                    reason: "contains a non-finite value".into(),
+                });
             }
         }
         Ok(())
@@ -94,7 +112,12 @@ mod tests {
 
     #[test]
     fn validate_names_the_bad_field() {
-        let mut b = TrainingBatch { ons: vec![0.0; 2 * 2 * 4 * 4], batch: 2, n: 4, oracle_motion: Some(vec![[0.0, 0.0]; 2]) };
+        let mut b = TrainingBatch {
+            ons: vec![0.0; 2 * 2 * 4 * 4],
+            batch: 2,
+            n: 4,
+            oracle_motion: Some(vec![[0.0, 0.0]; 2]),
+        };
         b.validate().unwrap();
         b.ons.pop();
         assert!(b.validate().unwrap_err().to_string().contains("`ons`"));
@@ -102,12 +125,21 @@ mod tests {
         assert!(b.validate().unwrap_err().to_string().contains("not finite"));
         b.ons[63] = 0.0;
         b.oracle_motion = Some(vec![[0.0, 0.0]]);
-        assert!(b.validate().unwrap_err().to_string().contains("oracle_motion"));
+        assert!(b
+            .validate()
+            .unwrap_err()
+            .to_string()
+            .contains("oracle_motion"));
     }
 
     #[test]
     fn frames_are_gathered_in_batch_order() {
-        let b = TrainingBatch { ons: (0..2 * 2 * 9).map(|i| i as f32).collect(), batch: 2, n: 3, oracle_motion: None };
+        let b = TrainingBatch {
+            ons: (0..2 * 2 * 9).map(|i| i as f32).collect(),
+            batch: 2,
+            n: 3,
+            oracle_motion: None,
+        };
         let mut out = Vec::new();
         b.frames(1, &mut out);
         assert_eq!(out[0], 9.0);

@@ -13,9 +13,15 @@ pub enum CortexError {
     #[error("invalid training batch, field `{field}`: {reason}")]
     InvalidBatch { field: &'static str, reason: String },
     #[error("{path}: {source}")]
-    Io { path: PathBuf, source: std::io::Error },
+    Io {
+        path: PathBuf,
+        source: std::io::Error,
+    },
     #[error("{path}: invalid JSON metadata: {source}")]
-    Json { path: PathBuf, source: serde_json::Error },
+    Json {
+        path: PathBuf,
+        source: serde_json::Error,
+    },
     #[error("{path}: {reason}")]
     Checkpoint { path: PathBuf, reason: String },
     #[error(
@@ -23,13 +29,21 @@ pub enum CortexError {
          (if any) is untouched{}",
         .last_checkpoint.as_ref().map(|p| format!(": {}", p.display())).unwrap_or_default()
     )]
-    NonFiniteLoss { step: u64, value: f64, last_checkpoint: Option<PathBuf> },
+    NonFiniteLoss {
+        step: u64,
+        value: f64,
+        last_checkpoint: Option<PathBuf>,
+    },
     #[error(
         "the gradient of `{param}` became non-finite at step {step}; training stopped before \
          the update. The last good checkpoint (if any) is untouched{}",
         .last_checkpoint.as_ref().map(|p| format!(": {}", p.display())).unwrap_or_default()
     )]
-    NonFiniteGradient { step: u64, param: String, last_checkpoint: Option<PathBuf> },
+    NonFiniteGradient {
+        step: u64,
+        param: String,
+        last_checkpoint: Option<PathBuf>,
+    },
     #[error("data source state: {0}")]
     DataSourceState(String),
 }
@@ -37,6 +51,9 @@ pub enum CortexError {
 impl CortexError {
     /// Wraps an I/O error with its path.
     pub fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
-        CortexError::Io { path: path.into(), source }
+        CortexError::Io {
+            path: path.into(),
+            source,
+        }
     }
 }

@@ -4,6 +4,23 @@
 //! `official-implementation.md` §3), on the `autodiff` tape. It receives optic-nerve arrays and,
 //! only when a run asks for it, the oracle eye motion ([`TrainingBatch`]); it never depends on
 //! the retina crate.
+//!
+//! ## Using it (the root package)
+//! - [`CortexConfig::preset`] (`tiny`, `quick`, `sandbox`, `paper`), every number a TOML value.
+//! - Implement [`DataSource`] with the retina (`next_batch`, and `save_state`/`load_state` for
+//!   exact resume). The S-05 baseline "cone activations as ONS" is
+//!   `config.baseline == Baseline::ConeActivationsAsOns`: the data source must then deliver
+//!   cone activations instead of laterally inhibited signals.
+//! - [`Trainer::new`], [`Trainer::step`] → [`StepStats`] (loss, per-bucket timings),
+//!   [`Trainer::run`] (periodic atomic checkpoints), [`Trainer::save_checkpoint`],
+//!   [`Trainer::resume`] (bit-identical), [`Trainer::continue_from`] (gene therapy / boosting:
+//!   same cortex, new data, fresh Adam), [`checkpoint::latest_checkpoint`].
+//! - Evaluation: [`Trainer::prediction_error`] (vs "next = current"),
+//!   [`Trainer::motion_error_ons_px`], [`Cortex::decode_frames`], [`Cortex::learned_c`],
+//!   [`Cortex::learned_positions`], [`Cortex::learned_w_kernel`]; Neural Scope on
+//!   [`Trainer::last_percept`] with [`scope::NeuralScope`] (evaluation only).
+//! - [`synthetic::SyntheticSource`]: a retina-free stand-in for tests and benches.
+
 pub mod buckets;
 pub mod checkpoint;
 pub mod config;
@@ -22,4 +39,5 @@ pub use config::CortexConfig;
 pub use data::{DataSource, TrainingBatch};
 pub use error::CortexError;
 pub use model::Cortex;
+pub use eval::MotionError;
 pub use trainer::{PredictionError, StepStats, Trainer};

@@ -138,7 +138,16 @@ impl Cortex {
         let p = PBucket::new(&mut params, &wcfg)?;
         let matcher = BlockMatcher::from_config(&config.m);
         let refiner = SubpixelRefiner::from_config(&config);
-        Ok(Cortex { config, params, w, c, d, p, matcher, refiner })
+        Ok(Cortex {
+            config,
+            params,
+            w,
+            c,
+            d,
+            p,
+            matcher,
+            refiner,
+        })
     }
 
     /// ONS side n.
@@ -152,7 +161,12 @@ impl Cortex {
     }
 
     /// Records decode Φ of `ons (B, 1, n, n)`; returns the percept and the shared W, C vars.
-    pub fn record_decode(&self, tape: &mut Tape<f32>, ons: Var, marks: &mut Marks) -> (Var, Option<Var>, Option<Var>) {
+    pub fn record_decode(
+        &self,
+        tape: &mut Tape<f32>,
+        ons: Var,
+        marks: &mut Marks,
+    ) -> (Var, Option<Var>, Option<Var>) {
         marks.enter(tape, Bucket::W);
         let r = self.w.record(tape, &self.params);
         let pa = self.w.decode(tape, r, ons);
@@ -169,7 +183,12 @@ impl Cortex {
 
     /// Estimates the motion of frames `(B, n, n)` each (no gradient). `oracle` is required in
     /// oracle mode.
-    pub fn estimate_motion(&self, frame_t: &[f32], frame_t1: &[f32], oracle: Option<&[[f32; 2]]>) -> Result<MotionOut, CortexError> {
+    pub fn estimate_motion(
+        &self,
+        frame_t: &[f32],
+        frame_t1: &[f32],
+        oracle: Option<&[[f32; 2]]>,
+    ) -> Result<MotionOut, CortexError> {
         let n = self.n();
         match self.config.m.mode {
             MMode::Oracle => {
@@ -177,7 +196,10 @@ impl Cortex {
                     field: "oracle_motion",
                     reason: "this run uses oracle motion (m.mode = \"oracle\") but the batch carries none".into(),
                 })?;
-                Ok(MotionOut { motion: o.iter().map(|d| [d[0] as f64, d[1] as f64]).collect(), blurred: None })
+                Ok(MotionOut {
+                    motion: o.iter().map(|d| [d[0] as f64, d[1] as f64]).collect(),
+                    blurred: None,
+                })
             }
             MMode::BlockMatching | MMode::Learned => {
                 let flow = self.p.plain(&self.params);
@@ -186,16 +208,31 @@ impl Cortex {
                 let grid = DewarpGrid::new(flow.as_ref(), n, 2 * n.next_power_of_two());
                 let est = self.matcher.estimate_blurred(&b1, &b2, n, &grid);
                 if self.config.m.mode == MMode::BlockMatching {
-                    return Ok(MotionOut { motion: est.motion, blurred: None });
+                    return Ok(MotionOut {
+                        motion: est.motion,
+                        blurred: None,
+                    });
                 }
-                let motion = self.refiner.refine(&b1, &b2, n, flow.as_ref(), &grid, &est.motion);
-                Ok(MotionOut { motion, blurred: Some((b1, b2)) })
+                let motion = self
+                    .refiner
+                    .refine(&b1, &b2, n, flow.as_ref(), &grid, &est.motion);
+                Ok(MotionOut {
+                    motion,
+                    blurred: Some((b1, b2)),
+                })
             }
         }
     }
 
     /// Records one whole prediction and its loss. `o1`, `o2` are `(B, 1, n, n)` constants.
-    pub fn record_prediction(&self, tape: &mut Tape<f32>, o1: Var, o2: Var, motion: &MotionOut, marks: &mut Marks) -> Prediction {
+    pub fn record_prediction(
+        &self,
+        tape: &mut Tape<f32>,
+        o1: Var,
+        o2: Var,
+        motion: &MotionOut,
+        marks: &mut Marks,
+    ) -> Prediction {
         let (b, _, n, _) = tape.shape(o1).bchw("Cortex::record_prediction");
         let (v1, r, c) = self.record_decode(tape, o1, marks);
         marks.enter(tape, Bucket::P);
@@ -226,13 +263,24 @@ impl Cortex {
             _ => main,
         };
         marks.finish();
-        Prediction { loss, main_loss: main, percept: v1, predicted: pred, mask }
+        Prediction {
+            loss,
+            main_loss: main,
+            percept: v1,
+            predicted: pred,
+            mask,
+        }
     }
 
     /// Decodes ONS frames `(B, n, n)` to percepts `(B, N, n, n)` (evaluation; no learning).
     pub fn decode_frames(&self, ons: &[f32], batch: usize) -> Vec<f32> {
         let n = self.n();
-        assert_eq!(ons.len(), batch * n * n, "Cortex::decode_frames: {} values for (B={batch}, {n}, {n})", ons.len());
+        assert_eq!(
+            ons.len(),
+            batch * n * n,
+            "Cortex::decode_frames: {} values for (B={batch}, {n}, {n})",
+            ons.len()
+        );
         let mut tape = Tape::<f32>::new();
         let o = tape.constant_from([batch, 1, n, n], ons);
         let (v, _, _) = self.record_decode(&mut tape, o, &mut Marks::default());

@@ -25,7 +25,11 @@ impl Trainer {
 
     /// Writes a checkpoint of the current step under `dir` (atomically) and remembers it as the
     /// last good one. Pass the data source to make the resume exact.
-    pub fn save_checkpoint(&mut self, dir: &Path, source: Option<&dyn DataSource>) -> Result<PathBuf, CortexError> {
+    pub fn save_checkpoint(
+        &mut self,
+        dir: &Path,
+        source: Option<&dyn DataSource>,
+    ) -> Result<PathBuf, CortexError> {
         let meta = self.checkpoint_meta(source);
         let path = checkpoint::write_checkpoint(dir, &meta, &self.cortex.params, &self.optim)?;
         self.last_checkpoint = Some(path.clone());
@@ -35,7 +39,10 @@ impl Trainer {
     /// Rebuilds the trainer of the checkpoint at `path`: parameters, Adam state, step, RNG; and
     /// restores `source`'s state when the checkpoint holds one. Continuing from here gives
     /// bit-identical parameters to a run that never stopped (same thread count).
-    pub fn resume(path: &Path, source: Option<&mut dyn DataSource>) -> Result<Trainer, CortexError> {
+    pub fn resume(
+        path: &Path,
+        source: Option<&mut dyn DataSource>,
+    ) -> Result<Trainer, CortexError> {
         let meta = checkpoint::read_meta(path)?;
         let mut t = Trainer::new(meta.config.clone())?;
         checkpoint::load_params(path, &mut t.cortex.params)?;
@@ -56,7 +63,10 @@ impl Trainer {
     /// recreated (its state is not restored, as official), the step count continues.
     /// `config` may change training settings (steps, learning rate, M); the buckets' shapes
     /// must match the checkpoint.
-    pub fn continue_from(path: &Path, config: Option<CortexConfig>) -> Result<Trainer, CortexError> {
+    pub fn continue_from(
+        path: &Path,
+        config: Option<CortexConfig>,
+    ) -> Result<Trainer, CortexError> {
         let meta = checkpoint::read_meta(path)?;
         let cfg = config.unwrap_or_else(|| meta.config.clone());
         let mut t = Trainer::new(cfg)?;
@@ -88,7 +98,7 @@ impl Trainer {
             on_step(&stats, self);
             if let Some(dir) = checkpoint_dir {
                 let last = k + 1 == steps;
-                if last || (every > 0 && self.step % every == 0) {
+                if last || (every > 0 && self.step.is_multiple_of(every)) {
                     self.save_checkpoint(dir, Some(&*source))?;
                 }
             }

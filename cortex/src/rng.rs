@@ -21,7 +21,9 @@ impl CortexRng {
             x = (x ^ (x >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
             x ^ (x >> 31)
         };
-        CortexRng { s: [next(), next(), next(), next()] }
+        CortexRng {
+            s: [next(), next(), next(), next()],
+        }
     }
 
     /// Uniform in [0, 1) with 53 random bits.
@@ -93,7 +95,10 @@ mod tests {
         let xs: Vec<f64> = (0..n).map(|_| r.normal()).collect();
         let mean = xs.iter().sum::<f64>() / n as f64;
         let var = xs.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / n as f64;
-        assert!(mean.abs() < 0.03 && (var - 1.0).abs() < 0.05, "{mean} {var}");
+        assert!(
+            mean.abs() < 0.03 && (var - 1.0).abs() < 0.05,
+            "{mean} {var}"
+        );
         let ints: Vec<i64> = (0..n).map(|_| r.int_in(-15, 14)).collect();
         assert_eq!(*ints.iter().min().unwrap(), -15);
         assert_eq!(*ints.iter().max().unwrap(), 14);

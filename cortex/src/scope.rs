@@ -31,15 +31,36 @@ impl NeuralScope {
     /// A scope from `n_in` percept channels to `n_out` colour channels.
     pub fn new(n_in: usize, n_out: usize, border_px: usize) -> Self {
         let d = n_in + 1;
-        NeuralScope { n_in, n_out, sxx: vec![0.0; d * d], sxy: vec![0.0; d * n_out], forgetting: 0.99, ridge: 1e-6, border_px }
+        NeuralScope {
+            n_in,
+            n_out,
+            sxx: vec![0.0; d * d],
+            sxy: vec![0.0; d * n_out],
+            forgetting: 0.99,
+            ridge: 1e-6,
+            border_px,
+        }
     }
 
     /// Adds a batch: `percept (B, n_in, h, w)` and `target (B, n_out, h, w)`.
     pub fn update(&mut self, percept: &[f32], target: &[f32], batch: usize, h: usize, w: usize) {
         let (ni, no, d) = (self.n_in, self.n_out, self.n_in + 1);
-        assert_eq!(percept.len(), batch * ni * h * w, "NeuralScope::update: percept has {} values, want (B={batch}, {ni}, {h}, {w})", percept.len());
-        assert_eq!(target.len(), batch * no * h * w, "NeuralScope::update: target has {} values, want (B={batch}, {no}, {h}, {w})", target.len());
-        self.sxx.iter_mut().chain(self.sxy.iter_mut()).for_each(|v| *v *= self.forgetting);
+        assert_eq!(
+            percept.len(),
+            batch * ni * h * w,
+            "NeuralScope::update: percept has {} values, want (B={batch}, {ni}, {h}, {w})",
+            percept.len()
+        );
+        assert_eq!(
+            target.len(),
+            batch * no * h * w,
+            "NeuralScope::update: target has {} values, want (B={batch}, {no}, {h}, {w})",
+            target.len()
+        );
+        self.sxx
+            .iter_mut()
+            .chain(self.sxy.iter_mut())
+            .for_each(|v| *v *= self.forgetting);
         let hw = h * w;
         let bp = self.border_px;
         let mut x = vec![0.0f64; d];
@@ -83,7 +104,11 @@ impl NeuralScope {
                 for k in 0..j {
                     s -= l[i * d + k] * l[j * d + k];
                 }
-                l[i * d + j] = if i == j { s.max(1e-300).sqrt() } else { s / l[j * d + j] };
+                l[i * d + j] = if i == j {
+                    s.max(1e-300).sqrt()
+                } else {
+                    s / l[j * d + j]
+                };
             }
         }
         let mut out = vec![0.0; d * no];
@@ -110,7 +135,12 @@ impl NeuralScope {
     /// Applies the fit: `percept (B, n_in, h, w)` → `(B, n_out, h, w)`.
     pub fn apply(&self, percept: &[f32], batch: usize, h: usize, w: usize) -> Vec<f32> {
         let (ni, no) = (self.n_in, self.n_out);
-        assert_eq!(percept.len(), batch * ni * h * w, "NeuralScope::apply: percept has {} values, want (B={batch}, {ni}, {h}, {w})", percept.len());
+        assert_eq!(
+            percept.len(),
+            batch * ni * h * w,
+            "NeuralScope::apply: percept has {} values, want (B={batch}, {ni}, {h}, {w})",
+            percept.len()
+        );
         let a = self.weights();
         let hw = h * w;
         let mut out = vec![0.0f32; batch * no * hw];
@@ -163,7 +193,11 @@ mod tests {
             assert!((g - t).abs() < 1e-3, "{g} vs {t}");
         }
         let pred = scope.apply(&percept, b, h, w);
-        let err = pred.iter().zip(&target).map(|(a, b)| (a - b).abs()).fold(0.0f32, f32::max);
+        let err = pred
+            .iter()
+            .zip(&target)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0f32, f32::max);
         assert!(err < 1e-3);
     }
 

@@ -117,7 +117,14 @@ impl SyntheticSource {
                 k as u8
             })
             .collect();
-        SyntheticSource { cfg, mosaic, rng, noise: Vec::new(), tmp: Vec::new(), last_shifts: Vec::new() }
+        SyntheticSource {
+            cfg,
+            mosaic,
+            rng,
+            noise: Vec::new(),
+            tmp: Vec::new(),
+            last_shifts: Vec::new(),
+        }
     }
 
     /// The cone type of each cell, `n·n` row-major.
@@ -138,9 +145,12 @@ impl SyntheticSource {
         for o in 0..octaves {
             let sigma = self.cfg.smooth_sigma_px * (1u64 << o) as f64;
             let r = (3.0 * sigma).ceil() as isize;
-            let taps: Vec<f64> = (-r..=r).map(|i| (-(i * i) as f64 / (2.0 * sigma * sigma)).exp()).collect();
+            let taps: Vec<f64> = (-r..=r)
+                .map(|i| (-(i * i) as f64 / (2.0 * sigma * sigma)).exp())
+                .collect();
             // unit output variance per pass, and equal variance per octave overall
-            let norm = taps.iter().map(|t| t * t).sum::<f64>().sqrt() * (octaves as f64).sqrt().sqrt();
+            let norm =
+                taps.iter().map(|t| t * t).sum::<f64>().sqrt() * (octaves as f64).sqrt().sqrt();
             let ext = side + 2 * r as usize;
             for c in 0..k {
                 self.noise.clear();
@@ -202,13 +212,21 @@ impl DataSource for SyntheticSource {
             let sx = self.rng.int_in(lo, hi) as isize;
             let sy = self.rng.int_in(lo, hi) as isize;
             self.last_shifts.push([sx as i32, sy as i32]);
-            motion.push([(sx as f64 / self.cfg.motion_px_per_unit) as f32, (sy as f64 / self.cfg.motion_px_per_unit) as f32]);
+            motion.push([
+                (sx as f64 / self.cfg.motion_px_per_unit) as f32,
+                (sy as f64 / self.cfg.motion_px_per_unit) as f32,
+            ]);
             for t in 0..2 {
-                let (ox, oy) = if t == 0 { (m as isize, m as isize) } else { (m as isize + sx, m as isize + sy) };
+                let (ox, oy) = if t == 0 {
+                    (m as isize, m as isize)
+                } else {
+                    (m as isize + sx, m as isize + sy)
+                };
                 for y in 0..n {
                     for x in 0..n {
                         let c = self.mosaic[y * n + x] as usize;
-                        cone[y * n + x] = img[(c * side + (y as isize + oy) as usize) * side + (x as isize + ox) as usize];
+                        cone[y * n + x] = img[(c * side + (y as isize + oy) as usize) * side
+                            + (x as isize + ox) as usize];
                     }
                 }
                 let dst = &mut ons[(b * 2 + t) * n * n..(b * 2 + t + 1) * n * n];
@@ -238,7 +256,12 @@ impl DataSource for SyntheticSource {
                 }
             }
         }
-        TrainingBatch { ons, batch: batch_size, n, oracle_motion: Some(motion) }
+        TrainingBatch {
+            ons,
+            batch: batch_size,
+            n,
+            oracle_motion: Some(motion),
+        }
     }
 
     fn save_state(&self) -> Option<serde_json::Value> {
@@ -246,7 +269,8 @@ impl DataSource for SyntheticSource {
     }
 
     fn load_state(&mut self, state: &serde_json::Value) -> Result<(), CortexError> {
-        self.rng = serde_json::from_value(state.clone()).map_err(|e| CortexError::DataSourceState(format!("synthetic source RNG: {e}")))?;
+        self.rng = serde_json::from_value(state.clone())
+            .map_err(|e| CortexError::DataSourceState(format!("synthetic source RNG: {e}")))?;
         Ok(())
     }
 }

@@ -49,7 +49,12 @@ impl StepStats {
     /// `"W 1.2+0.8 ms, C …"`: forward+backward per bucket.
     pub fn bucket_summary(&self) -> String {
         (0..BUCKETS)
-            .map(|i| format!("{} {:.1}+{:.1}", BUCKET_NAMES[i], self.forward_ms[i], self.backward_ms[i]))
+            .map(|i| {
+                format!(
+                    "{} {:.1}+{:.1}",
+                    BUCKET_NAMES[i], self.forward_ms[i], self.backward_ms[i]
+                )
+            })
             .collect::<Vec<_>>()
             .join(", ")
     }
@@ -109,7 +114,12 @@ pub struct Trainer {
 
 pub(crate) fn adam(cfg: &CortexConfig) -> Optimizer<f32, Adam> {
     let t = &cfg.train;
-    Optimizer::new(Adam { lr: t.learning_rate, beta1: t.adam_beta1, beta2: t.adam_beta2, eps: t.adam_eps })
+    Optimizer::new(Adam {
+        lr: t.learning_rate,
+        beta1: t.adam_beta1,
+        beta2: t.adam_beta2,
+        eps: t.adam_eps,
+    })
 }
 
 impl Trainer {
@@ -175,7 +185,14 @@ impl Trainer {
     pub(crate) fn check_batch(&self, batch: &TrainingBatch) -> Result<(), CortexError> {
         batch.validate()?;
         if batch.n != self.cortex.n() {
-            return Err(CortexError::InvalidBatch { field: "n", reason: format!("batch ONS is {0}×{0}, the cortex expects {1}×{1}", batch.n, self.cortex.n()) });
+            return Err(CortexError::InvalidBatch {
+                field: "n",
+                reason: format!(
+                    "batch ONS is {0}×{0}, the cortex expects {1}×{1}",
+                    batch.n,
+                    self.cortex.n()
+                ),
+            });
         }
         Ok(())
     }
@@ -189,25 +206,36 @@ impl Trainer {
         batch.frames(0, &mut self.frames[0]);
         batch.frames(1, &mut self.frames[1]);
         let tm = Instant::now();
-        let motion = self.cortex.estimate_motion(&self.frames[0], &self.frames[1], batch.oracle_motion.as_deref())?;
+        let motion = self.cortex.estimate_motion(
+            &self.frames[0],
+            &self.frames[1],
+            batch.oracle_motion.as_deref(),
+        )?;
         fwd[Bucket::M as usize] = tm.elapsed().as_secs_f64() * 1e3;
 
         self.tape.clear();
         let mut marks = Marks::default();
         let o1 = self.tape.constant_from([b, 1, n, n], &self.frames[0]);
         let o2 = self.tape.constant_from([b, 1, n, n], &self.frames[1]);
-        let pred = self.cortex.record_prediction(&mut self.tape, o1, o2, &motion, &mut marks);
+        let pred = self
+            .cortex
+            .record_prediction(&mut self.tape, o1, o2, &motion, &mut marks);
         for (f, m) in fwd.iter_mut().zip(marks.forward_ms()) {
             *f += m;
         }
         let loss = self.tape.value(pred.loss).item() as f64;
         let main_loss = self.tape.value(pred.main_loss).item() as f64;
         if !loss.is_finite() {
-            return Err(CortexError::NonFiniteLoss { step: self.step + 1, value: loss, last_checkpoint: self.last_checkpoint.clone() });
+            return Err(CortexError::NonFiniteLoss {
+                step: self.step + 1,
+                value: loss,
+                last_checkpoint: self.last_checkpoint.clone(),
+            });
         }
         if self.keep_percept {
             self.last_percept.clear();
-            self.last_percept.extend_from_slice(self.tape.value(pred.percept).data());
+            self.last_percept
+                .extend_from_slice(self.tape.value(pred.percept).data());
             self.last_batch = b;
         }
 
@@ -215,7 +243,11 @@ impl Trainer {
         let mut bwd = [0.0; BUCKETS];
         match &mut self.rule {
             None => {
-                let mut hooks = TimingHooks { marks: &marks, last: None, acc: [0.0; BUCKETS] };
+                let mut hooks = TimingHooks {
+                    marks: &marks,
+                    last: None,
+                    acc: [0.0; BUCKETS],
+                };
                 self.tape.backward_with(pred.loss, &mut hooks);
                 if let Some((t, bk)) = hooks.last {
                     hooks.acc[bk as usize] += t.elapsed().as_secs_f64() * 1e3;
@@ -223,10 +255,19 @@ impl Trainer {
                 bwd = hooks.acc;
                 self.grads.fill_from_tape(&self.tape);
             }
-            Some(rule) => rule.assign_credit_into(&mut self.tape, pred.loss, &self.cortex.params, &mut self.grads),
+            Some(rule) => rule.assign_credit_into(
+                &mut self.tape,
+                pred.loss,
+                &self.cortex.params,
+                &mut self.grads,
+            ),
         }
         let credit_ms = tc.elapsed().as_secs_f64() * 1e3;
-        if let Some((id, _)) = self.grads.iter().find(|(_, g)| g.data().iter().any(|v| !v.is_finite())) {
+        if let Some((id, _)) = self
+            .grads
+            .iter()
+            .find(|(_, g)| g.data().iter().any(|v| !v.is_finite()))
+        {
             return Err(CortexError::NonFiniteGradient {
                 step: self.step + 1,
                 param: self.cortex.params.name(id).to_string(),
@@ -236,7 +277,10 @@ impl Trainer {
         let to = Instant::now();
         self.optim
             .step(&mut self.cortex.params, &self.grads)
-            .map_err(|e| CortexError::InvalidConfig { field: "optimizer".into(), reason: e.to_string() })?;
+            .map_err(|e| CortexError::InvalidConfig {
+                field: "optimizer".into(),
+                reason: e.to_string(),
+            })?;
         let optimizer_ms = to.elapsed().as_secs_f64() * 1e3;
         self.step += 1;
         self.last_loss = Some(loss);

@@ -19,7 +19,14 @@ fn source(cfg: &CortexConfig) -> SyntheticSource {
 
 fn params_bits(t: &Trainer) -> Vec<(String, Vec<u32>)> {
     let p = &t.cortex.params;
-    p.ids().map(|id| (p.name(id).to_string(), p.get(id).data().iter().map(|v| v.to_bits()).collect())).collect()
+    p.ids()
+        .map(|id| {
+            (
+                p.name(id).to_string(),
+                p.get(id).data().iter().map(|v| v.to_bits()).collect(),
+            )
+        })
+        .collect()
 }
 
 #[test]
@@ -55,13 +62,20 @@ fn resume_is_bit_identical_to_an_uninterrupted_run() {
     }
     // the final checkpoints hold the same parameters, bit for bit
     let load = |d: &PathBuf| {
-        let f = latest_checkpoint(d).unwrap().unwrap().join("params.safetensors");
+        let f = latest_checkpoint(d)
+            .unwrap()
+            .unwrap()
+            .join("params.safetensors");
         autodiff::ParamStore::<f32>::load_safetensors(f).unwrap().0
     };
     let (fa, fb) = (load(&dir_a), load(&dir_b));
     for id in fa.ids() {
         let other = fb.find(fa.name(id)).unwrap();
-        assert!(fa.get(id).data() == fb.get(other).data(), "checkpointed {} differs", fa.name(id));
+        assert!(
+            fa.get(id).data() == fb.get(other).data(),
+            "checkpointed {} differs",
+            fa.name(id)
+        );
     }
     let _ = std::fs::remove_dir_all(&dir_a);
     let _ = std::fs::remove_dir_all(&dir_b);
@@ -83,7 +97,10 @@ fn checkpoint_writes_are_atomic_and_leave_no_temporaries() {
     // re-saving the same step replaces it whole
     let again = t.save_checkpoint(&dir, None).unwrap();
     assert_eq!(again, latest);
-    let names: Vec<String> = std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().to_string()).collect();
+    let names: Vec<String> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().to_string())
+        .collect();
     assert!(names.iter().all(|n| !n.contains(".old")), "{names:?}");
     for f in ["params.safetensors", "optim.safetensors", "meta.json"] {
         assert!(latest.join(f).is_file(), "{f} missing");
@@ -104,11 +121,22 @@ fn nan_loss_stops_with_a_clear_message_and_keeps_the_last_good_checkpoint() {
     let msg = err.to_string();
     println!("{msg}");
     let (step, last) = match &err {
-        CortexError::NonFiniteLoss { step, last_checkpoint, .. } => (*step, last_checkpoint.clone()),
-        CortexError::NonFiniteGradient { step, last_checkpoint, .. } => (*step, last_checkpoint.clone()),
+        CortexError::NonFiniteLoss {
+            step,
+            last_checkpoint,
+            ..
+        } => (*step, last_checkpoint.clone()),
+        CortexError::NonFiniteGradient {
+            step,
+            last_checkpoint,
+            ..
+        } => (*step, last_checkpoint.clone()),
         other => panic!("unexpected error {other}"),
     };
-    assert!(msg.contains("training stopped") && msg.contains(&format!("step {step}")), "{msg}");
+    assert!(
+        msg.contains("training stopped") && msg.contains(&format!("step {step}")),
+        "{msg}"
+    );
     let latest = latest_checkpoint(&dir).unwrap().unwrap();
     assert_eq!(last.as_deref(), Some(latest.as_path()));
     assert!(msg.contains(&latest.display().to_string()), "{msg}");
@@ -134,6 +162,9 @@ fn two_uninterrupted_runs_are_bit_identical() {
     };
     let (a, b) = (run(), run());
     for ((na, va), (_, vb)) in a.iter().zip(&b) {
-        assert!(va == vb, "parameter {na} differs between two identical runs");
+        assert!(
+            va == vb,
+            "parameter {na} differs between two identical runs"
+        );
     }
 }

@@ -9,9 +9,15 @@ fn cortex_manifest_has_no_retina_dependency() {
     for table in ["dependencies", "dev-dependencies", "build-dependencies"] {
         if let Some(deps) = manifest.get(table).and_then(|t| t.as_table()) {
             for (name, spec) in deps {
-                assert_ne!(name, "retina", "cortex/Cargo.toml [{table}] depends on retina");
+                assert_ne!(
+                    name, "retina",
+                    "cortex/Cargo.toml [{table}] depends on retina"
+                );
                 let s = spec.to_string();
-                assert!(!s.contains("retina"), "cortex/Cargo.toml [{table}] {name} = {s} points at the retina");
+                assert!(
+                    !s.contains("retina"),
+                    "cortex/Cargo.toml [{table}] {name} = {s} points at the retina"
+                );
             }
         }
     }
@@ -20,7 +26,17 @@ fn cortex_manifest_has_no_retina_dependency() {
 #[test]
 fn training_batch_carries_only_ons_and_optional_motion() {
     // Exhaustive destructuring: adding a field to TrainingBatch breaks this test on purpose.
-    let b = cortex::TrainingBatch { ons: vec![0.0; 2 * 16], batch: 1, n: 4, oracle_motion: None };
-    let cortex::TrainingBatch { ons, batch, n, oracle_motion } = b;
+    let b = cortex::TrainingBatch {
+        ons: vec![0.0; 2 * 16],
+        batch: 1,
+        n: 4,
+        oracle_motion: None,
+    };
+    let cortex::TrainingBatch {
+        ons,
+        batch,
+        n,
+        oracle_motion,
+    } = b;
     assert_eq!((ons.len(), batch, n, oracle_motion), (32, 1, 4, None));
 }

@@ -11,7 +11,11 @@ use cortex::{Cortex, Trainer};
 fn bent_cortex() -> Cortex {
     let mut c = Cortex::new(CortexConfig::tiny()).unwrap();
     let mut rng = CortexRng::seed_from(77);
-    let ids: Vec<_> = c.params.ids().filter(|&id| c.params.name(id).starts_with("p.")).collect();
+    let ids: Vec<_> = c
+        .params
+        .ids()
+        .filter(|&id| c.params.name(id).starts_with("p."))
+        .collect();
     assert_eq!(ids.len(), 48);
     for id in ids {
         for v in c.params.get_mut(id).data_mut() {
@@ -35,10 +39,21 @@ fn p_inverse_after_forward_is_identity() {
     let grid = unit_grid(32);
     let mut pts = grid.clone();
     flow.forward(&mut pts);
-    let moved = pts.iter().zip(&grid).map(|(a, b)| (a[0] - b[0]).abs() + (a[1] - b[1]).abs()).fold(0.0, f64::max);
-    assert!(moved > 0.05, "the test flow must be non-trivial, moved {moved}");
+    let moved = pts
+        .iter()
+        .zip(&grid)
+        .map(|(a, b)| (a[0] - b[0]).abs() + (a[1] - b[1]).abs())
+        .fold(0.0, f64::max);
+    assert!(
+        moved > 0.05,
+        "the test flow must be non-trivial, moved {moved}"
+    );
     flow.inverse(&mut pts);
-    let err = pts.iter().zip(&grid).map(|(a, b)| (a[0] - b[0]).abs().max((a[1] - b[1]).abs())).fold(0.0, f64::max);
+    let err = pts
+        .iter()
+        .zip(&grid)
+        .map(|(a, b)| (a[0] - b[0]).abs().max((a[1] - b[1]).abs()))
+        .fold(0.0, f64::max);
     assert!(err < 1e-12, "P⁻¹∘P error {err}");
 }
 
@@ -48,7 +63,8 @@ fn zero_motion_warps_nothing() {
     let n = 32;
     let mut tape = Tape::<f32>::new();
     let v = tape.constant(percept(2, 3, n));
-    let (w, m, _) = c.p.warp(&mut tape, &c.params, v, &[], &[[0.0, 0.0], [0.0, 0.0]]);
+    let (w, m, _) =
+        c.p.warp(&mut tape, &c.params, v, &[], &[[0.0, 0.0], [0.0, 0.0]]);
     assert!(tape.value(w).max_abs_diff(tape.value(v)) < 1e-4);
     assert!(tape.value(m).data().iter().all(|&x| x == 1.0));
 }
@@ -58,7 +74,10 @@ fn identity_p_and_integer_shift_equals_the_shifted_percept() {
     let n = 32;
     let unit = 2.0 / (n as f64 - 1.0);
     let shifts = [[3i64, -2], [-5, 7]];
-    let motion: Vec<[f64; 2]> = shifts.iter().map(|s| [s[0] as f64 * unit, s[1] as f64 * unit]).collect();
+    let motion: Vec<[f64; 2]> = shifts
+        .iter()
+        .map(|s| [s[0] as f64 * unit, s[1] as f64 * unit])
+        .collect();
     let pv = percept(2, 3, n);
     let expect = |t: &Tensor<f32>, exact: bool| {
         for (b, s) in shifts.iter().enumerate() {
@@ -74,7 +93,10 @@ fn identity_p_and_integer_shift_equals_the_shifted_percept() {
                         if exact {
                             assert_eq!(got, want, "b {b} c {c} y {y} x {x}");
                         } else {
-                            assert!((got - want).abs() < 1e-5, "b {b} c {c} y {y} x {x}: {got} vs {want}");
+                            assert!(
+                                (got - want).abs() < 1e-5,
+                                "b {b} c {c} y {y} x {x}: {got} vs {want}"
+                            );
                         }
                     }
                 }
@@ -123,7 +145,11 @@ fn nontrivial_p_warp_matches_independent_resampling() {
                 let got = tape.value(w).data()[(b * 2 + ch) * n * n + k] as f64;
                 max_err = max_err.max((got - want).abs());
                 let mk = tape.value(m).data()[b * n * n + k];
-                assert_eq!(mk == 1.0, nearest_inside(n, n, p), "mask at b {b} pixel {k}");
+                assert_eq!(
+                    mk == 1.0,
+                    nearest_inside(n, n, p),
+                    "mask at b {b} pixel {k}"
+                );
                 inside += (mk == 1.0) as usize;
             }
         }
@@ -146,5 +172,8 @@ fn c_stays_unit_norm_through_training() {
         assert!((norm - 1.0).abs() < 1e-4, "‖C‖ = {norm}");
         moved = moved.max(cell[1..].iter().map(|v| v.abs()).fold(0.0, f64::max));
     }
-    assert!(moved > 1e-3, "C should have learned something, max off-e1 component {moved}");
+    assert!(
+        moved > 1e-3,
+        "C should have learned something, max off-e1 component {moved}"
+    );
 }

@@ -16,14 +16,22 @@ use rustfft::FftPlanner;
 
 /// Eigenvalues of a symmetric `d × d` matrix (row-major), descending. Cyclic Jacobi.
 pub fn symmetric_eigenvalues(a: &[f64], d: usize) -> Vec<f64> {
-    assert_eq!(a.len(), d * d, "symmetric_eigenvalues: {} values for {d}×{d}", a.len());
+    assert_eq!(
+        a.len(),
+        d * d,
+        "symmetric_eigenvalues: {} values for {d}×{d}",
+        a.len()
+    );
     let mut m = a.to_vec();
     for _sweep in 0..100 {
         let off: f64 = (0..d)
             .flat_map(|i| (0..d).filter(move |&j| j != i).map(move |j| (i, j)))
             .map(|(i, j)| m[i * d + j].powi(2))
             .sum();
-        let scale: f64 = (0..d).map(|i| m[i * d + i].powi(2)).sum::<f64>().max(1e-300);
+        let scale: f64 = (0..d)
+            .map(|i| m[i * d + i].powi(2))
+            .sum::<f64>()
+            .max(1e-300);
         if off <= 1e-24 * scale {
             break;
         }
@@ -59,15 +67,27 @@ pub fn symmetric_eigenvalues(a: &[f64], d: usize) -> Vec<f64> {
 /// Covariance eigenvalues (descending) of `samples` spectra of length `d`, given as planar
 /// `(d, count)` data (the layout of a spectral image: wavelength planes).
 pub fn spectral_covariance_eigenvalues(planar: &[f32], d: usize) -> Vec<f64> {
-    assert!(d > 0 && planar.len() % d == 0, "spectral_covariance_eigenvalues: shape");
+    assert!(
+        d > 0 && planar.len().is_multiple_of(d),
+        "spectral_covariance_eigenvalues: shape"
+    );
     let count = planar.len() / d;
     let mean: Vec<f64> = (0..d)
-        .map(|l| planar[l * count..(l + 1) * count].iter().map(|&v| v as f64).sum::<f64>() / count as f64)
+        .map(|l| {
+            planar[l * count..(l + 1) * count]
+                .iter()
+                .map(|&v| v as f64)
+                .sum::<f64>()
+                / count as f64
+        })
         .collect();
     let mut cov = vec![0.0f64; d * d];
     for i in 0..d {
         for j in i..d {
-            let (a, b) = (&planar[i * count..(i + 1) * count], &planar[j * count..(j + 1) * count]);
+            let (a, b) = (
+                &planar[i * count..(i + 1) * count],
+                &planar[j * count..(j + 1) * count],
+            );
             let s: f64 = a
                 .iter()
                 .zip(b)
@@ -101,7 +121,12 @@ pub fn pca_components_for_variance(planar: &[f32], d: usize, fraction: f64) -> u
 /// Radially averaged power spectrum of a square `n × n` plane: `(frequency in cycles per
 /// image, mean power)` for integer radii 1 … n/2 (module docs).
 pub fn radial_power_spectrum(plane: &[f32], n: usize) -> Vec<(f64, f64)> {
-    assert_eq!(plane.len(), n * n, "radial_power_spectrum: {} values for {n}²", plane.len());
+    assert_eq!(
+        plane.len(),
+        n * n,
+        "radial_power_spectrum: {} values for {n}²",
+        plane.len()
+    );
     let mean = plane.iter().map(|&v| v as f64).sum::<f64>() / (n * n) as f64;
     let hann: Vec<f64> = (0..n)
         .map(|i| 0.5 - 0.5 * (2.0 * std::f64::consts::PI * i as f64 / n as f64).cos())
@@ -123,8 +148,16 @@ pub fn radial_power_spectrum(plane: &[f32], n: usize) -> Vec<(f64, f64)> {
     let mut cnt = vec![0usize; half + 1];
     for fy in 0..n {
         for fx in 0..n {
-            let ky = if fy <= half { fy as f64 } else { fy as f64 - n as f64 };
-            let kx = if fx <= half { fx as f64 } else { fx as f64 - n as f64 };
+            let ky = if fy <= half {
+                fy as f64
+            } else {
+                fy as f64 - n as f64
+            };
+            let kx = if fx <= half {
+                fx as f64
+            } else {
+                fx as f64 - n as f64
+            };
             let r = kx.hypot(ky).round() as usize;
             if r >= 1 && r <= half {
                 sum[r] += t[fx * n + fy].norm_sqr();
@@ -139,7 +172,12 @@ pub fn radial_power_spectrum(plane: &[f32], n: usize) -> Vec<(f64, f64)> {
 }
 
 /// Least-squares slope of log power on log frequency over `[f_min_cycles, f_max_fraction·n/2]`.
-pub fn power_spectrum_slope(plane: &[f32], n: usize, f_min_cycles: f64, f_max_fraction: f64) -> f64 {
+pub fn power_spectrum_slope(
+    plane: &[f32],
+    n: usize,
+    f_min_cycles: f64,
+    f_max_fraction: f64,
+) -> f64 {
     let ps = radial_power_spectrum(plane, n);
     let fmax = f_max_fraction * (n / 2) as f64;
     let pts: Vec<(f64, f64)> = ps
@@ -147,19 +185,28 @@ pub fn power_spectrum_slope(plane: &[f32], n: usize, f_min_cycles: f64, f_max_fr
         .filter(|&(f, p)| f >= f_min_cycles && f <= fmax && p > 0.0)
         .map(|(f, p)| (f.ln(), p.ln()))
         .collect();
-    assert!(pts.len() >= 3, "power_spectrum_slope: fewer than 3 frequencies in range");
+    assert!(
+        pts.len() >= 3,
+        "power_spectrum_slope: fewer than 3 frequencies in range"
+    );
     let m = pts.len() as f64;
     let (sx, sy) = pts.iter().fold((0.0, 0.0), |a, p| (a.0 + p.0, a.1 + p.1));
     let (mx, my) = (sx / m, sy / m);
-    let (num, den) = pts
-        .iter()
-        .fold((0.0, 0.0), |a, p| (a.0 + (p.0 - mx) * (p.1 - my), a.1 + (p.0 - mx).powi(2)));
+    let (num, den) = pts.iter().fold((0.0, 0.0), |a, p| {
+        (a.0 + (p.0 - mx) * (p.1 - my), a.1 + (p.0 - mx).powi(2))
+    });
     num / den
 }
 
 /// Pearson correlation of two equally long series.
 pub fn pearson(a: &[f32], b: &[f32]) -> f64 {
-    assert_eq!(a.len(), b.len(), "pearson: lengths {} and {}", a.len(), b.len());
+    assert_eq!(
+        a.len(),
+        b.len(),
+        "pearson: lengths {} and {}",
+        a.len(),
+        b.len()
+    );
     let n = a.len() as f64;
     let ma = a.iter().map(|&v| v as f64).sum::<f64>() / n;
     let mb = b.iter().map(|&v| v as f64).sum::<f64>() / n;

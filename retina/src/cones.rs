@@ -110,7 +110,8 @@ impl Cones {
 
     /// Noise-free activations at `origin` (module docs); `out` is `(n·n)`.
     pub fn compute(&self, stack: &MipStack, origin: [i32; 2], out: &mut [f32]) {
-        self.sampler.sample_weighted(stack, &self.weights, origin, out);
+        self.sampler
+            .sample_weighted(stack, &self.weights, origin, out);
     }
 }
 
@@ -130,7 +131,11 @@ mod tests {
             let var = a.iter().map(|&v| (v as f64 - mean).powi(2)).sum::<f64>() / a.len() as f64;
             let want = 0.01 * r as f64 * (a0 as f64).sqrt();
             assert!((mean - a0 as f64).abs() < 1e-4);
-            assert!((var.sqrt() - want).abs() <= 0.02 * want + 1e-9, "{a0} {r}: {}", var.sqrt());
+            assert!(
+                (var.sqrt() - want).abs() <= 0.02 * want + 1e-9,
+                "{a0} {r}: {}",
+                var.sqrt()
+            );
         }
     }
 

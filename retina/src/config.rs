@@ -51,7 +51,11 @@ impl Default for GridConfig {
 impl GridConfig {
     /// The grid.
     pub fn grid(&self) -> Result<WavelengthGrid> {
-        Ok(WavelengthGrid::range(self.start_nm, self.end_nm, self.step_nm)?)
+        Ok(WavelengthGrid::range(
+            self.start_nm,
+            self.end_nm,
+            self.step_nm,
+        )?)
     }
 }
 
@@ -104,7 +108,14 @@ fn pool(tiles: usize, tile_px: usize, refresh_every_batches: usize) -> ScenePool
 }
 
 impl RetinaConfig {
-    fn foveated(name: &str, n: usize, field_px: usize, tiles: usize, tile_px: usize, refresh: usize) -> Self {
+    fn foveated(
+        name: &str,
+        n: usize,
+        field_px: usize,
+        tiles: usize,
+        tile_px: usize,
+        refresh: usize,
+    ) -> Self {
         RetinaConfig {
             name: name.into(),
             cones_per_side: n,
@@ -175,14 +186,23 @@ impl RetinaConfig {
         if matches!(self.layout, LayoutConfig::Identity) && self.field_px != n {
             return Err(RetinaError::setting(
                 "field_px",
-                format!("identity layout needs field_px = cones_per_side ({} vs {n})", self.field_px),
+                format!(
+                    "identity layout needs field_px = cones_per_side ({} vs {n})",
+                    self.field_px
+                ),
             ));
         }
         if self.field_px < 2 {
-            return Err(RetinaError::setting("field_px", format!("{} < 2", self.field_px)));
+            return Err(RetinaError::setting(
+                "field_px",
+                format!("{} < 2", self.field_px),
+            ));
         }
         if self.eye_motion.max_shift_px < 1 {
-            return Err(RetinaError::setting("eye_motion.max_shift_px", "must be ≥ 1"));
+            return Err(RetinaError::setting(
+                "eye_motion.max_shift_px",
+                "must be ≥ 1",
+            ));
         }
         let need = self.field_px + 2 * self.eye_motion.max_shift_px as usize;
         if self.scenes.tile_px < need {

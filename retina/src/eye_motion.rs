@@ -99,7 +99,10 @@ mod tests {
         }
         // Uniform: every value about 2000 times.
         assert!(seen.iter().all(|&c| (1700..2300).contains(&c)), "{seen:?}");
-        assert_eq!(normalise_shift([-15, 14], 512), [-15.0 / 256.0, 14.0 / 256.0]);
+        assert_eq!(
+            normalise_shift([-15, 14], 512),
+            [-15.0 / 256.0, 14.0 / 256.0]
+        );
         assert_eq!(EyeMotionConfig::scaled_for_field(128).max_shift_px, 4);
         assert_eq!(EyeMotionConfig::scaled_for_field(8).max_shift_px, 1);
     }

@@ -70,7 +70,7 @@ impl DogConfig {
     /// Kernel side: `ceil(6·σs)`, bumped to odd.
     pub fn kernel_size(&self) -> usize {
         let s = (6.0 * self.sigma_surround_cells).ceil().max(1.0) as usize;
-        if s % 2 == 0 {
+        if s.is_multiple_of(2) {
             s + 1
         } else {
             s
@@ -296,7 +296,11 @@ mod tests {
             let (mut a, mut b) = (vec![0.0; n * n], vec![0.0; n * n]);
             li.compute_direct(&x, &mut a);
             li.compute_fft(&x, &mut b);
-            let err = a.iter().zip(&b).map(|(p, q)| (p - q).abs()).fold(0.0f32, f32::max);
+            let err = a
+                .iter()
+                .zip(&b)
+                .map(|(p, q)| (p - q).abs())
+                .fold(0.0f32, f32::max);
             assert!(err <= 1e-6, "n {n}: max |direct − fft| = {err}");
         }
     }

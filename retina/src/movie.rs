@@ -132,7 +132,11 @@ mod tests {
             let r = Retina::new(RetinaConfig::preset(preset).unwrap()).unwrap();
             for seed in 0..4 {
                 let mut rng = StdRng::seed_from_u64(seed);
-                let cfg = MovieConfig { frames: 200, motion: None, noise_ratio: Some(1.0) };
+                let cfg = MovieConfig {
+                    frames: 200,
+                    motion: None,
+                    noise_ratio: Some(1.0),
+                };
                 let movie = r.movie(&mut rng, cfg);
                 let train = r.spikes(&movie);
                 let corr = pearson(&train.mean_on_minus_off, &movie.analog[0]);
@@ -153,11 +157,18 @@ mod tests {
         let mut rng = StdRng::seed_from_u64(3);
         let m = r.movie(
             &mut rng,
-            MovieConfig { frames: 50, motion: Some(r.config.eye_motion), noise_ratio: Some(0.0) },
+            MovieConfig {
+                frames: 50,
+                motion: Some(r.config.eye_motion),
+                noise_ratio: Some(0.0),
+            },
         );
         assert_eq!(m.ons.len(), 50);
         let room = (r.config.scenes.tile_px - r.config.field_px) as i32;
-        assert!(m.origins_px.iter().all(|o| o.iter().all(|v| (0..=room).contains(v))));
+        assert!(m
+            .origins_px
+            .iter()
+            .all(|o| o.iter().all(|v| (0..=room).contains(v))));
         assert!(m.origins_px.windows(2).any(|w| w[0] != w[1]));
         assert_eq!(m.ons, m.analog);
     }

@@ -48,7 +48,11 @@ pub struct Picture {
 impl Picture {
     /// A black picture.
     pub fn new(w: usize, h: usize) -> Self {
-        Picture { w, h, rgb: vec![0; 3 * w * h] }
+        Picture {
+            w,
+            h,
+            rgb: vec![0; 3 * w * h],
+        }
     }
 
     /// Nearest-neighbour enlargement by an integer factor.
@@ -71,7 +75,10 @@ impl Picture {
         let mut enc = png::Encoder::new(BufWriter::new(file), self.w as u32, self.h as u32);
         enc.set_color(png::ColorType::Rgb);
         enc.set_depth(png::BitDepth::Eight);
-        let err = |e: png::EncodingError| RetinaError::Png { path: path.to_path_buf(), message: e.to_string() };
+        let err = |e: png::EncodingError| RetinaError::Png {
+            path: path.to_path_buf(),
+            message: e.to_string(),
+        };
         let mut w = enc.write_header().map_err(err)?;
         w.write_image_data(&self.rgb).map_err(err)?;
         w.finish().map_err(err)
@@ -80,9 +87,14 @@ impl Picture {
 
 /// Write equally sized pictures as an animated PNG (`delay_ms` per frame, looping).
 pub fn write_apng(frames: &[Picture], delay_ms: u16, path: &Path) -> Result<()> {
-    let first = frames.first().ok_or_else(|| RetinaError::setting("apng", "no frames"))?;
+    let first = frames
+        .first()
+        .ok_or_else(|| RetinaError::setting("apng", "no frames"))?;
     let file = File::create(path).map_err(|e| RetinaError::io(path, e))?;
-    let err = |e: png::EncodingError| RetinaError::Png { path: path.to_path_buf(), message: e.to_string() };
+    let err = |e: png::EncodingError| RetinaError::Png {
+        path: path.to_path_buf(),
+        message: e.to_string(),
+    };
     let mut enc = png::Encoder::new(BufWriter::new(file), first.w as u32, first.h as u32);
     enc.set_color(png::ColorType::Rgb);
     enc.set_depth(png::BitDepth::Eight);
@@ -123,7 +135,12 @@ pub fn diverging(values: &[f32], n: usize, scale: f32) -> Picture {
 
 /// Display colour of a cone class.
 pub fn class_colour(name: &str, index: usize) -> [f32; 3] {
-    const PALETTE: [[f32; 3]; 4] = [[0.8, 0.3, 0.9], [0.2, 0.8, 0.8], [0.6, 0.6, 0.6], [0.9, 0.5, 0.6]];
+    const PALETTE: [[f32; 3]; 4] = [
+        [0.8, 0.3, 0.9],
+        [0.2, 0.8, 0.8],
+        [0.6, 0.6, 0.6],
+        [0.9, 0.5, 0.6],
+    ];
     match name {
         "L" => [0.95, 0.15, 0.15],
         "M" => [0.15, 0.8, 0.2],
@@ -142,7 +159,11 @@ fn max_abs(v: &[f32]) -> f32 {
 }
 
 /// Write every stage picture for `retina` (module docs). Returns the files written.
-pub fn write_stage_pictures<R: Rng + ?Sized>(retina: &Retina, rng: &mut R, out_dir: &Path) -> Result<Vec<PathBuf>> {
+pub fn write_stage_pictures<R: Rng + ?Sized>(
+    retina: &Retina,
+    rng: &mut R,
+    out_dir: &Path,
+) -> Result<Vec<PathBuf>> {
     std::fs::create_dir_all(out_dir).map_err(|e| RetinaError::io(out_dir, e))?;
     let n = retina.n();
     let nn = n * n;
@@ -155,7 +176,14 @@ pub fn write_stage_pictures<R: Rng + ?Sized>(retina: &Retina, rng: &mut R, out_d
         written.push(path);
         Ok(())
     };
-    let still = retina.movie(rng, MovieConfig { frames: SPIKE_PICTURE_FRAMES, motion: None, noise_ratio: None });
+    let still = retina.movie(
+        rng,
+        MovieConfig {
+            frames: SPIKE_PICTURE_FRAMES,
+            motion: None,
+            noise_ratio: None,
+        },
+    );
     let stack = retina.pool.tile(still.tile);
     let origin = still.origins_px[0];
     // 1. The scene field in sRGB.
@@ -164,15 +192,34 @@ pub fn write_stage_pictures<R: Rng + ?Sized>(retina: &Retina, rng: &mut R, out_d
     for y in 0..f {
         for x in 0..f {
             let i = (y + origin[1] as usize) * stack.w + x + origin[0] as usize;
-            let lms: Vec<f64> = proj.reference_lms.iter().map(|&p| stack.plane(0, p)[i] as f64).collect();
-            let rgb = [0, 1, 2].map(|r| (0..3).map(|c| lms[c] * proj.lms_to_rgb[c][r]).sum::<f64>().clamp(0.0, 1.0));
+            let lms: Vec<f64> = proj
+                .reference_lms
+                .iter()
+                .map(|&p| stack.plane(0, p)[i] as f64)
+                .collect();
+            let rgb = [0, 1, 2].map(|r| {
+                (0..3)
+                    .map(|c| lms[c] * proj.lms_to_rgb[c][r])
+                    .sum::<f64>()
+                    .clamp(0.0, 1.0)
+            });
             scene.rgb[3 * (y * f + x)..3 * (y * f + x) + 3].copy_from_slice(&to_u8(encode(rgb)));
         }
     }
-    save(&scene.enlarge(MIN_PICTURE_PX.div_ceil(f)), "1_scene_srgb.png", &mut written)?;
+    save(
+        &scene.enlarge(MIN_PICTURE_PX.div_ceil(f)),
+        "1_scene_srgb.png",
+        &mut written,
+    )?;
     // 2–3. The mosaic on the lattice and in the field.
     let k = retina.mosaic.n_classes();
-    let colours: Vec<[f32; 3]> = retina.mosaic.classes.iter().enumerate().map(|(i, c)| class_colour(&c.name, i)).collect();
+    let colours: Vec<[f32; 3]> = retina
+        .mosaic
+        .classes
+        .iter()
+        .enumerate()
+        .map(|(i, c)| class_colour(&c.name, i))
+        .collect();
     let mut lattice = Picture::new(n, n);
     let mut cone_rgb = vec![[0u8; 3]; nn];
     for (i, w) in retina.mosaic.weights.chunks(k).enumerate() {
@@ -185,15 +232,23 @@ pub fn write_stage_pictures<R: Rng + ?Sized>(retina: &Retina, rng: &mut R, out_d
         cone_rgb[i] = c.map(to_byte);
         lattice.rgb[3 * i..3 * i + 3].copy_from_slice(&cone_rgb[i]);
     }
-    save(&lattice.enlarge(factor), "2_mosaic_lattice.png", &mut written)?;
+    save(
+        &lattice.enlarge(factor),
+        "2_mosaic_lattice.png",
+        &mut written,
+    )?;
     let scale = MIN_PICTURE_PX.div_ceil(f).max(2);
     let mut field = Picture::new(f * scale, f * scale);
     for (i, p) in retina.layout.positions_px.iter().enumerate() {
-        let (cx, cy) = ((p[0] * scale as f32) as usize, (p[1] * scale as f32) as usize);
+        let (cx, cy) = (
+            (p[0] * scale as f32) as usize,
+            (p[1] * scale as f32) as usize,
+        );
         for dy in 0..scale.div_ceil(2) {
             for dx in 0..scale.div_ceil(2) {
                 let (x, y) = ((cx + dx).min(field.w - 1), (cy + dy).min(field.h - 1));
-                field.rgb[3 * (y * field.w + x)..3 * (y * field.w + x) + 3].copy_from_slice(&cone_rgb[i]);
+                field.rgb[3 * (y * field.w + x)..3 * (y * field.w + x) + 3]
+                    .copy_from_slice(&cone_rgb[i]);
             }
         }
     }
@@ -202,8 +257,16 @@ pub fn write_stage_pictures<R: Rng + ?Sized>(retina: &Retina, rng: &mut R, out_d
     let mut act = vec![0.0f32; nn];
     retina.cones.compute(stack, origin, &mut act);
     let amax = act.iter().copied().fold(0.0f32, f32::max).max(1e-12);
-    save(&grey(&act, n, amax).enlarge(factor), "4_cone_activations.png", &mut written)?;
-    save(&diverging(&still.analog[0], n, max_abs(&still.analog[0])).enlarge(factor), "5_bipolar.png", &mut written)?;
+    save(
+        &grey(&act, n, amax).enlarge(factor),
+        "4_cone_activations.png",
+        &mut written,
+    )?;
+    save(
+        &diverging(&still.analog[0], n, max_abs(&still.analog[0])).enlarge(factor),
+        "5_bipolar.png",
+        &mut written,
+    )?;
     // 6–8. Spikes.
     let train = retina.spikes(&still);
     let mut on_rate = vec![0.0f32; nn];
@@ -214,9 +277,22 @@ pub fn write_stage_pictures<R: Rng + ?Sized>(retina: &Retina, rng: &mut R, out_d
             off_rate[i] += b[i] / train.on.len() as f32;
         }
     }
-    let rmax = on_rate.iter().chain(&off_rate).copied().fold(0.0f32, f32::max).max(1e-12);
-    save(&grey(&on_rate, n, rmax).enlarge(factor), "6_on_spike_rate.png", &mut written)?;
-    save(&grey(&off_rate, n, rmax).enlarge(factor), "7_off_spike_rate.png", &mut written)?;
+    let rmax = on_rate
+        .iter()
+        .chain(&off_rate)
+        .copied()
+        .fold(0.0f32, f32::max)
+        .max(1e-12);
+    save(
+        &grey(&on_rate, n, rmax).enlarge(factor),
+        "6_on_spike_rate.png",
+        &mut written,
+    )?;
+    save(
+        &grey(&off_rate, n, rmax).enlarge(factor),
+        "7_off_spike_rate.png",
+        &mut written,
+    )?;
     let last = train.on.len() - 1;
     let mut frame = Picture::new(n, n);
     for i in 0..nn {
@@ -225,16 +301,32 @@ pub fn write_stage_pictures<R: Rng + ?Sized>(retina: &Retina, rng: &mut R, out_d
     }
     save(&frame.enlarge(factor), "8_spikes_frame.png", &mut written)?;
     // 9. The ONS.
-    save(&diverging(&still.ons[0], n, max_abs(&still.ons[0])).enlarge(factor), "9_ons.png", &mut written)?;
+    save(
+        &diverging(&still.ons[0], n, max_abs(&still.ons[0])).enlarge(factor),
+        "9_ons.png",
+        &mut written,
+    )?;
     // The ONS under eye motion.
     let moving = retina.movie(
         rng,
-        MovieConfig { frames: MOTION_PICTURE_FRAMES, motion: Some(retina.config.eye_motion), noise_ratio: None },
+        MovieConfig {
+            frames: MOTION_PICTURE_FRAMES,
+            motion: Some(retina.config.eye_motion),
+            noise_ratio: None,
+        },
     );
     let seq_dir = out_dir.join("ons_motion");
     std::fs::create_dir_all(&seq_dir).map_err(|e| RetinaError::io(&seq_dir, e))?;
-    let s = moving.ons.iter().map(|fr| max_abs(fr)).fold(0.0f32, f32::max);
-    let frames: Vec<Picture> = moving.ons.iter().map(|fr| diverging(fr, n, s).enlarge(factor)).collect();
+    let s = moving
+        .ons
+        .iter()
+        .map(|fr| max_abs(fr))
+        .fold(0.0f32, f32::max);
+    let frames: Vec<Picture> = moving
+        .ons
+        .iter()
+        .map(|fr| diverging(fr, n, s).enlarge(factor))
+        .collect();
     for (t, pic) in frames.iter().enumerate() {
         let path = seq_dir.join(format!("frame_{t:03}.png"));
         pic.write_png(&path)?;
@@ -255,7 +347,11 @@ mod tests {
 
     #[test]
     fn stage_pictures_are_written_and_decode() {
-        let r = Retina::new(RetinaConfig { cones: "LMSQ".into(), ..RetinaConfig::tiny() }).unwrap();
+        let r = Retina::new(RetinaConfig {
+            cones: "LMSQ".into(),
+            ..RetinaConfig::tiny()
+        })
+        .unwrap();
         let dir = std::env::temp_dir().join(format!("retina-pictures-{}", std::process::id()));
         let files = write_stage_pictures(&r, &mut StdRng::seed_from_u64(0), &dir).unwrap();
         assert_eq!(files.len(), 9 + MOTION_PICTURE_FRAMES + 1);
@@ -264,10 +360,15 @@ mod tests {
             let info = dec.read_info().unwrap();
             assert!(info.info().width >= 64, "{}", f.display());
         }
-        let anim = png::Decoder::new(std::io::BufReader::new(File::open(dir.join("ons_motion.png")).unwrap()))
-            .read_info()
-            .unwrap();
-        assert_eq!(anim.info().animation_control().map(|a| a.num_frames), Some(MOTION_PICTURE_FRAMES as u32));
+        let anim = png::Decoder::new(std::io::BufReader::new(
+            File::open(dir.join("ons_motion.png")).unwrap(),
+        ))
+        .read_info()
+        .unwrap();
+        assert_eq!(
+            anim.info().animation_control().map(|a| a.num_frames),
+            Some(MOTION_PICTURE_FRAMES as u32)
+        );
         // The mosaic picture uses all four class colours.
         let m = RgbImage8::read(&dir.join("2_mosaic_lattice.png"));
         let amber = m.chunks(3).any(|c| c == [255, 179, 0]);
@@ -278,7 +379,9 @@ mod tests {
     struct RgbImage8;
     impl RgbImage8 {
         fn read(p: &Path) -> Vec<u8> {
-            let mut r = png::Decoder::new(std::io::BufReader::new(File::open(p).unwrap())).read_info().unwrap();
+            let mut r = png::Decoder::new(std::io::BufReader::new(File::open(p).unwrap()))
+                .read_info()
+                .unwrap();
             let mut buf = vec![0; r.output_buffer_size().unwrap()];
             r.next_frame(&mut buf).unwrap();
             buf

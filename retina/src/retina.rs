@@ -34,7 +34,7 @@ use crate::eye_motion::normalise_shift;
 use crate::foveation::{ConeLayout, ConeSampler, MipStack};
 use crate::lateral_inhibition::{add_multiplicative_noise, LateralInhibition};
 use crate::mosaic::Mosaic;
-use crate::scene::pool::{SceneProjection, ScenePool};
+use crate::scene::pool::{ScenePool, SceneProjection};
 use crate::scene::{ClassPlanes, SpectralImage};
 
 /// One training batch (module docs).
@@ -110,7 +110,9 @@ impl Retina {
         let sampler = ConeSampler::compute(&layout);
         let levels = sampler.levels_needed();
         let cones = Cones::new(&mosaic, sampler);
-        let lateral_inhibition = config.lateral_inhibition.map(|c| LateralInhibition::new(c, n));
+        let lateral_inhibition = config
+            .lateral_inhibition
+            .map(|c| LateralInhibition::new(c, n));
         let projection = SceneProjection::new(&mosaic.classes, &config.template, &grid)?;
         let mut rng = SmallRng::seed_from_u64(config.scene_seed);
         let pool = ScenePool::new(config.scenes.clone(), projection, levels, &mut rng)?;
@@ -141,7 +143,13 @@ impl Retina {
 
     /// Noise-free encoding of one frame: class planes of `stack` sampled at the cones with the
     /// field's top-left at `origin`, then LI. `act` and `out` are `(n, n)` buffers.
-    pub fn encode_frame(&self, stack: &MipStack, origin: [i32; 2], act: &mut [f32], out: &mut [f32]) {
+    pub fn encode_frame(
+        &self,
+        stack: &MipStack,
+        origin: [i32; 2],
+        act: &mut [f32],
+        out: &mut [f32],
+    ) {
         self.cones.compute(stack, origin, act);
         match &self.lateral_inhibition {
             Some(li) => li.compute(act, out),
@@ -180,7 +188,13 @@ impl Retina {
     /// Noise-free ONS `(n, n)` of class planes at least `field_px` on each side, field at the
     /// top-left. Linear in the planes.
     pub fn encode_planes(&self, planes: &ClassPlanes) -> Vec<f32> {
-        let stack = MipStack::compute(&planes.planes, planes.n_planes, planes.h, planes.w, self.pool.levels);
+        let stack = MipStack::compute(
+            &planes.planes,
+            planes.n_planes,
+            planes.h,
+            planes.w,
+            self.pool.levels,
+        );
         let nn = self.n() * self.n();
         let (mut act, mut out) = (vec![0.0; nn], vec![0.0; nn]);
         self.encode_frame(&stack, [0, 0], &mut act, &mut out);
@@ -200,9 +214,14 @@ impl Retina {
     }
 
     /// [`Retina::batch`] into a reused buffer.
-    pub fn batch_into<R: Rng + ?Sized>(&mut self, rng: &mut R, batch_size: usize, out: &mut OnsBatch) {
+    pub fn batch_into<R: Rng + ?Sized>(
+        &mut self,
+        rng: &mut R,
+        batch_size: usize,
+        out: &mut OnsBatch,
+    ) {
         let refresh = self.config.scenes.refresh_every_batches;
-        if refresh > 0 && self.batches_done > 0 && self.batches_done % refresh == 0 {
+        if refresh > 0 && self.batches_done > 0 && self.batches_done.is_multiple_of(refresh) {
             let mut r = SmallRng::seed_from_u64(rng.random());
             self.pool
                 .refresh_one(&mut r)
@@ -225,8 +244,10 @@ impl Retina {
         for _ in 0..batch_size {
             out.tiles.push(rng.random_range(0..self.pool.len()));
             let (lo, hi) = (m, tile_px - f - m);
-            out.origins_px.push([rng.random_range(lo..=hi), rng.random_range(lo..=hi)]);
-            out.oracle_shift_px.push(self.config.eye_motion.draw_shift(rng));
+            out.origins_px
+                .push([rng.random_range(lo..=hi), rng.random_range(lo..=hi)]);
+            out.oracle_shift_px
+                .push(self.config.eye_motion.draw_shift(rng));
             seeds.push(rng.random::<u64>());
         }
         out.oracle_shift_normalised = out
@@ -267,12 +288,16 @@ impl Retina {
             let stack = self.pool.tile(batch.tiles[b]);
             let o = self.frame_origin(batch, b, frame);
             for (c, buf) in lms.iter_mut().enumerate() {
-                self.cones.sampler.sample_plane(stack, proj.reference_lms[c], o, buf);
+                self.cones
+                    .sampler
+                    .sample_plane(stack, proj.reference_lms[c], o, buf);
             }
             for r in 0..3 {
                 let dst = &mut out[(b * 3 + r) * nn..(b * 3 + r + 1) * nn];
                 for (i, v) in dst.iter_mut().enumerate() {
-                    *v = (0..3).map(|c| lms[c][i] as f64 * proj.lms_to_rgb[c][r]).sum::<f64>() as f32;
+                    *v = (0..3)
+                        .map(|c| lms[c][i] as f64 * proj.lms_to_rgb[c][r])
+                        .sum::<f64>() as f32;
                 }
             }
         }
@@ -303,7 +328,9 @@ impl Retina {
 
     /// The true DoG kernel `(size, size)` and its side, if LI is on.
     pub fn dog_kernel(&self) -> Option<(&[f64], usize)> {
-        self.lateral_inhibition.as_ref().map(|li| (li.kernel.as_slice(), li.size))
+        self.lateral_inhibition
+            .as_ref()
+            .map(|li| (li.kernel.as_slice(), li.size))
     }
 }
 

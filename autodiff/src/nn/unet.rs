@@ -110,8 +110,8 @@ impl DoubleConv {
     fn forward<T: Float>(&self, tape: &mut Tape<T>, param: &mut ParamFn<'_, T>, mut x: Var) -> Var {
         for &id in &self.w {
             let w = param(tape, id);
-            let y = tape.conv2d(x, w, Padding::Reflect);
-            x = tape.relu(y);
+            // One fused op: relu(conv2d(x, w)).
+            x = tape.conv2d_relu(x, w, Padding::Reflect);
         }
         x
     }

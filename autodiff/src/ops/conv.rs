@@ -12,14 +12,19 @@
 //! Both declare their kernel as the weight input (`weight_inputs() == [1]`), so feedback
 //! alignment can substitute a fixed random kernel in backward.
 //!
-//! Implementation: each image is copied once into a padded buffer; row tiles of the output
-//! are computed at padded width so that every row of the column matrix (`Cin·k² × pixels`,
-//! see [`lowering`]) is one contiguous window of that buffer, and each tile is one faer GEMM
-//! `W (Cout × Cin·k²) · col`. Backward re-gathers `col` for `∂W += dy · colᵀ`, and scatters
-//! `dcol = Wᵀ · dy` back through the exact adjoints of the gather and the padding (so reflect
-//! borders fold their gradient onto the interior). Images run in parallel on rayon with
-//! sequential GEMMs inside; a single image runs on the calling thread so faer may thread its
-//! GEMMs. Scratch comes from a reused stash: nothing large is allocated per call once warm.
+//! `conv2d_relu(x, w, padding)` is `relu(conv2d(x, w, padding))` as one op (the U-Net's
+//! building block): the ReLU is applied while the output is written, and its backward masks
+//! `dy` by `y > 0` while `dy` is being re-laid out anyway, so it costs no extra pass.
+//!
+//! Implementation (see [`lowering`]): each image is copied once into a padded buffer; the
+//! output is then `k²` accumulating faer GEMMs (inner size `Cin`) over shifted strided views of
+//! that buffer, per row tile so the working set stays in L2 — no column matrix.
+//! Backward computes `∂w` the same way against `dy` expanded to padded width, and `∂x` as a
+//! full correlation of a zero-padded copy of `dy` with the flipped kernel (again `k²`
+//! GEMMs per tile), folded back through the adjoint of the padding (reflect borders fold their
+//! gradient onto the interior). Images run in parallel on rayon with sequential GEMMs inside;
+//! a single image runs on the calling thread so faer may thread its GEMMs. Scratch comes from
+//! a reused stash, and the output is not zero-filled first ([`Op::overwrites_output`]).
 
 mod lowering;
 mod transpose;
@@ -27,18 +32,22 @@ mod transpose;
 pub use lowering::Padding;
 pub use transpose::ConvTranspose2x2;
 
+use crate::gemm::MatView;
 use crate::{BackwardCx, Float, GradSlots, Op, Shape, Tape, Tensor, Var};
 use lowering::{tiles, Geometry, Scratch};
 use rayon::prelude::*;
 
 /// Op names of this file (registry rule, see [`crate::ops`]).
-pub const OPS: &[&str] = &["conv2d", "conv_transpose2x2"];
+pub const OPS: &[&str] = &["conv2d", "conv2d_relu", "conv_transpose2x2"];
 
-/// Stride-1 "same" 2-D cross-correlation with an odd square kernel (see the module docs).
+/// Stride-1 "same" 2-D cross-correlation with an odd square kernel, optionally followed by
+/// ReLU (see the module docs).
 #[derive(Clone, Debug)]
 pub struct Conv2d {
     /// What the kernel reads outside the image.
     pub padding: Padding,
+    /// Apply `max(·, 0)` to the output (op name `"conv2d_relu"`).
+    pub relu: bool,
 }
 
 impl Conv2d {
@@ -78,7 +87,11 @@ fn check_conv_shapes(x: Shape, w: Shape, padding: Padding) {
 
 impl<T: Float> Op<T> for Conv2d {
     fn name(&self) -> &'static str {
-        "conv2d"
+        if self.relu {
+            "conv2d_relu"
+        } else {
+            "conv2d"
+        }
     }
 
     fn output_shape(&self, inputs: &[&Tensor<T>]) -> Shape {
@@ -91,22 +104,31 @@ impl<T: Float> Op<T> for Conv2d {
     fn forward(&mut self, inputs: &[&Tensor<T>], out: &mut Tensor<T>) {
         let (x, w) = (inputs[0], inputs[1]);
         let (_, co, g) = self.geometry(x, w);
-        let (hw, kk) = (g.h * g.w, g.col_rows());
-        let ws = w.data();
+        let (hw, kk, cc) = (g.h * g.w, g.k * g.k, co * g.c);
+        let relu = self.relu;
         let images = out
             .data_mut()
             .chunks_mut(co * hw)
             .zip(x.data().chunks(g.c * hw));
         if g.k == 1 {
-            // A 1×1 kernel needs no gathering: y_b = W · x_b.
+            // A 1×1 kernel needs no padding: y_b = W · x_b.
+            let ws = w.data();
             for_each_image(
                 images,
                 || (),
-                |_, (y, x)| T::gemm(y, false, ws, false, x, false, co, hw, g.c, T::one()),
+                |_, (y, x)| {
+                    T::gemm(y, false, ws, false, x, false, co, hw, g.c, T::one());
+                    if relu {
+                        y.iter_mut().for_each(|v| *v = v.max(T::zero()));
+                    }
+                },
             );
             return;
         }
-        let tl = tiles(&g);
+        let mut wf = Scratch::<T>::take(cc * kk);
+        g.forward_weights(co, w.data(), &mut wf);
+        let wf = &*wf;
+        let tl = tiles(g.h, g.wp() * (co + g.c));
         let max_n = tl
             .iter()
             .map(|&(r0, r1)| (r1 - r0) * g.wp())
@@ -115,18 +137,18 @@ impl<T: Float> Op<T> for Conv2d {
         let bufs = || {
             [
                 Scratch::<T>::take(g.padded_len()),
-                Scratch::take(kk * max_n),
                 Scratch::take(co * max_n),
             ]
         };
-        for_each_image(images, bufs, |[xp, col, yt], (y, x)| {
+        for_each_image(images, bufs, |[xp, yt], (y, x)| {
             g.pad(x, xp);
             for &(r0, r1) in &tl {
-                let n = (r1 - r0) * g.wp();
-                let (col, yt) = (&mut col[..kk * n], &mut yt[..co * n]);
-                g.im2col(xp, r0, r1, col);
-                T::gemm(yt, false, ws, false, col, false, co, n, kk, T::one());
-                g.compact(yt, r0, r1, y);
+                let yt = &mut yt[..co * (r1 - r0) * g.wp()];
+                for t in 0..kk {
+                    let wt = MatView::row_major(&wf[t * cc..][..cc], co, g.c);
+                    T::gemm_view(yt, t > 0, wt, g.x_view(xp, t, r0, r1), T::one());
+                }
+                g.compact(yt, r0, r1, y, relu);
             }
         });
     }
@@ -134,83 +156,132 @@ impl<T: Float> Op<T> for Conv2d {
     fn backward(&self, cx: &BackwardCx<'_, T>, dx: &mut GradSlots<'_, T>) {
         let (x, w, dy) = (cx.inputs[0], cx.inputs[1], cx.dy);
         let (batch, co, g) = self.geometry(x, w);
-        let (hw, kk) = (g.h * g.w, g.col_rows());
-        let (ws, want_w) = (w.data(), dx.wants(1));
+        let (hw, kk, cc) = (g.h * g.w, g.k * g.k, co * g.c);
+        let want_w = dx.wants(1);
+        let masks: Vec<Option<&[T]>> = if self.relu {
+            cx.output.data().chunks(co * hw).map(Some).collect()
+        } else {
+            vec![None; batch]
+        };
         let mut gx: Vec<Option<&mut [T]>> = match dx.slot_data(0) {
             Some(s) => s.chunks_mut(g.c * hw).map(Some).collect(),
             None => (0..batch).map(|_| None).collect(),
         };
+        let want_x = gx.first().is_some_and(|g| g.is_some());
         let images = gx
             .iter_mut()
             .zip(x.data().chunks(g.c * hw))
-            .zip(dy.data().chunks(co * hw));
+            .zip(dy.data().chunks(co * hw))
+            .zip(masks);
         let partials: Vec<Scratch<T>> = if g.k == 1 {
-            for_each_image_fold(
-                images,
-                || Scratch::<T>::zeroed(co * kk),
-                |dw, ((gx, x), dy)| {
-                    if let Some(gx) = gx.as_deref_mut() {
-                        T::gemm(gx, true, ws, true, dy, false, g.c, hw, co, T::one());
+            let ws = w.data();
+            let bufs = || {
+                let masked = if self.relu { co * hw } else { 0 };
+                (Scratch::<T>::zeroed(cc), Scratch::<T>::take(masked))
+            };
+            let parts = for_each_image_fold(images, bufs, |(dw, dym), (((gx, x), dy), mask)| {
+                let dy = match mask {
+                    Some(y) => {
+                        for ((d, &g), &y) in dym.iter_mut().zip(dy).zip(y) {
+                            *d = if y > T::zero() { g } else { T::zero() };
+                        }
+                        &dym[..]
                     }
-                    if want_w {
-                        T::gemm(dw, true, dy, false, x, true, co, g.c, hw, T::one());
-                    }
-                },
-            )
+                    None => dy,
+                };
+                if let Some(gx) = gx.as_deref_mut() {
+                    T::gemm(gx, true, ws, true, dy, false, g.c, hw, co, T::one());
+                }
+                if want_w {
+                    T::gemm(dw, true, dy, false, x, true, co, g.c, hw, T::one());
+                }
+            });
+            parts.into_iter().map(|(dw, _)| dw).collect()
         } else {
-            let tl = tiles(&g);
-            let max_n = tl
+            let mut wb = Scratch::<T>::take(if want_x { cc * kk } else { 0 });
+            if want_x {
+                g.backward_weights(co, w.data(), &mut wb);
+            }
+            let wb = &*wb;
+            let tw = tiles(g.h, g.wp() * (co + g.c));
+            let max_w = tw
                 .iter()
                 .map(|&(r0, r1)| (r1 - r0) * g.wp())
                 .max()
                 .unwrap_or(0);
+            let (u_lo, u_hi) = g.grad_rows();
+            let tx: Vec<(usize, usize)> = tiles(u_hi - u_lo, g.wz() * (co + g.c))
+                .into_iter()
+                .map(|(a, b)| (a + u_lo, b + u_lo))
+                .collect();
+            let max_x = tx
+                .iter()
+                .map(|&(u0, u1)| (u1 - u0) * g.wz())
+                .max()
+                .unwrap_or(0);
             let bufs = || {
-                let b = [
-                    Scratch::<T>::take(g.padded_len()),
-                    Scratch::take(kk * max_n),
-                    Scratch::take(co * max_n),
-                ];
+                let (xw, xx) = (usize::from(want_w), usize::from(want_x));
                 (
-                    b,
-                    Scratch::<T>::take(g.padded_len()),
-                    Scratch::<T>::zeroed(co * kk),
+                    [
+                        Scratch::<T>::take(xw * g.padded_len()),
+                        Scratch::take(xw * co * max_w),
+                        Scratch::take(xx * g.dyz_len(co)),
+                        Scratch::take(xx * g.c * max_x),
+                    ],
+                    Scratch::<T>::zeroed(xw * cc * kk),
                 )
             };
-            let parts =
-                for_each_image_fold(images, bufs, |([xp, col, dyt], dxp, dw), ((gx, x), dy)| {
+            let parts = for_each_image_fold(
+                images,
+                bufs,
+                |([xp, dyt, dyz, dxt], dwf), (((gx, x), dy), mask)| {
                     if want_w {
                         g.pad(x, xp);
-                    }
-                    if gx.is_some() {
-                        dxp.fill(T::zero());
-                    }
-                    for &(r0, r1) in &tl {
-                        let n = (r1 - r0) * g.wp();
-                        let (col, dyt) = (&mut col[..kk * n], &mut dyt[..co * n]);
-                        g.expand(dy, r0, r1, dyt);
-                        if want_w {
-                            g.im2col(xp, r0, r1, col);
-                            T::gemm(dw, true, dyt, false, col, true, co, kk, n, T::one());
-                        }
-                        if gx.is_some() {
-                            T::gemm(col, false, ws, true, dyt, false, kk, n, co, T::one());
-                            g.col2im_add(col, r0, r1, dxp);
+                        for &(r0, r1) in &tw {
+                            let n = (r1 - r0) * g.wp();
+                            let dyt = &mut dyt[..co * n];
+                            g.expand(co, dy, mask, r0, r1, dyt);
+                            for t in 0..kk {
+                                let dwt = &mut dwf[t * cc..][..cc];
+                                let dyv = MatView::row_major(&dyt[..], co, n);
+                                T::gemm_view(dwt, true, dyv, g.xt_view(xp, t, r0, r1), T::one());
+                            }
                         }
                     }
                     if let Some(gx) = gx.as_deref_mut() {
-                        g.fold_add(dxp, gx);
+                        g.pad_dy(co, dy, mask, dyz);
+                        for &(u0, u1) in &tx {
+                            let dxt = &mut dxt[..g.c * (u1 - u0) * g.wz()];
+                            for t in 0..kk {
+                                let wt = MatView::row_major(&wb[t * cc..][..cc], g.c, co);
+                                let z = g.z_view(co, dyz, t, u0, u1);
+                                T::gemm_view(dxt, t > 0, wt, z, T::one());
+                            }
+                            g.fold_rows_add(dxt, u0, u1, gx);
+                        }
                     }
-                });
-            parts.into_iter().map(|(_, _, dw)| dw).collect()
+                },
+            );
+            parts.into_iter().map(|(_, dw)| dw).collect()
         };
         drop(gx);
         if let (true, Some(gw)) = (want_w, dx.slot_data(1)) {
-            for p in &partials {
-                for (a, &v) in gw.iter_mut().zip(p.iter()) {
-                    *a += v;
+            let mut parts = partials.into_iter();
+            if let Some(mut total) = parts.next() {
+                for p in parts {
+                    total.iter_mut().zip(p.iter()).for_each(|(a, &b)| *a += b);
+                }
+                if g.k == 1 {
+                    gw.iter_mut().zip(total.iter()).for_each(|(a, &b)| *a += b);
+                } else {
+                    g.add_weight_grad(co, &total, gw);
                 }
             }
         }
+    }
+
+    fn overwrites_output(&self) -> bool {
+        true
     }
 
     fn weight_inputs(&self) -> &'static [usize] {
@@ -265,7 +336,26 @@ impl<T: Float> Tape<T> {
     /// `w (Cout, Cin, k, k)`, `k` odd, no bias → `(B, Cout, H, W)`. See [`Conv2d`].
     #[track_caller]
     pub fn conv2d(&mut self, x: Var, w: Var, padding: Padding) -> Var {
-        self.apply(Conv2d { padding }, &[x, w])
+        self.apply(
+            Conv2d {
+                padding,
+                relu: false,
+            },
+            &[x, w],
+        )
+    }
+
+    /// `relu(conv2d(x, w, padding))` as one op: same shapes as [`Tape::conv2d`], no extra
+    /// pass for the ReLU in forward or backward. See [`Conv2d`].
+    #[track_caller]
+    pub fn conv2d_relu(&mut self, x: Var, w: Var, padding: Padding) -> Var {
+        self.apply(
+            Conv2d {
+                padding,
+                relu: true,
+            },
+            &[x, w],
+        )
     }
 
     /// Transposed convolution, kernel 2, stride 2: `x (B, Cin, H, W)`, `w (Cin, Cout, 2, 2)` →

@@ -156,40 +156,26 @@ fn gather_columns<T: Float>(
     }
 }
 
-/// `dst[:, c0..c0 + nc] (=|+=) scale · block`, the inverse of [`gather_columns`].
-#[inline(always)]
-fn scatter_columns<T: Float>(
-    block: &[Complex<T>],
+/// `dst (nr × cols) (=|+=) scale · src[:, r0..r0 + nr]ᵀ` for the `rows × cols` matrix `src`:
+/// the rows `r0..` of the transpose, written row after row (sequential writes, whole-line reads).
+fn transpose_rows<T: Float>(
+    src: &[Complex<T>],
     dst: &mut [Complex<T>],
-    (h, w): (usize, usize),
-    c0: usize,
-    nc: usize,
+    (rows, cols): (usize, usize),
+    r0: usize,
     scale: T,
     accumulate: bool,
 ) {
-    if nc == COLS {
-        let mut cols: [&[Complex<T>]; COLS] = [&[]; COLS];
-        for (slot, col) in cols.iter_mut().zip(block.chunks_exact(h)) {
-            *slot = col;
-        }
-        for (r, line) in dst.chunks_exact_mut(w).enumerate() {
-            let line: &mut [Complex<T>; COLS] = (&mut line[c0..c0 + COLS]).try_into().expect("COLS");
-            let v: [Complex<T>; COLS] = std::array::from_fn(|j| cols[j][r] * scale);
-            if accumulate {
-                for j in 0..COLS {
-                    line[j] = line[j] + v[j];
-                }
+    let nr = dst.len() / rows.max(1);
+    for (c, line) in src.chunks_exact(cols).enumerate() {
+        let seg = &line[r0..r0 + nr];
+        for (j, &v) in seg.iter().enumerate() {
+            let d = &mut dst[j * rows + c];
+            *d = if accumulate {
+                *d + v * scale
             } else {
-                *line = v;
-            }
-        }
-    } else {
-        for r in 0..h {
-            let line = &mut dst[r * w + c0..][..nc];
-            for (j, d) in line.iter_mut().enumerate() {
-                let v = block[j * h + r] * scale;
-                *d = if accumulate { *d + v } else { v };
-            }
+                v * scale
+            };
         }
     }
 }
@@ -210,7 +196,11 @@ pub(crate) fn dft2<T: Float>(
     scale: T,
     accumulate: bool,
 ) {
-    assert_eq!(src.len(), dst.len(), "dft2: source and destination lengths differ");
+    assert_eq!(
+        src.len(),
+        dst.len(),
+        "dft2: source and destination lengths differ"
+    );
     let plane = h * w;
     if plane == 0 || src.is_empty() {
         return;
@@ -218,19 +208,30 @@ pub(crate) fn dft2<T: Float>(
     let (fft_w, fft_h) = (plan::<T>(w, inverse), plan::<T>(h, inverse));
     let scratch_len = fft_w
         .get_immutable_scratch_len()
-        .max(fft_h.get_inplace_scratch_len());
+        .max(fft_h.get_outofplace_scratch_len());
     let one_image = |(src, dst): (&[T], &mut [T])| {
         let (src, dst) = (as_complex(src), as_complex_mut(dst));
-        with_scratch::<T, _>(scratch_len + plane + COLS * h, |buf| {
+        // When overwriting, `dst` itself holds the row FFTs, which keeps the working set
+        // (source, destination, transposed spectrum) within a core's L2 cache at 256².
+        let temp = if accumulate { plane } else { 0 };
+        with_scratch::<T, _>(scratch_len + plane + temp + COLS * h, |buf| {
             let (scratch, rest) = buf.split_at_mut(scratch_len);
-            let (rows, block) = rest.split_at_mut(plane);
+            // `colmaj` is the transposed spectrum (W × H): image column `c` is its row `c`.
+            let (colmaj, rest) = rest.split_at_mut(plane);
+            let (block, rest) = rest.split_at_mut(COLS * h);
+            let rows: &mut [Complex<T>] = if accumulate { rest } else { &mut *dst };
             fft_w.process_immutable_with_scratch(src, rows, scratch);
             for c0 in (0..w).step_by(COLS) {
                 let nc = COLS.min(w - c0);
                 let block = &mut block[..nc * h];
                 gather_columns(rows, block, (h, w), c0, nc);
-                fft_h.process_with_scratch(block, scratch);
-                scatter_columns(block, dst, (h, w), c0, nc, scale, accumulate);
+                let out = &mut colmaj[c0 * h..][..nc * h];
+                fft_h.process_outofplace_with_scratch(block, out, scratch);
+            }
+            for r0 in (0..h).step_by(COLS) {
+                let nr = COLS.min(h - r0);
+                let out = &mut dst[r0 * w..][..nr * w];
+                transpose_rows(colmaj, out, (w, h), r0, scale, accumulate);
             }
         });
     };
@@ -541,42 +542,76 @@ mod tmp_timing {
     #[ignore]
     fn tmp_time_dft2() {
         let (h, w) = (256, 256);
-        let x: Vec<f32> = (0..8 * 2 * h * w).map(|i| (i as f32 * 0.37).sin()).collect();
+        let x: Vec<f32> = (0..8 * 2 * h * w)
+            .map(|i| (i as f32 * 0.37).sin())
+            .collect();
         let mut y = vec![0f32; x.len()];
-        for _ in 0..3 { dft2(&x, &mut y, (h, w), false, 1.0, false); }
+        for _ in 0..3 {
+            dft2(&x, &mut y, (h, w), false, 1.0, false);
+        }
         let t = std::time::Instant::now();
-        for _ in 0..20 { dft2(&x, &mut y, (h, w), false, 1.0, false); }
+        for _ in 0..20 {
+            dft2(&x, &mut y, (h, w), false, 1.0, false);
+        }
         eprintln!("dft2 8x256^2 par: {:?}", t.elapsed() / 20);
         let one = &x[..2 * h * w];
         let mut yo = vec![0f32; one.len()];
         let t = std::time::Instant::now();
-        for _ in 0..50 { dft2(one, &mut yo, (h, w), false, 1.0, false); }
+        for _ in 0..50 {
+            dft2(one, &mut yo, (h, w), false, 1.0, false);
+        }
         eprintln!("dft2 1x256^2: {:?}", t.elapsed() / 50);
         let f = plan::<f32>(256, false);
         let mut buf: Vec<Complex<f32>> = as_complex(one).to_vec();
         let mut scratch = vec![Complex::new(0f32, 0.0); f.get_inplace_scratch_len()];
         let t = std::time::Instant::now();
-        for _ in 0..50 { f.process_with_scratch(&mut buf, &mut scratch); }
+        for _ in 0..50 {
+            f.process_with_scratch(&mut buf, &mut scratch);
+        }
         eprintln!("256 row ffts in place: {:?}", t.elapsed() / 50);
         let mut out = buf.clone();
         let mut scratch = vec![Complex::new(0f32, 0.0); f.get_immutable_scratch_len()];
         let t = std::time::Instant::now();
-        for _ in 0..50 { f.process_immutable_with_scratch(&buf, &mut out, &mut scratch); }
+        for _ in 0..50 {
+            f.process_immutable_with_scratch(&buf, &mut out, &mut scratch);
+        }
         eprintln!("256 row ffts immutable: {:?}", t.elapsed() / 50);
         let mut scratch = vec![Complex::new(0f32, 0.0); f.get_outofplace_scratch_len()];
         let t = std::time::Instant::now();
-        for _ in 0..50 { f.process_outofplace_with_scratch(&mut buf, &mut out, &mut scratch); }
+        for _ in 0..50 {
+            f.process_outofplace_with_scratch(&mut buf, &mut out, &mut scratch);
+        }
         eprintln!("256 row ffts outofplace: {:?}", t.elapsed() / 50);
         let mut block = vec![Complex::new(0f32, 0.0); 8 * h];
         let t = std::time::Instant::now();
-        for _ in 0..50 { for c0 in (0..w).step_by(8) { gather_columns(&buf, &mut block, (h, w), c0, 8); } }
+        for _ in 0..50 {
+            for c0 in (0..w).step_by(8) {
+                gather_columns(&buf, &mut block, (h, w), c0, 8);
+            }
+        }
         eprintln!("gather: {:?}", t.elapsed() / 50);
         let t = std::time::Instant::now();
-        for _ in 0..50 { for c0 in (0..w).step_by(8) { scatter_columns(&block, &mut out, (h, w), c0, 8, 1.0, false); } }
-        eprintln!("scatter: {:?}", t.elapsed() / 50);
+        for _ in 0..50 {
+            for r0 in (0..h).step_by(8) {
+                transpose_rows(&buf, &mut out[r0 * w..][..8 * w], (w, h), r0, 1.0, false);
+            }
+        }
+        eprintln!("transpose_rows: {:?}", t.elapsed() / 50);
+        let t = std::time::Instant::now();
+        for _ in 0..50 {
+            for r0 in (0..h).step_by(8) {
+                transpose_rows(&buf, &mut out[r0 * w..][..8 * w], (w, h), r0, 1.0, true);
+            }
+        }
+        eprintln!("transpose_rows acc: {:?}", t.elapsed() / 50);
+
         let mut scratch = vec![Complex::new(0f32, 0.0); f.get_inplace_scratch_len()];
         let t = std::time::Instant::now();
-        for _ in 0..50 { for _c0 in (0..w).step_by(8) { f.process_with_scratch(&mut block, &mut scratch); } }
+        for _ in 0..50 {
+            for _c0 in (0..w).step_by(8) {
+                f.process_with_scratch(&mut block, &mut scratch);
+            }
+        }
         eprintln!("column ffts in blocks: {:?}", t.elapsed() / 50);
     }
 }

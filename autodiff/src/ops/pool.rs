@@ -60,6 +60,10 @@ impl<T: Float> Op<T> for MaxPool2x2 {
             });
     }
 
+    fn overwrites_output(&self) -> bool {
+        true
+    }
+
     fn backward(&self, cx: &BackwardCx<'_, T>, dx: &mut GradSlots<'_, T>) {
         let (_, _, h, w) = cx.inputs[0].shape().bchw("max_pool2x2");
         let (ho, wo) = (h / 2, w / 2);

@@ -23,8 +23,14 @@ impl CBucket {
     /// Adds `c.raw` (e₁ everywhere) to `params`.
     pub fn new<T: Float>(params: &mut ParamStore<T>, cfg: &CortexConfig) -> Self {
         let (n, ch) = (cfg.ons_size_px, cfg.percept_channels);
-        let init = Tensor::from_fn([1, ch, n, n], |i| if i < n * n { T::one() } else { T::zero() });
-        CBucket { raw: params.add("c.raw", init), norm_eps: cfg.c.norm_eps }
+        let init = Tensor::from_fn(
+            [1, ch, n, n],
+            |i| if i < n * n { T::one() } else { T::zero() },
+        );
+        CBucket {
+            raw: params.add("c.raw", init),
+            norm_eps: cfg.c.norm_eps,
+        }
     }
 
     /// The effective, unit-norm C on the tape, `(1, N, n, n)` (record once per step).
@@ -50,9 +56,13 @@ impl CBucket {
         let hw = h * w;
         let mut out = Tensor::<f64>::zeros([h, w, ch]);
         for p in 0..hw {
-            let norm = (0..ch).map(|c| raw.data()[c * hw + p].as_f64().powi(2)).sum::<f64>().sqrt();
+            let norm = (0..ch)
+                .map(|c| raw.data()[c * hw + p].as_f64().powi(2))
+                .sum::<f64>()
+                .sqrt();
             for c in 0..ch {
-                out.data_mut()[p * ch + c] = raw.data()[c * hw + p].as_f64() / (norm + self.norm_eps);
+                out.data_mut()[p * ch + c] =
+                    raw.data()[c * hw + p].as_f64() / (norm + self.norm_eps);
             }
         }
         out

@@ -24,7 +24,12 @@ impl DBucket {
             DMode::Identity => DBucket::Identity,
             DMode::UNet => {
                 let n = cfg.percept_channels;
-                let uc = UNetConfig { in_channels: n, out_channels: n, widths: cfg.d.widths.clone(), seed: cfg.train.seed };
+                let uc = UNetConfig {
+                    in_channels: n,
+                    out_channels: n,
+                    widths: cfg.d.widths.clone(),
+                    seed: cfg.train.seed,
+                };
                 DBucket::UNet(UNet::new(params, "d", uc))
             }
         }

@@ -27,7 +27,11 @@ use autodiff::{ParamStore, Tape, Tensor, Var};
 /// The P bucket.
 pub enum PBucket {
     /// The learned flow, with the ONS grid `(n², 2)` as f32 `(u_x, u_y)` pairs.
-    Flow { flow: RealNvp, uv: Vec<f32>, n: usize },
+    Flow {
+        flow: RealNvp,
+        uv: Vec<f32>,
+        n: usize,
+    },
     /// Identity positions, integer shifts.
     IdentityIntegerShift {
         /// ONS pixels per unit of motion.
@@ -39,12 +43,26 @@ impl PBucket {
     /// Builds P (adding the flow's parameters when P is learned).
     pub fn new(params: &mut ParamStore<f32>, cfg: &CortexConfig) -> Result<Self, CortexError> {
         match cfg.p.mode {
-            PMode::IdentityIntegerShift => Ok(PBucket::IdentityIntegerShift { px_per_unit: cfg.p.motion_ons_px_per_unit }),
+            PMode::IdentityIntegerShift => Ok(PBucket::IdentityIntegerShift {
+                px_per_unit: cfg.p.motion_ons_px_per_unit,
+            }),
             PMode::Flow => {
                 let mut rng = CortexRng::seed_from(cfg.train.seed ^ 0x5043_454c_4c53); // "PCELLS"
-                let flow = RealNvp::new(params, "p", RealNvpConfig { blocks: cfg.p.couplings, hidden: cfg.p.hidden }, &mut rng);
+                let flow = RealNvp::new(
+                    params,
+                    "p",
+                    RealNvpConfig {
+                        blocks: cfg.p.couplings,
+                        hidden: cfg.p.hidden,
+                    },
+                    &mut rng,
+                );
                 let n = cfg.ons_size_px;
-                let uv = unit_grid(n).into_iter().flatten().map(|v| v as f32).collect();
+                let uv = unit_grid(n)
+                    .into_iter()
+                    .flatten()
+                    .map(|v| v as f32)
+                    .collect();
                 Ok(PBucket::Flow { flow, uv, n })
             }
         }
@@ -59,7 +77,14 @@ impl PBucket {
     }
 
     /// Warps `v` (and each of `extra`) by `motion` (field units, per sample).
-    pub fn warp(&self, tape: &mut Tape<f32>, params: &ParamStore<f32>, v: Var, extra: &[Var], motion: &[[f64; 2]]) -> (Var, Var, Vec<Var>) {
+    pub fn warp(
+        &self,
+        tape: &mut Tape<f32>,
+        params: &ParamStore<f32>,
+        v: Var,
+        extra: &[Var],
+        motion: &[[f64; 2]],
+    ) -> (Var, Var, Vec<Var>) {
         match self {
             PBucket::Flow { flow, uv, n } => {
                 let (b, nn) = (motion.len(), n * n);
@@ -84,9 +109,20 @@ impl PBucket {
                 (warped, mask, ex)
             }
             PBucket::IdentityIntegerShift { px_per_unit } => {
-                let shifts: Vec<[i64; 2]> = motion.iter().map(|d| [(d[0] * px_per_unit).round() as i64, (d[1] * px_per_unit).round() as i64]).collect();
+                let shifts: Vec<[i64; 2]> = motion
+                    .iter()
+                    .map(|d| {
+                        [
+                            (d[0] * px_per_unit).round() as i64,
+                            (d[1] * px_per_unit).round() as i64,
+                        ]
+                    })
+                    .collect();
                 let (w, m) = integer_shift_warp(tape, v, &shifts);
-                let ex = extra.iter().map(|&e| integer_shift_warp(tape, e, &shifts).0).collect();
+                let ex = extra
+                    .iter()
+                    .map(|&e| integer_shift_warp(tape, e, &shifts).0)
+                    .collect();
                 (w, m, ex)
             }
         }
@@ -102,7 +138,11 @@ struct FlowPlain<'a> {
 impl FlowPlain<'_> {
     fn map(&self, pts: &mut [[f64; 2]], inverse: bool) {
         let t = Tensor::from_vec([pts.len(), 2], pts.iter().flatten().copied().collect());
-        let out = if inverse { self.flow.inverse_points(self.params, &t) } else { self.flow.forward_points(self.params, &t) };
+        let out = if inverse {
+            self.flow.inverse_points(self.params, &t)
+        } else {
+            self.flow.forward_points(self.params, &t)
+        };
         for (p, q) in pts.iter_mut().zip(out.data().chunks(2)) {
             *p = [q[0], q[1]];
         }

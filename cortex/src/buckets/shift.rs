@@ -10,7 +10,12 @@ use autodiff::{Float, Tape, Tensor, Var};
 /// Gathers `v (B, C, n, n)` at `p + shifts[b]`; returns `(warped, mask (B, 1, n, n))`.
 pub fn integer_shift_warp<T: Float>(tape: &mut Tape<T>, v: Var, shifts: &[[i64; 2]]) -> (Var, Var) {
     let (b, c, h, w) = tape.shape(v).bchw("integer_shift_warp");
-    assert_eq!(shifts.len(), b, "integer_shift_warp: {} shifts for a batch of {b}", shifts.len());
+    assert_eq!(
+        shifts.len(),
+        b,
+        "integer_shift_warp: {} shifts for a batch of {b}",
+        shifts.len()
+    );
     let src = tape.value(v).data();
     let mut out = Tensor::<T>::zeros([b, c, h, w]);
     let mut mask = Tensor::<T>::zeros([b, 1, h, w]);
@@ -28,7 +33,8 @@ pub fn integer_shift_warp<T: Float>(tape: &mut Tape<T>, v: Var, shifts: &[[i64; 
                 mask.data_mut()[(bi * h + y as usize) * w + x as usize] = T::one();
                 for ci in 0..c {
                     let plane = (bi * c + ci) * h * w;
-                    out.data_mut()[plane + y as usize * w + x as usize] = src[plane + ys as usize * w + xs as usize];
+                    out.data_mut()[plane + y as usize * w + x as usize] =
+                        src[plane + ys as usize * w + xs as usize];
                 }
             }
         }
@@ -50,7 +56,8 @@ pub fn integer_shift_warp<T: Float>(tape: &mut Tape<T>, v: Var, shifts: &[[i64; 
                         }
                         for ci in 0..c {
                             let plane = (bi * c + ci) * h * w;
-                            g[plane + ys as usize * w + xs as usize] += dy[plane + y as usize * w + x as usize];
+                            g[plane + ys as usize * w + xs as usize] +=
+                                dy[plane + y as usize * w + x as usize];
                         }
                     }
                 }

@@ -31,10 +31,15 @@ impl WBucket {
     /// Adds `w.response` (identity at start) to `params` when W is learned.
     pub fn new<T: Float>(params: &mut ParamStore<T>, cfg: &CortexConfig) -> Self {
         let response = match cfg.w.mode {
-            WMode::Learned => Some(params.add("w.response", identity_response::<T>(cfg.ons_size_px))),
+            WMode::Learned => {
+                Some(params.add("w.response", identity_response::<T>(cfg.ons_size_px)))
+            }
             WMode::Identity => None,
         };
-        WBucket { response, inverse_guard: cfg.w.inverse_guard }
+        WBucket {
+            response,
+            inverse_guard: cfg.w.inverse_guard,
+        }
     }
 
     /// Records the response on the tape (once per step; decode and encode share it).
@@ -51,7 +56,12 @@ impl WBucket {
     }
 
     /// Ψ_W: cone activations → ONS, the forward filter.
-    pub fn encode<T: Float>(&self, tape: &mut Tape<T>, response: Option<Var>, activations: Var) -> Var {
+    pub fn encode<T: Float>(
+        &self,
+        tape: &mut Tape<T>,
+        response: Option<Var>,
+        activations: Var,
+    ) -> Var {
         match response {
             Some(r) => tape.fft_convolve_same(activations, r),
             None => activations,
@@ -98,7 +108,10 @@ mod tests {
         assert!(tape.value(enc).max_abs_diff(&x) < 1e-12);
         assert!(tape.value(dec).max_abs_diff(&x) < 1e-5);
         let k = w.kernel(&params, 7).unwrap();
-        assert!((k.data()[24] - 1.0).abs() < 1e-12 && k.data().iter().map(|v| v.abs()).sum::<f64>() < 1.0 + 1e-9);
+        assert!(
+            (k.data()[24] - 1.0).abs() < 1e-12
+                && k.data().iter().map(|v| v.abs()).sum::<f64>() < 1.0 + 1e-9
+        );
     }
 
     /// Issue 4, must-show 1: W inverse∘forward = identity to 1e-5 (f64 path), for a learned,
@@ -111,17 +124,27 @@ mod tests {
         let mut k = Tensor::<f64>::from_fn([7, 7], |_| 0.02 * rng.normal());
         k.data_mut()[24] = 1.0;
         let resp: Tensor<f64> = kernel_response(&k, n, n);
-        let min_abs = resp.data().chunks(2).map(|c| (c[0] * c[0] + c[1] * c[1]).sqrt()).fold(f64::MAX, f64::min);
+        let min_abs = resp
+            .data()
+            .chunks(2)
+            .map(|c| (c[0] * c[0] + c[1] * c[1]).sqrt())
+            .fold(f64::MAX, f64::min);
         assert!(min_abs > 0.5, "test kernel badly conditioned: {min_abs}");
         let mut params = ParamStore::<f64>::new();
         let id = params.add("w.response", resp);
-        let w = WBucket { response: Some(id), inverse_guard: 1e-6 };
+        let w = WBucket {
+            response: Some(id),
+            inverse_guard: 1e-6,
+        };
         let mut tape = Tape::<f64>::new();
         let x = image(n, 3, &mut rng);
         let xv = tape.constant(x.clone());
         let r = w.record(&mut tape, &params);
         let y = w.encode(&mut tape, r, xv);
-        assert!(tape.value(y).max_abs_diff(&x) > 0.1, "the filter must do something");
+        assert!(
+            tape.value(y).max_abs_diff(&x) > 0.1,
+            "the filter must do something"
+        );
         let back = w.decode(&mut tape, r, y);
         let err = tape.value(back).max_abs_diff(&x);
         assert!(err < 1e-5, "inverse∘forward error {err}");

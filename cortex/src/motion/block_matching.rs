@@ -44,13 +44,17 @@ impl DewarpGrid {
         let h = 2.0 / (n as f64 - 1.0);
         let mut centre = [[0.0, 0.0], [h, 0.0], [0.0, h]];
         flow.forward(&mut centre);
-        let dist = |a: [f64; 2], b: [f64; 2]| ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2)).sqrt();
-        let spacing = dist(centre[0], centre[1]).min(dist(centre[0], centre[2])).max(1e-12);
+        let dist =
+            |a: [f64; 2], b: [f64; 2]| ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2)).sqrt();
+        let spacing = dist(centre[0], centre[1])
+            .min(dist(centre[0], centre[2]))
+            .max(1e-12);
         let extent = dist(corners[0], corners[1]).max(dist(corners[0], corners[2]));
         let cells = (extent / spacing).round() as usize + 1;
         let side = cells.next_power_of_two().clamp(4, max_side.max(4));
         let s = (side - 1) as f64;
-        let lerp = |a: [f64; 2], b: [f64; 2], t: f64| [a[0] + (b[0] - a[0]) * t, a[1] + (b[1] - a[1]) * t];
+        let lerp =
+            |a: [f64; 2], b: [f64; 2], t: f64| [a[0] + (b[0] - a[0]) * t, a[1] + (b[1] - a[1]) * t];
         let mut uv = Vec::with_capacity(side * side);
         for y in 0..side {
             let ty = y as f64 / s;
@@ -61,9 +65,19 @@ impl DewarpGrid {
             }
         }
         flow.inverse(&mut uv);
-        let ex = [(corners[1][0] - corners[0][0]) / s, (corners[1][1] - corners[0][1]) / s];
-        let ey = [(corners[2][0] - corners[0][0]) / s, (corners[2][1] - corners[0][1]) / s];
-        DewarpGrid { side, uv, xy_step: [ex, ey] }
+        let ex = [
+            (corners[1][0] - corners[0][0]) / s,
+            (corners[1][1] - corners[0][1]) / s,
+        ];
+        let ey = [
+            (corners[2][0] - corners[0][0]) / s,
+            (corners[2][1] - corners[0][1]) / s,
+        ];
+        DewarpGrid {
+            side,
+            uv,
+            xy_step: [ex, ey],
+        }
     }
 
     /// Samples one `n×n` plane onto the grid: image and validity mask, `side²` each.
@@ -102,7 +116,12 @@ fn pool2(img: &[f32], mask: &[f32], side: usize) -> (Vec<f32>, Vec<f32>) {
     let mut pm = vec![0.0; h * h];
     for y in 0..h {
         for x in 0..h {
-            let idx = [(2 * y) * side + 2 * x, (2 * y) * side + 2 * x + 1, (2 * y + 1) * side + 2 * x, (2 * y + 1) * side + 2 * x + 1];
+            let idx = [
+                (2 * y) * side + 2 * x,
+                (2 * y) * side + 2 * x + 1,
+                (2 * y + 1) * side + 2 * x,
+                (2 * y + 1) * side + 2 * x + 1,
+            ];
             pi[y * h + x] = idx.iter().map(|&i| img[i]).sum::<f32>() * 0.25;
             pm[y * h + x] = idx.iter().map(|&i| mask[i]).fold(0.0, f32::max);
         }
@@ -111,26 +130,39 @@ fn pool2(img: &[f32], mask: &[f32], side: usize) -> (Vec<f32>, Vec<f32>) {
 }
 
 /// Masked mean |a(p + s) − b(p)| over the overlap; `f64::INFINITY` when the overlap holds fewer
-/// than `min_count` valid pixels.
+/// than `min_count` valid pixels. Row sums in f32, the total in f64.
 #[allow(clippy::too_many_arguments)]
-fn score(a: &[f32], ma: &[f32], b: &[f32], mb: &[f32], side: usize, s: [i64; 2], min_count: f64) -> f64 {
+fn score(
+    a: &[f32],
+    ma: &[f32],
+    b: &[f32],
+    mb: &[f32],
+    side: usize,
+    s: [i64; 2],
+    min_count: f64,
+) -> f64 {
     let n = side as i64;
+    // the overlap: rows y with 0 ≤ y + s_y < n, columns likewise
+    let (y0, y1) = ((-s[1]).max(0), (n - s[1]).min(n));
+    let (x0, x1) = ((-s[0]).max(0), (n - s[0]).min(n));
+    if y0 >= y1 || x0 >= x1 {
+        return f64::INFINITY;
+    }
     let (mut num, mut den) = (0.0f64, 0.0f64);
-    for y in 0..n {
-        let ya = y + s[1];
-        if ya < 0 || ya >= n {
-            continue;
+    let w = (x1 - x0) as usize;
+    for y in y0..y1 {
+        let ib = (y * n + x0) as usize;
+        let ia = ((y + s[1]) * n + x0 + s[0]) as usize;
+        let (ra, rma) = (&a[ia..ia + w], &ma[ia..ia + w]);
+        let (rb, rmb) = (&b[ib..ib + w], &mb[ib..ib + w]);
+        let (mut nr, mut dr) = (0.0f32, 0.0f32);
+        for i in 0..w {
+            let m = rma[i] * rmb[i];
+            nr += m * (ra[i] - rb[i]).abs();
+            dr += m;
         }
-        for x in 0..n {
-            let xa = x + s[0];
-            if xa < 0 || xa >= n {
-                continue;
-            }
-            let (ia, ib) = ((ya * n + xa) as usize, (y * n + x) as usize);
-            let m = (ma[ia] * mb[ib]) as f64;
-            num += m * (a[ia] - b[ib]).abs() as f64;
-            den += m;
-        }
+        num += nr as f64;
+        den += dr as f64;
     }
     if den > 0.0 && den >= min_count {
         num / den
@@ -159,8 +191,20 @@ impl BlockMatcher {
     }
 
     /// Estimates the motion from frames `t` and `t+1`, each `(B, n, n)`, under `flow`.
-    pub fn estimate(&self, frame_t: &[f32], frame_t1: &[f32], n: usize, flow: &dyn PlainFlow) -> MotionEstimate {
-        assert_eq!(frame_t.len(), frame_t1.len(), "block matching: frame t has {} values, t+1 {}", frame_t.len(), frame_t1.len());
+    pub fn estimate(
+        &self,
+        frame_t: &[f32],
+        frame_t1: &[f32],
+        n: usize,
+        flow: &dyn PlainFlow,
+    ) -> MotionEstimate {
+        assert_eq!(
+            frame_t.len(),
+            frame_t1.len(),
+            "block matching: frame t has {} values, t+1 {}",
+            frame_t.len(),
+            frame_t1.len()
+        );
         let b1 = self.blur(frame_t, n);
         let b2 = self.blur(frame_t1, n);
         let grid = DewarpGrid::new(flow, n, 2 * n.next_power_of_two());
@@ -168,11 +212,18 @@ impl BlockMatcher {
     }
 
     /// As [`BlockMatcher::estimate`], on frames already blurred and a grid already built.
-    pub fn estimate_blurred(&self, b1: &[f32], b2: &[f32], n: usize, grid: &DewarpGrid) -> MotionEstimate {
+    pub fn estimate_blurred(
+        &self,
+        b1: &[f32],
+        b2: &[f32],
+        n: usize,
+        grid: &DewarpGrid,
+    ) -> MotionEstimate {
         let nn = n * n;
         let batch = b1.len() / nn;
         let side = grid.side;
-        let levels = (side.trailing_zeros() as i64 - self.coarsest_level_px.trailing_zeros() as i64).max(0) as usize;
+        let levels = (side.trailing_zeros() as i64 - self.coarsest_level_px.trailing_zeros() as i64)
+            .max(0) as usize;
         let r = self.search_radius_px as i64;
         let shifts: Vec<[i32; 2]> = (0..batch)
             .into_par_iter()
@@ -215,10 +266,16 @@ impl BlockMatcher {
             .iter()
             .map(|s| {
                 let [ex, ey] = grid.xy_step;
-                [s[0] as f64 * ex[0] + s[1] as f64 * ey[0], s[0] as f64 * ex[1] + s[1] as f64 * ey[1]]
+                [
+                    s[0] as f64 * ex[0] + s[1] as f64 * ey[0],
+                    s[0] as f64 * ex[1] + s[1] as f64 * ey[1],
+                ]
             })
             .collect();
-        MotionEstimate { motion, shift_px: shifts }
+        MotionEstimate {
+            motion,
+            shift_px: shifts,
+        }
     }
 }
 
@@ -255,12 +312,20 @@ mod tests {
         batch.frames(0, &mut f0);
         batch.frames(1, &mut f1);
         let est = matcher().estimate(&f0, &f1, n, &IdentityFlow);
-        let hits = est.shift_px.iter().zip(&src.last_shifts).filter(|(a, b)| a == b).count();
+        let hits = est
+            .shift_px
+            .iter()
+            .zip(&src.last_shifts)
+            .filter(|(a, b)| a == b)
+            .count();
         println!("block matching recovered {hits} of {trials} shifts");
         assert!(hits * 100 >= 95 * trials, "recovered {hits} of {trials}");
         // field units: one pixel is 2/(n−1) at identity P
         for (d, s) in est.motion.iter().zip(&est.shift_px) {
-            assert!((d[0] * 31.5 - s[0] as f64).abs() < 1e-9 && (d[1] * 31.5 - s[1] as f64).abs() < 1e-9);
+            assert!(
+                (d[0] * 31.5 - s[0] as f64).abs() < 1e-9
+                    && (d[1] * 31.5 - s[1] as f64).abs() < 1e-9
+            );
         }
     }
 }

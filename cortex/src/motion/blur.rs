@@ -11,7 +11,9 @@ use rayon::prelude::*;
 pub fn gaussian_taps(k: usize, sigma_px: f64) -> Vec<f32> {
     assert!(k % 2 == 1, "gaussian_taps: k = {k} must be odd");
     let r = (k / 2) as f64;
-    let w: Vec<f64> = (0..k).map(|i| (-((i as f64 - r).powi(2)) / (2.0 * sigma_px * sigma_px)).exp()).collect();
+    let w: Vec<f64> = (0..k)
+        .map(|i| (-((i as f64 - r).powi(2)) / (2.0 * sigma_px * sigma_px)).exp())
+        .collect();
     let s: f64 = w.iter().sum();
     w.iter().map(|v| (v / s) as f32).collect()
 }
@@ -30,33 +32,49 @@ fn reflect(i: isize, n: isize) -> usize {
 
 /// Blurs each `n×n` plane of `src` into `dst` (same length, a multiple of n²).
 pub fn blur_planes(src: &[f32], dst: &mut [f32], n: usize, k: usize, sigma_px: f64) {
-    assert_eq!(src.len(), dst.len(), "blur_planes: src {} vs dst {} values", src.len(), dst.len());
-    assert!(src.len() % (n * n) == 0, "blur_planes: {} values is not a whole number of {n}×{n} planes", src.len());
-    assert!(k / 2 < n, "blur_planes: kernel {k} needs n > {}, got {n}", k / 2);
+    assert_eq!(
+        src.len(),
+        dst.len(),
+        "blur_planes: src {} vs dst {} values",
+        src.len(),
+        dst.len()
+    );
+    assert!(
+        src.len().is_multiple_of(n * n),
+        "blur_planes: {} values is not a whole number of {n}×{n} planes",
+        src.len()
+    );
+    assert!(
+        k / 2 < n,
+        "blur_planes: kernel {k} needs n > {}, got {n}",
+        k / 2
+    );
     let taps = gaussian_taps(k, sigma_px);
     let r = (k / 2) as isize;
-    dst.par_chunks_mut(n * n).zip(src.par_chunks(n * n)).for_each(|(out, img)| {
-        let mut tmp = vec![0.0f32; n * n];
-        for y in 0..n {
-            let row = &img[y * n..(y + 1) * n];
-            for x in 0..n {
-                let mut s = 0.0;
-                for (t, w) in taps.iter().enumerate() {
-                    s += w * row[reflect(x as isize + t as isize - r, n as isize)];
+    dst.par_chunks_mut(n * n)
+        .zip(src.par_chunks(n * n))
+        .for_each(|(out, img)| {
+            let mut tmp = vec![0.0f32; n * n];
+            for y in 0..n {
+                let row = &img[y * n..(y + 1) * n];
+                for x in 0..n {
+                    let mut s = 0.0;
+                    for (t, w) in taps.iter().enumerate() {
+                        s += w * row[reflect(x as isize + t as isize - r, n as isize)];
+                    }
+                    tmp[y * n + x] = s;
                 }
-                tmp[y * n + x] = s;
             }
-        }
-        for y in 0..n {
-            for x in 0..n {
-                let mut s = 0.0;
-                for (t, w) in taps.iter().enumerate() {
-                    s += w * tmp[reflect(y as isize + t as isize - r, n as isize) * n + x];
+            for y in 0..n {
+                for x in 0..n {
+                    let mut s = 0.0;
+                    for (t, w) in taps.iter().enumerate() {
+                        s += w * tmp[reflect(y as isize + t as isize - r, n as isize) * n + x];
+                    }
+                    out[y * n + x] = s;
                 }
-                out[y * n + x] = s;
             }
-        }
-    });
+        });
 }
 
 #[cfg(test)]

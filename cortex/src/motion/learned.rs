@@ -21,7 +21,7 @@
 //! small, exact at its optimum, and honest about what is learned.
 
 use super::block_matching::DewarpGrid;
-use super::sampling::{bilinear, nearest_inside, unit_grid};
+use super::sampling::{bilinear, unit_grid, unit_to_index};
 use super::PlainFlow;
 use rayon::prelude::*;
 
@@ -32,7 +32,10 @@ pub struct SubpixelRefiner {
     pub fd_step_px: f64,
     pub max_step_px: f64,
     pub stride_px: usize,
-    pub border_px: usize,
+    /// Pixels this close to an edge (of frame t+1, or of frame t at the sampled point) are left
+    /// out: the loss border plus the blur's radius, where zero padding of the retina's filter
+    /// and of the bilinear sampler would bias the estimate.
+    pub margin_px: usize,
 }
 
 impl SubpixelRefiner {
@@ -43,15 +46,30 @@ impl SubpixelRefiner {
             fd_step_px: cfg.m.refine_fd_step_px,
             max_step_px: cfg.m.refine_max_step_px,
             stride_px: cfg.m.refine_stride_px.max(1),
-            border_px: cfg.loss.border_px,
+            margin_px: cfg.loss.border_px + cfg.m.blur_kernel_px / 2,
         }
     }
 
     /// Refines `init` (field units, per sample) on blurred frames `b1`, `b2` `(B, n, n)`.
     /// `grid` gives the de-warped pixel steps used as the unknowns' units.
-    pub fn refine(&self, b1: &[f32], b2: &[f32], n: usize, flow: &dyn PlainFlow, grid: &DewarpGrid, init: &[[f64; 2]]) -> Vec<[f64; 2]> {
+    #[allow(clippy::too_many_arguments)]
+    pub fn refine(
+        &self,
+        b1: &[f32],
+        b2: &[f32],
+        n: usize,
+        flow: &dyn PlainFlow,
+        grid: &DewarpGrid,
+        init: &[[f64; 2]],
+    ) -> Vec<[f64; 2]> {
         let nn = n * n;
-        let (lo, hi) = (self.border_px, n - self.border_px);
+        let m = self.margin_px.min(n / 4);
+        let (lo, hi) = (m, n - m);
+        let (inner_lo, inner_hi) = (m as f64, (n - 1 - m) as f64);
+        let inside = move |q: [f64; 2]| {
+            let (x, y) = (unit_to_index(q[0], n), unit_to_index(q[1], n));
+            x >= inner_lo && x <= inner_hi && y >= inner_lo && y <= inner_hi
+        };
         let pix: Vec<usize> = (lo..hi)
             .step_by(self.stride_px)
             .flat_map(|y| (lo..hi).step_by(self.stride_px).map(move |x| y * n + x))
@@ -60,13 +78,21 @@ impl SubpixelRefiner {
         let mut xy: Vec<[f64; 2]> = pix.iter().map(|&p| all[p]).collect();
         flow.forward(&mut xy);
         let [ex, ey] = grid.xy_step;
-        let at = |d: [f64; 2], s: [f64; 2]| [d[0] + s[0] * ex[0] + s[1] * ey[0], d[1] + s[0] * ex[1] + s[1] * ey[1]];
+        let at = |d: [f64; 2], s: [f64; 2]| {
+            [
+                d[0] + s[0] * ex[0] + s[1] * ey[0],
+                d[1] + s[0] * ex[1] + s[1] * ey[1],
+            ]
+        };
         init.par_iter()
             .enumerate()
             .map(|(b, &d0)| {
                 let (f1, f2) = (&b1[b * nn..(b + 1) * nn], &b2[b * nn..(b + 1) * nn]);
                 let mut pts = vec![[0.0; 2]; xy.len()];
-                let sample = |d: [f64; 2], pts: &mut Vec<[f64; 2]>, out: &mut Vec<f64>, mask: Option<&mut Vec<bool>>| {
+                let sample = |d: [f64; 2],
+                              pts: &mut Vec<[f64; 2]>,
+                              out: &mut Vec<f64>,
+                              mask: Option<&mut Vec<bool>>| {
                     for (q, p) in pts.iter_mut().zip(&xy) {
                         *q = [p[0] + d[0], p[1] + d[1]];
                     }
@@ -75,7 +101,7 @@ impl SubpixelRefiner {
                     out.extend(pts.iter().map(|&q| bilinear(f1, n, n, q)));
                     if let Some(m) = mask {
                         m.clear();
-                        m.extend(pts.iter().map(|&q| nearest_inside(n, n, q)));
+                        m.extend(pts.iter().map(|&q| inside(q)));
                     }
                 };
                 let mut d = d0;
@@ -108,7 +134,8 @@ impl SubpixelRefiner {
                         g1 += j1 * r;
                     }
                     let det = a00 * a11 - a01 * a01;
-                    if !(det > 1e-12 * (a00 * a11).max(1e-300)) {
+                    let floor = 1e-12 * (a00 * a11).max(1e-300);
+                    if det.is_nan() || det <= floor {
                         break;
                     }
                     let mut s = [(a11 * g0 - a01 * g1) / det, (a00 * g1 - a01 * g0) / det];
@@ -137,7 +164,9 @@ mod tests {
     #[test]
     fn refinement_recovers_a_subpixel_shift() {
         let n = 48;
-        let f = |x: f64, y: f64| (0.21 * x).sin() + (0.17 * y + 0.3).cos() + 0.5 * (0.11 * (x + y)).sin();
+        let f = |x: f64, y: f64| {
+            (0.21 * x).sin() + (0.17 * y + 0.3).cos() + 0.5 * (0.11 * (x + y)).sin()
+        };
         let s = [2.35, -1.6]; // px
         let mut b1 = vec![0.0f32; n * n];
         let mut b2 = vec![0.0f32; n * n];
@@ -156,6 +185,10 @@ mod tests {
         let got = r.refine(&b1, &b2, n, &IdentityFlow, &grid, &init)[0];
         let err = ((got[0] / unit - s[0]).powi(2) + (got[1] / unit - s[1]).powi(2)).sqrt();
         // bilinear sampling of a smooth image: sub-pixel accurate to a few hundredths of a pixel
-        assert!(err < 0.05, "refined {:?} px, true {s:?}", [got[0] / unit, got[1] / unit]);
+        assert!(
+            err < 0.05,
+            "refined {:?} px, true {s:?}",
+            [got[0] / unit, got[1] / unit]
+        );
     }
 }

@@ -6,8 +6,8 @@
 //! grid `uv ∈ [−1, 1]²`, align-corners); x is the column axis. Sign: frame t+1 at p shows
 //! frame t at p + d.
 
-pub mod blur;
 pub mod block_matching;
+pub mod blur;
 pub mod learned;
 pub mod sampling;
 

@@ -46,7 +46,8 @@ pub fn bilinear(img: &[f32], h: usize, w: usize, p: [f64; 2]) -> f64 {
             0.0
         }
     };
-    (1.0 - fy) * ((1.0 - fx) * at(y0, x0) + fx * at(y0, x0 + 1)) + fy * ((1.0 - fx) * at(y0 + 1, x0) + fx * at(y0 + 1, x0 + 1))
+    (1.0 - fy) * ((1.0 - fx) * at(y0, x0) + fx * at(y0, x0 + 1))
+        + fy * ((1.0 - fx) * at(y0 + 1, x0) + fx * at(y0 + 1, x0 + 1))
 }
 
 /// 1 when the nearest pixel of `p` (rounding half to even, like the tape's `grid_sample_mask`)
@@ -71,7 +72,10 @@ mod tests {
             assert!(nearest_inside(n, n, p));
         }
         // halfway between columns 1 and 2 of row 3
-        let p = [index_to_unit(1, n) + 1.0 / (n - 1) as f64, index_to_unit(3, n)];
+        let p = [
+            index_to_unit(1, n) + 1.0 / (n - 1) as f64,
+            index_to_unit(3, n),
+        ];
         assert!((bilinear(&img, n, n, p) - 16.5).abs() < 1e-9);
         assert!(!nearest_inside(n, n, [1.3, 0.0]));
         assert_eq!(bilinear(&img, n, n, [3.0, 0.0]), 0.0);

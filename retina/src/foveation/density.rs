@@ -98,7 +98,11 @@ impl RadialDensity {
                 lo = t;
             }
             let df = (t - 1.0) / (t * t);
-            let mut next = if df > 0.0 { t - f / df } else { 0.5 * (lo + hi) };
+            let mut next = if df > 0.0 {
+                t - f / df
+            } else {
+                0.5 * (lo + hi)
+            };
             if !(next > lo && next < hi) {
                 next = 0.5 * (lo + hi);
             }
@@ -199,7 +203,10 @@ mod tests {
                 })
                 .sum();
             assert!((n - num).abs() / num < 1e-6, "r {r}: {n} vs {num}");
-            assert!((d.eccentricity_holding(n) - r).abs() < 1e-9 * r.max(1.0), "r {r}");
+            assert!(
+                (d.eccentricity_holding(n) - r).abs() < 1e-9 * r.max(1.0),
+                "r {r}"
+            );
         }
     }
 

@@ -191,7 +191,10 @@ impl ConeLayout {
     pub fn centre_spacing_px(&self) -> f64 {
         let (n, s) = (self.n, self.spacing_px());
         let (lo, hi) = ((n - 1) / 2, n / 2);
-        let (lo, hi) = (lo.saturating_sub(CENTRE_BLOCK_HALF), (hi + CENTRE_BLOCK_HALF).min(n - 1));
+        let (lo, hi) = (
+            lo.saturating_sub(CENTRE_BLOCK_HALF),
+            (hi + CENTRE_BLOCK_HALF).min(n - 1),
+        );
         let mut acc = (0.0, 0);
         for i in lo..=hi {
             for j in lo..=hi {
@@ -254,9 +257,7 @@ impl ConeLayout {
             for j in 0..n {
                 let c = i * n + j;
                 let mut push = |b: usize| {
-                    d.push(
-                        ((p[c][0] - p[b][0]) as f64).hypot((p[c][1] - p[b][1]) as f64) * scale,
-                    )
+                    d.push(((p[c][0] - p[b][0]) as f64).hypot((p[c][1] - p[b][1]) as f64) * scale)
                 };
                 if j + 1 < n {
                     push(c + 1);
@@ -284,8 +285,22 @@ fn foveated(cfg: &FoveationConfig, n: usize, field_px: usize, seed: u64) -> Cone
         let mut rng = StdRng::seed_from_u64(seed);
         let big = JITTER_LATTICE_OVERSIZE * n;
         let off = (big - n) / 2;
-        let fx = perlin_octaves(&mut rng, big, big, j.base_resolution, j.octaves, j.persistence);
-        let fy = perlin_octaves(&mut rng, big, big, j.base_resolution, j.octaves, j.persistence);
+        let fx = perlin_octaves(
+            &mut rng,
+            big,
+            big,
+            j.base_resolution,
+            j.octaves,
+            j.persistence,
+        );
+        let fy = perlin_octaves(
+            &mut rng,
+            big,
+            big,
+            j.base_resolution,
+            j.octaves,
+            j.persistence,
+        );
         // Official: the outermost ring of the (oversized) noise lattice is zeroed. It lies
         // outside the patch, so the patch sees a smooth field right up to its boundary.
         let ring = |r: usize, c: usize| r == 0 || c == 0 || r == big - 1 || c == big - 1;
@@ -312,7 +327,10 @@ fn foveated(cfg: &FoveationConfig, n: usize, field_px: usize, seed: u64) -> Cone
             )
         })
         .collect();
-    let lo = deg.iter().map(|p| p.0.min(p.1)).fold(f64::INFINITY, f64::min);
+    let lo = deg
+        .iter()
+        .map(|p| p.0.min(p.1))
+        .fold(f64::INFINITY, f64::min);
     let hi = deg
         .iter()
         .map(|p| p.0.max(p.1))

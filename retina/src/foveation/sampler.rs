@@ -148,13 +148,24 @@ impl ConeSampler {
         for i in 0..n {
             for j in 0..n {
                 let c = i * n + j;
-                let row = if j + 1 < n { dist(c, c + 1) } else { dist(c, c - 1) };
-                let col = if i + 1 < n { dist(c, c + n) } else { dist(c, c - n) };
+                let row = if j + 1 < n {
+                    dist(c, c + 1)
+                } else {
+                    dist(c, c - 1)
+                };
+                let col = if i + 1 < n {
+                    dist(c, c + n)
+                } else {
+                    dist(c, c - n)
+                };
                 let l = row.max(col).log2().max(0.0);
                 let lo = l.floor();
                 let t = l - lo;
                 levels_needed = levels_needed.max(lo as usize + 1 + usize::from(t > 0.0));
-                let (x, y) = (p[c][0].clamp(0.0, f as f32 - 1.0), p[c][1].clamp(0.0, f as f32 - 1.0));
+                let (x, y) = (
+                    p[c][0].clamp(0.0, f as f32 - 1.0),
+                    p[c][1].clamp(0.0, f as f32 - 1.0),
+                );
                 let split = |v: f32| {
                     let v0 = (v.floor() as i32).min(f as i32 - 2).max(0);
                     (v0, v - v0 as f32)
@@ -232,7 +243,11 @@ impl ConeSampler {
     /// Sample plane `plane` of `stack` at every cone; `out` is `(n·n)`.
     pub fn sample_plane(&self, stack: &MipStack, plane: usize, origin: [i32; 2], out: &mut [f32]) {
         self.check(stack, origin);
-        assert_eq!(out.len(), self.taps.len(), "ConeSampler::sample_plane: out length");
+        assert_eq!(
+            out.len(),
+            self.taps.len(),
+            "ConeSampler::sample_plane: out length"
+        );
         for (o, tap) in out.iter_mut().zip(&self.taps) {
             *o = Self::sample_tap(stack, plane, tap, origin);
         }
@@ -257,7 +272,11 @@ impl ConeSampler {
             self.taps.len(),
             stack.planes
         );
-        assert_eq!(out.len(), self.taps.len(), "ConeSampler::sample_weighted: out length");
+        assert_eq!(
+            out.len(),
+            self.taps.len(),
+            "ConeSampler::sample_weighted: out length"
+        );
         for ((o, tap), w) in out.iter_mut().zip(&self.taps).zip(weights.chunks_exact(k)) {
             let mut acc = 0.0;
             for (p, &wp) in w.iter().enumerate() {
@@ -312,7 +331,12 @@ mod tests {
 
     #[test]
     fn foveated_sampling_is_linear_and_levels_follow_spacing() {
-        let l = ConeLayout::compute(&LayoutConfig::Foveated(FoveationConfig::default()), 32, 64, 1);
+        let l = ConeLayout::compute(
+            &LayoutConfig::Foveated(FoveationConfig::default()),
+            32,
+            64,
+            1,
+        );
         let s = ConeSampler::compute(&l);
         let lmin = s.level.iter().copied().fold(f32::INFINITY, f32::min);
         let lmax = s.level.iter().copied().fold(0.0f32, f32::max);
@@ -330,7 +354,9 @@ mod tests {
             assert!((out[2][c] - (2.0 * out[0][c] - 3.0 * out[1][c])).abs() < 1e-3);
         }
         // Weighted sampling equals the weighted sum of plane samples.
-        let weights: Vec<f32> = (0..32 * 32).flat_map(|c| [0.25, 0.75, (c % 2) as f32]).collect();
+        let weights: Vec<f32> = (0..32 * 32)
+            .flat_map(|c| [0.25, 0.75, (c % 2) as f32])
+            .collect();
         let mut wout = vec![0.0; 32 * 32];
         s.sample_weighted(&stack, &weights, [4, 5], &mut wout);
         for c in 0..32 * 32 {

@@ -26,9 +26,7 @@
 //! Default peaks (λmax, nm; official §2.2, paper S-02/S-07): L 560, M 530, S 419, Q 545.
 //! Any other class name needs an explicit peak (`X:600`).
 
-use colorimetry::cones::{
-    ConeClass, HUMAN_Q_PEAK_NM, L_PEAK_NM, M_PEAK_NM, S_PEAK_NM,
-};
+use colorimetry::cones::{ConeClass, HUMAN_Q_PEAK_NM, L_PEAK_NM, M_PEAK_NM, S_PEAK_NM};
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Result, RetinaError};
@@ -122,9 +120,14 @@ fn parse_number(text: &str, what: &str, s: &str) -> Result<f64> {
     Ok(v)
 }
 
-fn arrangement_from_names(text: &str, names: &[String]) -> Result<(Arrangement, Vec<Modification>)> {
+fn arrangement_from_names(
+    text: &str,
+    names: &[String],
+) -> Result<(Arrangement, Vec<Modification>)> {
     let has = |c: &str| names.iter().any(|n| n == c);
-    let known = names.iter().all(|n| ["L", "M", "S", "Q"].contains(&n.as_str()));
+    let known = names
+        .iter()
+        .all(|n| ["L", "M", "S", "Q"].contains(&n.as_str()));
     if !known {
         let ratios = names.iter().map(|n| (n.clone(), 1.0)).collect();
         return Ok((Arrangement::Iid(ratios), vec![]));
@@ -166,7 +169,9 @@ fn parse_base(text: &str, base: &str) -> Result<(Arrangement, Vec<Modification>)
         _ => {
             return Err(bad(
                 text,
-                format!("unknown base `{base}` (LMS, LMSQ, L, M, S, LM, LS, MS, iid, or X:nm list)"),
+                format!(
+                    "unknown base `{base}` (LMS, LMSQ, L, M, S, LM, LS, MS, iid, or X:nm list)"
+                ),
             ))
         }
     })
@@ -221,7 +226,10 @@ impl MosaicSpec {
             let name = name.trim().to_string();
             let nm = parse_number(text, "peak", nm)?;
             if name.is_empty() || nm <= 0.0 {
-                return Err(bad(text, format!("peak `{tok}` needs a name and a positive nm")));
+                return Err(bad(
+                    text,
+                    format!("peak `{tok}` needs a name and a positive nm"),
+                ));
             }
             peaks.retain(|(n, _)| *n != name);
             peaks.push((name.clone(), nm));
@@ -256,7 +264,10 @@ impl MosaicSpec {
                 }
             }
             if ratios.is_empty() || ratios.iter().all(|(_, w)| *w == 0.0) {
-                return Err(bad(text, "iid needs at least one NAME=weight with weight > 0"));
+                return Err(bad(
+                    text,
+                    "iid needs at least one NAME=weight with weight > 0",
+                ));
             }
             (Arrangement::Iid(ratios), vec![], &tokens[rest_start..])
         } else {
@@ -276,7 +287,10 @@ impl MosaicSpec {
                     return Err(bad(text, "lm must be > 0"));
                 }
             } else {
-                return Err(bad(text, format!("unexpected token `{tok}` (NAME:nm or lm=ratio)")));
+                return Err(bad(
+                    text,
+                    format!("unexpected token `{tok}` (NAME:nm or lm=ratio)"),
+                ));
             }
         }
         let spec = MosaicSpec {
@@ -370,7 +384,14 @@ mod tests {
 
     #[test]
     fn bad_mosaic_strings_are_errors_naming_the_string() {
-        for bad in ["", "XYZ", "LMS+Q_swap_L", "MS+L_replace_M@1.5", "LMS,foo", "iid,X=1"] {
+        for bad in [
+            "",
+            "XYZ",
+            "LMS+Q_swap_L",
+            "MS+L_replace_M@1.5",
+            "LMS,foo",
+            "iid,X=1",
+        ] {
             let e = MosaicSpec::parse(bad).unwrap_err().to_string();
             assert!(e.contains("cones"), "{bad}: {e}");
         }

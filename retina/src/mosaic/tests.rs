@@ -17,16 +17,26 @@ fn fractions(text: &str) -> (Mosaic, Vec<(String, f64)>) {
 }
 
 fn frac(f: &[(String, f64)], name: &str) -> f64 {
-    f.iter().find(|(n, _)| n == name).map(|(_, v)| *v).unwrap_or(0.0)
+    f.iter()
+        .find(|(n, _)| n == name)
+        .map(|(_, v)| *v)
+        .unwrap_or(0.0)
 }
 
 #[test]
 fn lms_fractions_match_official_at_256() {
     let (m, f) = fractions("LMS");
     eprintln!("LMS fractions at 256²: {f:?}");
-    assert_eq!(m.classes.iter().map(|c| c.peak_nm).collect::<Vec<_>>(), [560.0, 530.0, 419.0]);
+    assert_eq!(
+        m.classes.iter().map(|c| c.peak_nm).collect::<Vec<_>>(),
+        [560.0, 530.0, 419.0]
+    );
     for (name, target) in [("L", 0.62), ("M", 0.32), ("S", 0.05)] {
-        assert!((frac(&f, name) - target).abs() <= 0.02, "{name}: {}", frac(&f, name));
+        assert!(
+            (frac(&f, name) - target).abs() <= 0.02,
+            "{name}: {}",
+            frac(&f, name)
+        );
     }
     // Pure mosaic: every weight is 0 or 1.
     assert!(m.weights.iter().all(|&w| w == 0.0 || w == 1.0));
@@ -45,7 +55,10 @@ fn no_two_s_cones_share_an_exclusion_window() {
         for &(p, q) in &pos[a + 1..] {
             // The later of two S cones checked offsets [−3, 2]² around itself, so whatever
             // the visiting order no two S cones lie within Chebyshev distance 2.
-            assert!((p - i).abs() > 2 || (q - j).abs() > 2, "S at {i},{j} and {p},{q}");
+            assert!(
+                (p - i).abs() > 2 || (q - j).abs() > 2,
+                "S at {i},{j} and {p},{q}"
+            );
         }
     }
 }
@@ -60,7 +73,13 @@ fn monochromats_and_dichromats_have_the_stated_classes() {
     }
     // LS (deuteranope): every M becomes L; S untouched.
     let (m, f) = fractions("LS");
-    assert_eq!(m.classes.iter().map(|c| c.name.as_str()).collect::<Vec<_>>(), ["L", "S"]);
+    assert_eq!(
+        m.classes
+            .iter()
+            .map(|c| c.name.as_str())
+            .collect::<Vec<_>>(),
+        ["L", "S"]
+    );
     assert!((frac(&f, "L") - (frac(&lf, "L") + frac(&lf, "M"))).abs() < 1e-12);
     assert_eq!(frac(&f, "S"), frac(&lf, "S"));
     // MS (protanope): every L becomes M.
@@ -71,7 +90,11 @@ fn monochromats_and_dichromats_have_the_stated_classes() {
     assert_eq!(m.classes.len(), 2);
     let s_total = frac(&lf, "S") * (N * N) as f64;
     let to_l = (frac(&f, "L") - frac(&lf, "L")) * (N * N) as f64;
-    assert!((to_l / s_total - 0.5).abs() < 0.05, "share of S turned L: {}", to_l / s_total);
+    assert!(
+        (to_l / s_total - 0.5).abs() < 0.05,
+        "share of S turned L: {}",
+        to_l / s_total
+    );
     // The base lattice is the same cells: L stays L.
     let l = lms.class_index("L").unwrap();
     let l2 = m.class_index("L").unwrap();
@@ -100,7 +123,9 @@ fn tetra_turns_half_of_l_into_q() {
 fn gene_therapy_affects_the_set_fraction_of_m_cones() {
     let base = Mosaic::from_spec_str("MS", N, SEED).unwrap();
     let m_base = base.class_index("M").unwrap();
-    let m_cells: Vec<usize> = (0..N * N).filter(|&c| base.weights[c * 2 + m_base] == 1.0).collect();
+    let m_cells: Vec<usize> = (0..N * N)
+        .filter(|&c| base.weights[c * 2 + m_base] == 1.0)
+        .collect();
     for (text, fraction) in [
         ("MS+L_replace_M", 0.5),
         ("MS+L_coexpress_M", 0.5),
@@ -108,9 +133,18 @@ fn gene_therapy_affects_the_set_fraction_of_m_cones() {
         ("MS+L_replace_M@0.6", 0.6),
     ] {
         let m = Mosaic::from_spec_str(text, N, SEED).unwrap();
-        assert_eq!(m.classes.iter().map(|c| c.name.as_str()).collect::<Vec<_>>(), ["L", "M", "S"]);
+        assert_eq!(
+            m.classes
+                .iter()
+                .map(|c| c.name.as_str())
+                .collect::<Vec<_>>(),
+            ["L", "M", "S"]
+        );
         let l = m.class_index("L").unwrap();
-        let affected = m_cells.iter().filter(|&&c| m.weights[c * 3 + l] > 0.0).count();
+        let affected = m_cells
+            .iter()
+            .filter(|&&c| m.weights[c * 3 + l] > 0.0)
+            .count();
         let f = affected as f64 / m_cells.len() as f64;
         eprintln!("{text}: affected fraction of M cones {f:.4}");
         assert!((f - fraction).abs() <= 0.02, "{text}: {f}");
@@ -141,7 +175,11 @@ fn custom_ratios_and_peaks() {
     let (m, f) = fractions("iid,L=1,M=1,S=1");
     assert_eq!(m.classes.len(), 3);
     for c in ["L", "M", "S"] {
-        assert!((frac(&f, c) - 1.0 / 3.0).abs() < 0.01, "{c}: {}", frac(&f, c));
+        assert!(
+            (frac(&f, c) - 1.0 / 3.0).abs() < 0.01,
+            "{c}: {}",
+            frac(&f, c)
+        );
     }
     let (m, f) = fractions("LMS,lm=1");
     let ratio = frac(&f, "L") / frac(&f, "M");

@@ -2,8 +2,8 @@
 //! mechanics. Must-show 6 (spikes) is in `spikes_tests.rs` via `Retina::time_averaged_spikes`.
 
 use super::*;
-use crate::config::{GridConfig, RetinaConfig};
 use crate::cones::NoiseConfig;
+use crate::config::{GridConfig, RetinaConfig};
 use crate::foveation::LayoutConfig;
 use crate::scene::dead_leaves::{DeadLeavesConfig, LeafScene};
 use crate::scene::library::ReflectanceLibrary;
@@ -24,11 +24,18 @@ fn retina_sensitivities_are_the_colorimetry_templates_with_official_peaks() {
     ] {
         let mut c = RetinaConfig::tiny();
         c.cones = cones.into();
-        c.grid = GridConfig { start_nm: 400.0, end_nm: 700.0, step_nm: 1.0 };
+        c.grid = GridConfig {
+            start_nm: 400.0,
+            end_nm: 700.0,
+            step_nm: 1.0,
+        };
         let r = Retina::new(c).unwrap();
         for (i, want) in peaks.iter().enumerate() {
             let got = r.fundamentals.effective_peak_nm(i);
-            assert!((got - want).abs() <= 1.0, "{cones} class {i}: peak {got} vs {want}");
+            assert!(
+                (got - want).abs() <= 1.0,
+                "{cones} class {i}: peak {got} vs {want}"
+            );
         }
         // The scene projector is those same curves times Δλ (1 nm here).
         let proj = &r.pool.projection.projector;
@@ -93,13 +100,24 @@ fn frame_one_is_the_scene_moved_by_the_oracle_shift() {
 #[test]
 fn noise_free_analog_ons_is_linear_in_the_scene() {
     for preset in [RetinaConfig::tiny(), RetinaConfig::sandbox()] {
-        let r = Retina::new(RetinaConfig { cones: "LMSQ".into(), ..preset }).unwrap();
+        let r = Retina::new(RetinaConfig {
+            cones: "LMSQ".into(),
+            ..preset
+        })
+        .unwrap();
         let grid = r.pool.projection.grid.clone();
         let lib = ReflectanceLibrary::measured(&grid).unwrap();
-        let cfg = DeadLeavesConfig { size_px: r.config.field_px, ..DeadLeavesConfig::default() };
+        let cfg = DeadLeavesConfig {
+            size_px: r.config.field_px,
+            ..DeadLeavesConfig::default()
+        };
         let mut rng = StdRng::seed_from_u64(5);
-        let s1 = LeafScene::generate(&cfg, &lib, &mut rng).unwrap().render_spectral(&lib);
-        let s2 = LeafScene::generate(&cfg, &lib, &mut rng).unwrap().render_spectral(&lib);
+        let s1 = LeafScene::generate(&cfg, &lib, &mut rng)
+            .unwrap()
+            .render_spectral(&lib);
+        let s2 = LeafScene::generate(&cfg, &lib, &mut rng)
+            .unwrap()
+            .render_spectral(&lib);
         let (a, b) = (0.7f32, -1.3f32);
         let mut mix = s1.clone();
         for (m, v) in mix.data.iter_mut().zip(&s2.data) {
@@ -116,8 +134,16 @@ fn noise_free_analog_ons_is_linear_in_the_scene() {
             .zip(o1.iter().zip(&o2))
             .map(|(m, (x, y))| (m - (a * x + b * y)).abs())
             .fold(0.0f32, f32::max);
-        eprintln!("{}: linearity max error / max |ONS| = {:.2e}", r.config.name, err / scale);
-        assert!(err <= 1e-5 * scale, "{}: {err} vs scale {scale}", r.config.name);
+        eprintln!(
+            "{}: linearity max error / max |ONS| = {:.2e}",
+            r.config.name,
+            err / scale
+        );
+        assert!(
+            err <= 1e-5 * scale,
+            "{}: {err} vs scale {scale}",
+            r.config.name
+        );
     }
 }
 
@@ -133,7 +159,9 @@ fn ground_truth_matches_the_batch() {
     let (nn, k) = (32 * 32, 3);
     for s in 0..3 {
         for i in 0..nn {
-            let want: f32 = (0..k).map(|c| r.mosaic.weights[i * k + c] * ex[(s * k + c) * nn + i]).sum();
+            let want: f32 = (0..k)
+                .map(|c| r.mosaic.weights[i * k + c] * ex[(s * k + c) * nn + i])
+                .sum();
             assert!((b.frame(s, 1)[i] - want).abs() < 1e-6);
         }
     }

@@ -116,7 +116,10 @@ impl LeafScene {
         rng: &mut R,
     ) -> Result<LeafScene> {
         let n = cfg.size_px;
-        assert!(n >= 2 && !lib.is_empty(), "LeafScene::generate: size {n}, library empty");
+        assert!(
+            n >= 2 && !lib.is_empty(),
+            "LeafScene::generate: size {n}, library empty"
+        );
         let uni = |rng: &mut R, r: [f64; 2]| r[0] + (r[1] - r[0]) * rng.random::<f64>();
         let sun = daylight_unit_luminance(uni(rng, cfg.sun_cct_k), &lib.grid)?;
         let sky: Vec<f64> = daylight_unit_luminance(uni(rng, cfg.sky_cct_k), &lib.grid)?
@@ -128,7 +131,10 @@ impl LeafScene {
         let mut shading = vec![0.0f32; n * n];
         let mut surface = Vec::new();
         let mut remaining = n * n;
-        let (rmin, rmax) = (cfg.radius_min_px, (cfg.radius_max_fraction * n as f64).max(cfg.radius_min_px));
+        let (rmin, rmax) = (
+            cfg.radius_min_px,
+            (cfg.radius_max_fraction * n as f64).max(cfg.radius_min_px),
+        );
         let e = cfg.size_exponent - 1.0;
         let (a0, a1) = (rmin.powf(-e), rmax.powf(-e));
         let half_side = std::f64::consts::PI.sqrt() / 2.0; // square of area πr² has half-side r·√π/2
@@ -139,7 +145,11 @@ impl LeafScene {
             let theta = rng.random::<f64>() * std::f64::consts::PI;
             let (c, s) = (theta.cos(), theta.sin());
             let rect = rng.random::<f64>() < cfg.rectangle_fraction;
-            let (hx, hy) = if rect { (ax * half_side, ay * half_side) } else { (ax, ay) };
+            let (hx, hy) = if rect {
+                (ax * half_side, ay * half_side)
+            } else {
+                (ax, ay)
+            };
             let reach = hx.hypot(hy);
             let cx = -reach + rng.random::<f64>() * (n as f64 + 2.0 * reach);
             let cy = -reach + rng.random::<f64>() * (n as f64 + 2.0 * reach);

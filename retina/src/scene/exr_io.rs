@@ -140,7 +140,10 @@ pub fn read_spectral_exr(path: impl AsRef<Path>) -> Result<SpectralImage> {
 
 /// Read a spectral EXR and resample it onto `grid` (the grid of the cone sensitivities). Error
 /// naming the file if its wavelengths do not cover `grid`.
-pub fn read_spectral_exr_on(path: impl AsRef<Path>, grid: &WavelengthGrid) -> Result<SpectralImage> {
+pub fn read_spectral_exr_on(
+    path: impl AsRef<Path>,
+    grid: &WavelengthGrid,
+) -> Result<SpectralImage> {
     let path = path.as_ref();
     read_spectral_exr(path)?.resample(grid, &path.display().to_string())
 }

@@ -79,7 +79,11 @@ mod tests {
         let lib = ReflectanceLibrary::measured(&g).unwrap();
         assert_eq!(lib.len(), 1269 + 2696 + 99);
         assert!(lib.spectra.iter().all(|s| s.len() == 31));
-        assert!(lib.spectra.iter().flatten().all(|&v| (0.0..=1.0).contains(&v)));
+        assert!(lib
+            .spectra
+            .iter()
+            .flatten()
+            .all(|&v| (0.0..=1.0).contains(&v)));
         // Too wide a grid is an error, not an extrapolation.
         let wide = WavelengthGrid::range(360.0, 830.0, 10.0).unwrap();
         assert!(ReflectanceLibrary::measured(&wide).is_err());

@@ -20,11 +20,9 @@ pub mod exr_io;
 
 pub mod library;
 pub mod pool;
+pub mod projection;
 pub mod rgb;
 pub mod tetra;
-
-
-
 
 use colorimetry::cie::CieObserver;
 use colorimetry::{ConeFundamentals, WavelengthGrid};
@@ -90,7 +88,9 @@ impl SpectralImage {
         let hw = self.h * self.w;
         let mut out = SpectralImage::zeros(grid.clone(), self.h, self.w);
         for (l, &wl) in grid.as_slice().iter().enumerate() {
-            let i = have.partition_point(|&v| v <= wl).clamp(1, have.len().max(2) - 1);
+            let i = have
+                .partition_point(|&v| v <= wl)
+                .clamp(1, have.len().max(2) - 1);
             let (i0, i1) = if have.len() == 1 { (0, 0) } else { (i - 1, i) };
             let t = if i0 == i1 {
                 0.0
@@ -98,7 +98,10 @@ impl SpectralImage {
                 ((wl - have[i0]) / (have[i1] - have[i0])).clamp(0.0, 1.0) as f32
             };
             let (a, b) = (self.plane(i0), self.plane(i1));
-            for (o, (&p, &q)) in out.data[l * hw..(l + 1) * hw].iter_mut().zip(a.iter().zip(b)) {
+            for (o, (&p, &q)) in out.data[l * hw..(l + 1) * hw]
+                .iter_mut()
+                .zip(a.iter().zip(b))
+            {
                 // (1 − t)·p + t·q is exact at both ends (t = 0 or 1).
                 *o = (1.0 - t) * p + t * q;
             }
@@ -156,7 +159,11 @@ impl Projector {
     /// Project one spectrum (f64, on the grid) to k values.
     pub fn project_spectrum(&self, spectrum: &[f64]) -> Vec<f64> {
         let n = self.grid.len();
-        assert_eq!(spectrum.len(), n, "Projector::project_spectrum: length vs grid");
+        assert_eq!(
+            spectrum.len(),
+            n,
+            "Projector::project_spectrum: length vs grid"
+        );
         (0..self.k)
             .map(|c| {
                 (0..n)
@@ -170,7 +177,8 @@ impl Projector {
     /// first with [`SpectralImage::resample`]).
     pub fn project_image(&self, img: &SpectralImage) -> Vec<f32> {
         assert_eq!(
-            img.grid, self.grid,
+            img.grid,
+            self.grid,
             "Projector::project_image: image grid ({} wavelengths) differs from the projector's \
              ({})",
             img.grid.len(),

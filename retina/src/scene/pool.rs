@@ -26,8 +26,6 @@
 
 use std::path::PathBuf;
 
-use colorimetry::cone_rgb::ConeRgb;
-use colorimetry::{sensitivities, ConeClass, ConeTemplate, WavelengthGrid};
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
 use rayon::prelude::*;
@@ -36,12 +34,13 @@ use serde::{Deserialize, Serialize};
 use super::dead_leaves::{DeadLeavesConfig, LeafScene};
 use super::exr_io::read_spectral_exr_on;
 use super::library::ReflectanceLibrary;
+pub use super::projection::SceneProjection;
 use super::rgb::{class_planes_by_matrix, Display, RgbImage};
 use super::tetra::{
     idealised_class_planes, optimal_colour_library, patch_config, TetraEnvironment,
     OPTIMAL_LIBRARY_SIZE,
 };
-use super::{ClassPlanes, Projector, SpectralImage};
+use super::{ClassPlanes, SpectralImage};
 use crate::error::{Result, RetinaError};
 use crate::foveation::MipStack;
 
@@ -84,102 +83,31 @@ pub struct ScenePoolConfig {
     pub refresh_every_batches: usize,
 }
 
-/// The projection of scenes onto a mosaic's classes, and the whites and matrices around it.
-#[derive(Debug, Clone)]
-pub struct SceneProjection {
-    /// Sensitivity grid.
-    pub grid: WavelengthGrid,
-    /// One class per plane: the k mosaic classes, then any reference class they lack.
-    pub plane_classes: Vec<ConeClass>,
-    /// Number of mosaic classes.
-    pub k: usize,
-    /// Plane indices of the reference L, M, S.
-    pub reference_lms: [usize; 3],
-    /// Spectra → planes.
-    pub projector: Projector,
-    /// Linear sRGB ↔ planes (official matrix path) for all planes.
-    pub cone_rgb: ConeRgb,
-    /// Response of each plane to the sRGB white (1, 1, 1).
-    pub white: Vec<f64>,
-    /// Reference L, M, S → linear sRGB, row-major (3 × 3): `rgb = lms · m`.
-    pub lms_to_rgb: [[f64; 3]; 3],
-}
-
-impl SceneProjection {
-    /// For the mosaic `classes` under `template` on `grid`.
-    pub fn new(classes: &[ConeClass], template: &ConeTemplate, grid: &WavelengthGrid) -> Result<Self> {
-        let k = classes.len();
-        let mut plane_classes = classes.to_vec();
-        let mut reference_lms = [0usize; 3];
-        for (r, rc) in ConeClass::lms().into_iter().enumerate() {
-            reference_lms[r] = match plane_classes.iter().position(|c| *c == rc) {
-                Some(i) => i,
-                None => {
-                    plane_classes.push(ConeClass::custom(format!("ref_{}", rc.name), rc.peak_nm));
-                    plane_classes.len() - 1
-                }
-            };
-        }
-        let f = sensitivities(&plane_classes, template, grid)?;
-        let projector = Projector::cones(&f);
-        let cone_rgb = ConeRgb::fit(&f)?;
-        let white = (0..plane_classes.len())
-            .map(|c| (0..3).map(|r| cone_rgb.rgb_to_cone[r * plane_classes.len() + c]).sum())
-            .collect();
-        let ref_f = sensitivities(&ConeClass::lms(), template, grid)?;
-        let ref_rgb = ConeRgb::fit(&ref_f)?;
-        let mut lms_to_rgb = [[0.0; 3]; 3];
-        for (c, row) in lms_to_rgb.iter_mut().enumerate() {
-            for (r, v) in row.iter_mut().enumerate() {
-                *v = ref_rgb.cone_to_rgb[c * 3 + r];
-            }
-        }
-        Ok(SceneProjection {
-            grid: grid.clone(),
-            plane_classes,
-            k,
-            reference_lms,
-            projector,
-            cone_rgb,
-            white,
-            lms_to_rgb,
-        })
-    }
-
-    /// Number of planes.
-    pub fn n_planes(&self) -> usize {
-        self.plane_classes.len()
-    }
-
-    /// Project a spectral image (on [`SceneProjection::grid`]).
-    pub fn project(&self, img: &SpectralImage) -> ClassPlanes {
-        self.wrap(img.h, img.w, self.projector.project_image(img))
-    }
-
-    /// Wrap `(n_planes, h, w)` data.
-    pub fn wrap(&self, h: usize, w: usize, planes: Vec<f32>) -> ClassPlanes {
-        assert_eq!(planes.len(), self.n_planes() * h * w, "SceneProjection::wrap: shape");
-        ClassPlanes {
-            h,
-            w,
-            k: self.k,
-            n_planes: self.n_planes(),
-            planes,
-            reference_lms: self.reference_lms,
-        }
-    }
-}
-
 enum LoadedFile {
     Spectral(SpectralImage),
     Rgb(RgbImage),
 }
 
 /// Bilinear resize of `(planes, h, w)` data to `(planes, nh, nw)` (align-corners mapping).
-pub fn resize_bilinear(data: &[f32], planes: usize, h: usize, w: usize, nh: usize, nw: usize) -> Vec<f32> {
+pub fn resize_bilinear(
+    data: &[f32],
+    planes: usize,
+    h: usize,
+    w: usize,
+    nh: usize,
+    nw: usize,
+) -> Vec<f32> {
     let mut out = vec![0.0f32; planes * nh * nw];
-    let sy = if nh > 1 { (h - 1) as f32 / (nh - 1) as f32 } else { 0.0 };
-    let sx = if nw > 1 { (w - 1) as f32 / (nw - 1) as f32 } else { 0.0 };
+    let sy = if nh > 1 {
+        (h - 1) as f32 / (nh - 1) as f32
+    } else {
+        0.0
+    };
+    let sx = if nw > 1 {
+        (w - 1) as f32 / (nw - 1) as f32
+    } else {
+        0.0
+    };
     for p in 0..planes {
         let src = &data[p * h * w..(p + 1) * h * w];
         for y in 0..nh {
@@ -212,12 +140,18 @@ fn random_crop<R: Rng + ?Sized>(
 ) -> Vec<f32> {
     let (data, h, w) = if h < size || w < size {
         let s = size as f64 / h.min(w) as f64;
-        let (nh, nw) = (((h as f64 * s).ceil() as usize).max(size), ((w as f64 * s).ceil() as usize).max(size));
+        let (nh, nw) = (
+            ((h as f64 * s).ceil() as usize).max(size),
+            ((w as f64 * s).ceil() as usize).max(size),
+        );
         (resize_bilinear(data, planes, h, w, nh, nw), nh, nw)
     } else {
         (data.to_vec(), h, w)
     };
-    let (y0, x0) = (rng.random_range(0..=h - size), rng.random_range(0..=w - size));
+    let (y0, x0) = (
+        rng.random_range(0..=h - size),
+        rng.random_range(0..=w - size),
+    );
     let mut out = Vec::with_capacity(planes * size * size);
     for p in 0..planes {
         for y in 0..size {
@@ -272,7 +206,11 @@ impl ScenePool {
         let grid = projection.grid.clone();
         let mut files = Vec::new();
         for path in &config.files {
-            let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
+            let ext = path
+                .extension()
+                .and_then(|e| e.to_str())
+                .unwrap_or("")
+                .to_ascii_lowercase();
             files.push(match ext.as_str() {
                 "exr" => LoadedFile::Spectral(read_spectral_exr_on(path, &grid)?),
                 "png" => LoadedFile::Rgb(RgbImage::read_png(path)?),
@@ -290,7 +228,11 @@ impl ScenePool {
         };
         let mut pool = ScenePool {
             library: ReflectanceLibrary::measured(&grid)?,
-            optimal: optimal_colour_library(&grid, OPTIMAL_LIBRARY_SIZE, &mut StdRng::seed_from_u64(rng.random())),
+            optimal: optimal_colour_library(
+                &grid,
+                OPTIMAL_LIBRARY_SIZE,
+                &mut StdRng::seed_from_u64(rng.random()),
+            ),
             config,
             projection,
             levels,
@@ -322,21 +264,40 @@ impl ScenePool {
                 }
                 LoadedFile::Rgb(rgb) => {
                     let data = random_crop(&rgb.linear, 3, rgb.h, rgb.w, size, rng);
-                    let crop = RgbImage { h: size, w: size, linear: data };
+                    let crop = RgbImage {
+                        h: size,
+                        w: size,
+                        linear: data,
+                    };
                     let planes = match &self.display {
                         Some(d) => proj.project(&d.spectral_image(&crop)),
-                        None => proj.wrap(size, size, class_planes_by_matrix(&crop, &proj.cone_rgb)),
+                        None => {
+                            proj.wrap(size, size, class_planes_by_matrix(&crop, &proj.cone_rgb))
+                        }
                     };
                     (planes, false)
                 }
             }
         } else {
-            let tetra = self.config.tetra.filter(|t| rng.random::<f64>() < t.fraction);
+            let tetra = self
+                .config
+                .tetra
+                .filter(|t| rng.random::<f64>() < t.fraction);
             match tetra {
                 None => {
-                    let cfg = DeadLeavesConfig { size_px: size, ..self.config.dead_leaves.clone() };
+                    let cfg = DeadLeavesConfig {
+                        size_px: size,
+                        ..self.config.dead_leaves.clone()
+                    };
                     let scene = LeafScene::generate(&cfg, &self.library, rng)?;
-                    (proj.wrap(size, size, scene.render_projected(&self.library, &proj.projector)), true)
+                    (
+                        proj.wrap(
+                            size,
+                            size,
+                            scene.render_projected(&self.library, &proj.projector),
+                        ),
+                        true,
+                    )
                 }
                 Some(t) => {
                     let scene = LeafScene::generate(&patch_config(size), &self.optimal, rng)?;
@@ -351,7 +312,9 @@ impl ScenePool {
                             let nn = size * size;
                             for p in proj.k..proj.n_planes() {
                                 let name = proj.plane_classes[p].name.trim_start_matches("ref_");
-                                let src = proj.plane_classes[..proj.k].iter().position(|c| c.name == name);
+                                let src = proj.plane_classes[..proj.k]
+                                    .iter()
+                                    .position(|c| c.name == name);
                                 match src {
                                     Some(s) => d.extend_from_within(s * nn..(s + 1) * nn),
                                     None => d.extend(std::iter::repeat_n(0.0, nn)),
@@ -372,7 +335,13 @@ impl ScenePool {
 
     fn make_tile<R: Rng + ?Sized>(&self, index: usize, rng: &mut R) -> Result<MipStack> {
         let p = self.make_planes(index, rng)?;
-        Ok(MipStack::compute(&p.planes, p.n_planes, p.h, p.w, self.levels))
+        Ok(MipStack::compute(
+            &p.planes,
+            p.n_planes,
+            p.h,
+            p.w,
+            self.levels,
+        ))
     }
 
     /// Replace the next tile (round robin) with a fresh one.

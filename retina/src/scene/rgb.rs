@@ -60,7 +60,9 @@ impl RgbImage {
             .output_buffer_size()
             .ok_or_else(|| err("image too large".into()))?;
         let mut buf = vec![0u8; size];
-        let info = reader.next_frame(&mut buf).map_err(|e| err(e.to_string()))?;
+        let info = reader
+            .next_frame(&mut buf)
+            .map_err(|e| err(e.to_string()))?;
         let (w, h) = (info.width as usize, info.height as usize);
         let channels = match info.color_type {
             png::ColorType::Grayscale => 1,
@@ -133,7 +135,8 @@ impl Display {
             let sigma = DISPLAY_BAND_WIDTHS_NM[p];
             let [mut mu, mut floor] = starts[p];
             let f = |mu: f64, floor: f64| {
-                let xy = xyz_to_xy(fine_obs.xyz_of_radiance(&band(fine.as_slice(), mu, sigma, floor)));
+                let xy =
+                    xyz_to_xy(fine_obs.xyz_of_radiance(&band(fine.as_slice(), mu, sigma, floor)));
                 [xy[0] - target[0], xy[1] - target[1]]
             };
             for _ in 0..100 {
@@ -154,7 +157,9 @@ impl Display {
                 let d_mu = (j[1][1] * r[0] - j[0][1] * r[1]) / det;
                 let d_fl = (-j[1][0] * r[0] + j[0][0] * r[1]) / det;
                 // Damped: at most 10 nm and a floor change of 0.05 per step.
-                let step = 1.0f64.min(10.0 / d_mu.abs().max(1e-12)).min(0.05 / d_fl.abs().max(1e-12));
+                let step = 1.0f64
+                    .min(10.0 / d_mu.abs().max(1e-12))
+                    .min(0.05 / d_fl.abs().max(1e-12));
                 mu = (mu - step * d_mu).clamp(400.0, 700.0);
                 floor = (floor - step * d_fl).clamp(0.0, 1.0);
             }
@@ -170,7 +175,14 @@ impl Display {
         }
         let obs = CieObserver::cie1931(grid)?;
         let raw: Vec<Vec<f64>> = (0..3)
-            .map(|p| band(grid.as_slice(), centres[p], DISPLAY_BAND_WIDTHS_NM[p], floors[p]))
+            .map(|p| {
+                band(
+                    grid.as_slice(),
+                    centres[p],
+                    DISPLAY_BAND_WIDTHS_NM[p],
+                    floors[p],
+                )
+            })
             .collect();
         // Columns = XYZ of each primary; intensities a solve M·a = white.
         let xyz: Vec<[f64; 3]> = raw.iter().map(|s| obs.xyz_of_radiance(s)).collect();
@@ -245,9 +257,14 @@ mod tests {
     fn display_primaries_have_srgb_chromaticities_and_d65_white() {
         let g = WavelengthGrid::default();
         let d = Display::srgb_like(&g).unwrap();
-        eprintln!("display centres {:?} nm, floors {:?}", d.centres_nm, d.floors);
+        eprintln!(
+            "display centres {:?} nm, floors {:?}",
+            d.centres_nm, d.floors
+        );
         let obs = CieObserver::cie1931(&g).unwrap();
-        let white: Vec<f64> = (0..g.len()).map(|l| (0..3).map(|c| d.primaries[c][l]).sum()).collect();
+        let white: Vec<f64> = (0..g.len())
+            .map(|l| (0..3).map(|c| d.primaries[c][l]).sum())
+            .collect();
         let w = obs.xyz_of_radiance(&white);
         for (a, b) in w.iter().zip(D65_WHITE_XYZ) {
             assert!((a - b).abs() < 1e-9, "{w:?}");
@@ -255,8 +272,14 @@ mod tests {
         // On the coarse grid the chromaticities stay close to sRGB's (fitted at 1 nm).
         for p in 0..3 {
             let xy = xyz_to_xy(obs.xyz_of_radiance(&d.primaries[p]));
-            assert!((xy[0] - SRGB_PRIMARIES_XY[p][0]).abs() < 0.02, "{p}: {xy:?}");
-            assert!((xy[1] - SRGB_PRIMARIES_XY[p][1]).abs() < 0.02, "{p}: {xy:?}");
+            assert!(
+                (xy[0] - SRGB_PRIMARIES_XY[p][0]).abs() < 0.02,
+                "{p}: {xy:?}"
+            );
+            assert!(
+                (xy[1] - SRGB_PRIMARIES_XY[p][1]).abs() < 0.02,
+                "{p}: {xy:?}"
+            );
         }
     }
 
@@ -266,10 +289,17 @@ mod tests {
         let g = WavelengthGrid::official_1nm();
         let f = sensitivities(&ConeClass::lms(), &ConeTemplate::default(), &g).unwrap();
         let m = ConeRgb::fit(&f).unwrap();
-        let want = [[0.247, 0.046, 0.018], [0.714, 0.748, 0.036], [0.122, 0.212, 0.466]];
+        let want = [
+            [0.247, 0.046, 0.018],
+            [0.714, 0.748, 0.036],
+            [0.122, 0.212, 0.466],
+        ];
         for r in 0..3 {
             for c in 0..3 {
-                assert!((m.rgb_to_cone[r * 3 + c] - want[r][c]).abs() < 0.005, "{r},{c}");
+                assert!(
+                    (m.rgb_to_cone[r * 3 + c] - want[r][c]).abs() < 0.005,
+                    "{r},{c}"
+                );
             }
         }
         let rgb = RgbImage {

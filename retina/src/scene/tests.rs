@@ -3,7 +3,7 @@
 
 use super::dead_leaves::{DeadLeavesConfig, LeafScene};
 use super::library::ReflectanceLibrary;
-use super::pool::{RgbPath, SceneProjection, ScenePool, ScenePoolConfig};
+use super::pool::{RgbPath, ScenePool, ScenePoolConfig, SceneProjection};
 use super::rgb::{Display, RgbImage};
 use super::*;
 use crate::analysis::{pca_components_for_variance, power_spectrum_slope};
@@ -16,7 +16,10 @@ fn normalise_spectra(img: &SpectralImage) -> Vec<f32> {
     let (d, hw) = (img.grid.len(), img.h * img.w);
     let mut out = img.data.clone();
     for p in 0..hw {
-        let norm = (0..d).map(|l| img.data[l * hw + p].powi(2)).sum::<f32>().sqrt();
+        let norm = (0..d)
+            .map(|l| img.data[l * hw + p].powi(2))
+            .sum::<f32>()
+            .sqrt();
         if norm > 0.0 {
             for l in 0..d {
                 out[l * hw + p] /= norm;
@@ -28,7 +31,8 @@ fn normalise_spectra(img: &SpectralImage) -> Vec<f32> {
 
 fn astronaut() -> RgbImage {
     RgbImage::read_png(
-        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/data/images/astronaut.png"),
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../../shared/data/images/astronaut.png"),
     )
     .unwrap()
 }
@@ -37,7 +41,10 @@ fn astronaut() -> RgbImage {
 fn synthetic_scenes_need_at_least_six_components_rgb_scenes_three() {
     let g = WavelengthGrid::default();
     let lib = ReflectanceLibrary::measured(&g).unwrap();
-    let cfg = DeadLeavesConfig { size_px: 256, ..DeadLeavesConfig::default() };
+    let cfg = DeadLeavesConfig {
+        size_px: 256,
+        ..DeadLeavesConfig::default()
+    };
     for seed in 0..3 {
         let img = LeafScene::generate(&cfg, &lib, &mut StdRng::seed_from_u64(seed))
             .unwrap()
@@ -67,7 +74,10 @@ fn synthetic_scenes_have_natural_power_spectra() {
     let g = WavelengthGrid::default();
     let lib = ReflectanceLibrary::measured(&g).unwrap();
     let xyz = Projector::xyz(&g).unwrap();
-    let cfg = DeadLeavesConfig { size_px: 256, ..DeadLeavesConfig::default() };
+    let cfg = DeadLeavesConfig {
+        size_px: 256,
+        ..DeadLeavesConfig::default()
+    };
     let mut slopes = vec![];
     for seed in 0..4 {
         let scene = LeafScene::generate(&cfg, &lib, &mut StdRng::seed_from_u64(seed)).unwrap();
@@ -85,7 +95,12 @@ fn synthetic_scenes_have_natural_power_spectra() {
 #[test]
 fn pool_white_balance_and_reference_planes() {
     let g = WavelengthGrid::default();
-    let classes = vec![ConeClass::l(), ConeClass::m(), ConeClass::s(), ConeClass::human_q()];
+    let classes = vec![
+        ConeClass::l(),
+        ConeClass::m(),
+        ConeClass::s(),
+        ConeClass::human_q(),
+    ];
     let proj = SceneProjection::new(&classes, &ConeTemplate::default(), &g).unwrap();
     assert_eq!(proj.reference_lms, [0, 1, 2]);
     assert_eq!(proj.n_planes(), 4);
@@ -107,12 +122,19 @@ fn pool_white_balance_and_reference_planes() {
         let stack = pool.tile(t);
         for (p, w) in proj.white.iter().enumerate() {
             let max = stack.plane(0, p).iter().copied().fold(0.0f32, f32::max);
-            assert!((max as f64 - w).abs() < 1e-5, "tile {t} plane {p}: {max} vs {w}");
+            assert!(
+                (max as f64 - w).abs() < 1e-5,
+                "tile {t} plane {p}: {max} vs {w}"
+            );
         }
     }
     // A dichromat lacks S: the reference S is appended as an extra plane.
-    let ls = SceneProjection::new(&[ConeClass::l(), ConeClass::s()], &ConeTemplate::default(), &g)
-        .unwrap();
+    let ls = SceneProjection::new(
+        &[ConeClass::l(), ConeClass::s()],
+        &ConeTemplate::default(),
+        &g,
+    )
+    .unwrap();
     assert_eq!(ls.reference_lms, [0, 2, 1]);
     assert_eq!(ls.plane_classes[2].name, "ref_M");
     // PNG files through the matrix path: not white balanced, exact official matrix.
@@ -125,6 +147,11 @@ fn pool_white_balance_and_reference_planes() {
         ..cfg
     };
     let pool = ScenePool::new(files, proj, 1, &mut StdRng::seed_from_u64(0)).unwrap();
-    let max_l = pool.tile(0).plane(0, 0).iter().copied().fold(0.0f32, f32::max);
+    let max_l = pool
+        .tile(0)
+        .plane(0, 0)
+        .iter()
+        .copied()
+        .fold(0.0f32, f32::max);
     assert!(max_l <= 1.0831, "{max_l}");
 }

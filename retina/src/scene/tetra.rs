@@ -86,8 +86,14 @@ pub fn optimal_colour_library<R: Rng + ?Sized>(
 
 /// Class planes `(k, n, n)` of an idealised scene: each leaf of `scene` gets k independent
 /// uniform values, times the pixel's shading.
-pub fn idealised_class_planes<R: Rng + ?Sized>(scene: &LeafScene, k: usize, rng: &mut R) -> Vec<f32> {
-    let values: Vec<f32> = (0..scene.n_leaves() * k).map(|_| rng.random::<f32>()).collect();
+pub fn idealised_class_planes<R: Rng + ?Sized>(
+    scene: &LeafScene,
+    k: usize,
+    rng: &mut R,
+) -> Vec<f32> {
+    let values: Vec<f32> = (0..scene.n_leaves() * k)
+        .map(|_| rng.random::<f32>())
+        .collect();
     let nn = scene.size_px * scene.size_px;
     let mut out = vec![0.0f32; k * nn];
     for p in 0..nn {
@@ -121,14 +127,22 @@ mod tests {
     #[test]
     fn tetra_environments_have_more_q_versus_l_contrast_than_natural_scenes() {
         let g = WavelengthGrid::default();
-        let classes = vec![ConeClass::l(), ConeClass::m(), ConeClass::s(), ConeClass::human_q()];
+        let classes = vec![
+            ConeClass::l(),
+            ConeClass::m(),
+            ConeClass::s(),
+            ConeClass::human_q(),
+        ];
         let f = sensitivities(&classes, &ConeTemplate::default(), &g).unwrap();
         let proj = Projector::cones(&f);
         let mut rng = StdRng::seed_from_u64(2);
         let n = 128;
         let nn = n * n;
         let natural_lib = ReflectanceLibrary::measured(&g).unwrap();
-        let natural_cfg = DeadLeavesConfig { size_px: n, ..DeadLeavesConfig::default() };
+        let natural_cfg = DeadLeavesConfig {
+            size_px: n,
+            ..DeadLeavesConfig::default()
+        };
         let nat = LeafScene::generate(&natural_cfg, &natural_lib, &mut rng).unwrap();
         let r_nat = q_over_l_contrast(&nat.render_projected(&natural_lib, &proj), nn);
         let opt_lib = optimal_colour_library(&g, OPTIMAL_LIBRARY_SIZE, &mut rng);
@@ -136,8 +150,17 @@ mod tests {
         let r_opt = q_over_l_contrast(&opt.render_projected(&opt_lib, &proj), nn);
         let ideal = idealised_class_planes(&opt, 4, &mut rng);
         let r_ideal = q_over_l_contrast(&ideal, nn);
-        eprintln!("std ln(Q/L): natural {r_nat:.4}, optimal colours {r_opt:.4}, idealised {r_ideal:.4}");
-        assert!(r_nat < r_opt && r_opt < r_ideal, "{r_nat} {r_opt} {r_ideal}");
-        assert!(opt_lib.spectra.iter().flatten().all(|&v| (0.0..=1.0).contains(&v)));
+        eprintln!(
+            "std ln(Q/L): natural {r_nat:.4}, optimal colours {r_opt:.4}, idealised {r_ideal:.4}"
+        );
+        assert!(
+            r_nat < r_opt && r_opt < r_ideal,
+            "{r_nat} {r_opt} {r_ideal}"
+        );
+        assert!(opt_lib
+            .spectra
+            .iter()
+            .flatten()
+            .all(|&v| (0.0..=1.0).contains(&v)));
     }
 }

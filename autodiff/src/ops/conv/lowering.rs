@@ -1,22 +1,28 @@
-//! Lowering a convolution to GEMM through a padded copy of each image, plus the reusable
-//! scratch buffers the kernels use.
+//! Lowering a "same" convolution to GEMMs over shifted windows of a padded copy of each
+//! image — no column matrix — plus the reusable scratch buffers.
 //!
-//! Padding: the image `(C, H, W)` is copied once into a padded plane per channel of size
-//! `Hp × Wp = (H + 2p) × (W + 2p)`, `p = (k − 1)/2`, filled outside the image with zeros or
-//! PyTorch `'reflect'` values (mirror without repeating the edge: index −1 reads 1, index H
-//! reads H − 2). The buffer has `2p` zeros of slack after the last plane.
+//! Layout. An image `x (C, H, W)` is copied once into planes `xp[c·Hp·Wp + u·Wp + v] =
+//! x[c, src(u − p), src(v − p)]`, `Hp = H + 2p`, `Wp = W + 2p`, `p = (k − 1)/2`, where `src`
+//! maps a padded coordinate to a zero or a PyTorch `'reflect'` mirror (index −1 reads 1, index
+//! H reads H − 2). `2p` zeros of slack follow the last plane.
 //!
-//! Padded-width trick: outputs are computed at every position `q = i·Wp + j`, `j < Wp`; the
-//! `2p` positions with `j ≥ W` per row are junk and dropped. Then the column-matrix row of
-//! channel `c` and tap `(a, b)` is the *contiguous* window `xp[c·Hp·Wp + a·Wp + b + q]`, so
-//! `im2col` is `C·k²` plain copies. A tile is output rows `r0..r1`, `P = (r1 − r0)·Wp`
-//! positions; its column matrix is `(C·k²) × P` row-major, row `(c·k + a)·k + b`.
+//! Padded-width trick. Outputs are computed at positions `q = i·Wp + j`, `j < Wp`; the `2p`
+//! positions with `j ≥ W` per row are junk and dropped. Tap `(a, b)` of channel `c` then reads
+//! `xp[c·Hp·Wp + a·Wp + b + q]`: for fixed `(a, b)` this is a strided `C × positions` view
+//! `X_ab` (row stride `Hp·Wp`, column stride 1) of the padded buffer itself, so
+//! `y_tile = Σ_ab Wf_ab · X_ab` with `Wf_ab[o, c] = w[o, c, a, b]` — `k²` accumulating GEMMs
+//! that read the image in place.
 //!
-//! Backward runs the same maps transposed: `col2im` adds each window back into a padded
-//! gradient buffer, and `fold` adds every padded position into the pixel it was read from
-//! (so reflect borders fold their gradient onto the interior). Junk positions carry zero
-//! gradient because `expand` writes zeros there.
+//! Backward. `∂w`: `∂Wf_ab += dy_t · X_abᵀ`, with `dy_t` the output gradient expanded to padded
+//! width (zeros in the junk columns). `∂x`: the gradient of the padded image is a "full"
+//! correlation of `dy` with the flipped kernel,
+//! `∂xp[c, u, v] = Σ_{o,a,b} w[o, c, k−1−a, k−1−b] · dyz[o, u + a, v + b]`, with `dyz` = `dy`
+//! zero-padded by `2p` on every side (width `Wz = W + 4p`, height `H + 4p`, `2p` slack). The
+//! same trick gives `∂xp_tile = Σ_ab Wb_ab · Z_ab`, `Wb_ab[c, o] = w[o, c, k−1−a, k−1−b]`.
+//! `fold` then adds each padded position into the pixel it was read from (the adjoint of the
+//! padding: reflect borders fold onto the interior; zero borders are dropped).
 
+use crate::gemm::MatView;
 use crate::Float;
 use std::any::Any;
 use std::sync::Mutex;
@@ -48,7 +54,7 @@ pub(crate) fn source(i: isize, n: usize, mode: Padding) -> Option<usize> {
     }
 }
 
-/// Geometry of one image's convolution: channels, size, kernel side, padding.
+/// Geometry of one image's convolution: input channels, size, kernel side, padding.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Geometry {
     pub c: usize,
@@ -69,24 +75,48 @@ impl Geometry {
         self.w + 2 * self.p()
     }
 
-    /// Padded plane size `Hp·Wp`.
-    fn plane(&self) -> usize {
-        (self.h + 2 * self.p()) * self.wp()
+    /// Padded height `Hp = H + 2p`.
+    pub fn hp(&self) -> usize {
+        self.h + 2 * self.p()
     }
 
-    /// Length of the padded buffer of one image (all planes plus slack).
+    /// Width of the doubly padded output gradient, `Wz = W + 4p`.
+    pub fn wz(&self) -> usize {
+        self.w + 4 * self.p()
+    }
+
+    /// Padded plane size `Hp·Wp`.
+    pub fn plane(&self) -> usize {
+        self.hp() * self.wp()
+    }
+
+    /// Plane size of `dyz`, `(H + 4p)·Wz`.
+    pub fn plane_z(&self) -> usize {
+        (self.h + 4 * self.p()) * self.wz()
+    }
+
+    /// Length of `xp`, the padded image plus slack.
     pub fn padded_len(&self) -> usize {
         self.c * self.plane() + 2 * self.p()
     }
 
-    /// Rows of the column matrix, `C·k²`.
-    pub fn col_rows(&self) -> usize {
-        self.c * self.k * self.k
+    /// Length of `dyz` for `co` output channels.
+    pub fn dyz_len(&self, co: usize) -> usize {
+        co * self.plane_z() + 2 * self.p()
+    }
+
+    /// Padded rows whose gradient reaches the image: all for reflect, the interior for zeros.
+    pub fn grad_rows(&self) -> (usize, usize) {
+        match self.mode {
+            Padding::Reflect => (0, self.hp()),
+            Padding::Zero => (self.p(), self.p() + self.h),
+        }
     }
 
     /// Copies image `x` (`C·H·W`) into the padded buffer `xp` (see the module docs).
     pub fn pad<T: Float>(&self, x: &[T], xp: &mut [T]) {
         let (h, w, p, wp) = (self.h, self.w, self.p(), self.wp());
+        debug_assert_eq!(xp.len(), self.padded_len());
         for (xc, pc) in x.chunks_exact(h * w).zip(xp.chunks_exact_mut(self.plane())) {
             for (u, row) in pc.chunks_exact_mut(wp).enumerate() {
                 let Some(i) = source(u as isize - p as isize, h, self.mode) else {
@@ -104,14 +134,91 @@ impl Geometry {
         xp[self.c * self.plane()..].fill(T::zero());
     }
 
-    /// Adds the padded gradient `dxp` into the image gradient `dx`: the adjoint of [`Geometry::pad`].
-    pub fn fold_add<T: Float>(&self, dxp: &[T], dx: &mut [T]) {
-        let (h, w, p, wp) = (self.h, self.w, self.p(), self.wp());
-        for (gc, pc) in dx
-            .chunks_exact_mut(h * w)
-            .zip(dxp.chunks_exact(self.plane()))
-        {
-            for (u, row) in pc.chunks_exact(wp).enumerate() {
+    /// Copies `dy` (`Co·H·W`, times `[y > 0]` when `mask` is the ReLU output `y`) into `dyz`,
+    /// zero-padded by `2p` on every side (see the module docs).
+    pub fn pad_dy<T: Float>(&self, co: usize, dy: &[T], mask: Option<&[T]>, dyz: &mut [T]) {
+        let (h, w, p2, wz) = (self.h, self.w, 2 * self.p(), self.wz());
+        debug_assert_eq!(dyz.len(), self.dyz_len(co));
+        for (o, pc) in dyz.chunks_exact_mut(self.plane_z()).enumerate() {
+            pc[..p2 * wz].fill(T::zero());
+            pc[(p2 + h) * wz..].fill(T::zero());
+            for (i, row) in pc[p2 * wz..(p2 + h) * wz].chunks_exact_mut(wz).enumerate() {
+                row[..p2].fill(T::zero());
+                row[p2 + w..].fill(T::zero());
+                let src = &dy[(o * h + i) * w..][..w];
+                let dst = &mut row[p2..p2 + w];
+                match mask {
+                    None => dst.copy_from_slice(src),
+                    Some(y) => {
+                        let m = &y[(o * h + i) * w..][..w];
+                        for ((d, &g), &y) in dst.iter_mut().zip(src).zip(m) {
+                            *d = if y > T::zero() { g } else { T::zero() };
+                        }
+                    }
+                }
+            }
+        }
+        dyz[co * self.plane_z()..].fill(T::zero());
+    }
+
+    /// Rows `r0..r1` of `dy` (masked like [`Geometry::pad_dy_cl`]) as a padded-width tile
+    /// `Co × (r1−r0)·Wp` with zeros in the junk columns.
+    pub fn expand<T: Float>(
+        &self,
+        co: usize,
+        dy: &[T],
+        mask: Option<&[T]>,
+        r0: usize,
+        r1: usize,
+        dyt: &mut [T],
+    ) {
+        let (h, w, wp) = (self.h, self.w, self.wp());
+        let n = (r1 - r0) * wp;
+        for (o, dst) in dyt[..co * n].chunks_exact_mut(n).enumerate() {
+            for (i, d) in (r0..r1).zip(dst.chunks_exact_mut(wp)) {
+                let src = &dy[(o * h + i) * w..][..w];
+                match mask {
+                    None => d[..w].copy_from_slice(src),
+                    Some(y) => {
+                        let m = &y[(o * h + i) * w..][..w];
+                        for ((d, &g), &y) in d.iter_mut().zip(src).zip(m) {
+                            *d = if y > T::zero() { g } else { T::zero() };
+                        }
+                    }
+                }
+                d[w..].fill(T::zero());
+            }
+        }
+    }
+
+    /// Copies the valid columns of a padded-width tile `yt` (`Co × (r1−r0)·Wp`) into rows
+    /// `r0..r1` of the image `y` (`Co·H·W`), applying ReLU when `relu`.
+    pub fn compact<T: Float>(&self, yt: &[T], r0: usize, r1: usize, y: &mut [T], relu: bool) {
+        let (h, w, wp, n) = (self.h, self.w, self.wp(), (r1 - r0) * self.wp());
+        for (src, dst) in yt.chunks_exact(n).zip(y.chunks_exact_mut(h * w)) {
+            for (s, d) in src
+                .chunks_exact(wp)
+                .zip(dst[r0 * w..r1 * w].chunks_exact_mut(w))
+            {
+                if relu {
+                    for (d, &s) in d.iter_mut().zip(&s[..w]) {
+                        *d = s.max(T::zero());
+                    }
+                } else {
+                    d.copy_from_slice(&s[..w]);
+                }
+            }
+        }
+    }
+
+    /// Adds a tile of the padded-image gradient, rows `u0..u1` at row width `Wz` (`C ×
+    /// (u1−u0)·Wz`, first `Wp` columns used), into the image gradient `dx`: the adjoint of
+    /// [`Geometry::pad`].
+    pub fn fold_rows_add<T: Float>(&self, dxt: &[T], u0: usize, u1: usize, dx: &mut [T]) {
+        let (h, w, p, wp, wz) = (self.h, self.w, self.p(), self.wp(), self.wz());
+        let n = (u1 - u0) * wz;
+        for (gc, tc) in dx.chunks_exact_mut(h * w).zip(dxt.chunks_exact(n)) {
+            for (u, row) in (u0..u1).zip(tc.chunks_exact(wz)) {
                 let Some(i) = source(u as isize - p as isize, h, self.mode) else {
                     continue;
                 };
@@ -128,76 +235,98 @@ impl Geometry {
         }
     }
 
-    /// Gathers the column matrix of output rows `r0..r1` from the padded buffer `xp`.
-    pub fn im2col<T: Float>(&self, xp: &[T], r0: usize, r1: usize, col: &mut [T]) {
-        let (k, wp, n) = (self.k, self.wp(), (r1 - r0) * self.wp());
-        debug_assert_eq!(col.len(), self.col_rows() * n);
-        for (row, ck) in col.chunks_exact_mut(n).zip(0..) {
-            let (c, a, b) = (ck / (k * k), (ck / k) % k, ck % k);
-            let at = c * self.plane() + (r0 + a) * wp + b;
-            row.copy_from_slice(&xp[at..at + n]);
-        }
-    }
-
-    /// Adds the column matrix `col` of output rows `r0..r1` into the padded gradient `dxp`:
-    /// the adjoint of [`Geometry::im2col`].
-    pub fn col2im_add<T: Float>(&self, col: &[T], r0: usize, r1: usize, dxp: &mut [T]) {
-        let (k, wp, n) = (self.k, self.wp(), (r1 - r0) * self.wp());
-        debug_assert_eq!(col.len(), self.col_rows() * n);
-        for (row, ck) in col.chunks_exact(n).zip(0..) {
-            let (c, a, b) = (ck / (k * k), (ck / k) % k, ck % k);
-            let at = c * self.plane() + (r0 + a) * wp + b;
-            for (d, &g) in dxp[at..at + n].iter_mut().zip(row) {
-                *d += g;
+    /// `wf[t][o][c] = w[o, c, a, b]`, tap `t = a·k + b`: `k²` row-major `Co × C` matrices.
+    pub fn forward_weights<T: Float>(&self, co: usize, w: &[T], wf: &mut [T]) {
+        let (c, kk) = (self.c, self.k * self.k);
+        for (oc, taps) in w.chunks_exact(kk).enumerate() {
+            for (t, &v) in taps.iter().enumerate() {
+                wf[t * co * c + oc] = v;
             }
         }
     }
 
-    /// Copies the valid columns of a padded-width tile `yt` (`Cout × (r1−r0)·Wp`) into rows
-    /// `r0..r1` of the image `y` (`Cout·H·W`).
-    pub fn compact<T: Float>(&self, yt: &[T], r0: usize, r1: usize, y: &mut [T]) {
-        let (h, w, wp, n) = (self.h, self.w, self.wp(), (r1 - r0) * self.wp());
-        for (src, dst) in yt.chunks_exact(n).zip(y.chunks_exact_mut(h * w)) {
-            for (s, d) in src
-                .chunks_exact(wp)
-                .zip(dst[r0 * w..r1 * w].chunks_exact_mut(w))
-            {
-                d.copy_from_slice(&s[..w]);
+    /// `wb[t][c][o] = w[o, c, k−1−a, k−1−b]`, tap `t = a·k + b`: `k²` row-major `C × Co`.
+    pub fn backward_weights<T: Float>(&self, co: usize, w: &[T], wb: &mut [T]) {
+        let (c, kk) = (self.c, self.k * self.k);
+        for (oc, taps) in w.chunks_exact(kk).enumerate() {
+            let (o, ch) = (oc / c, oc % c);
+            for (t, &v) in taps.iter().rev().enumerate() {
+                wb[(t * c + ch) * co + o] = v;
             }
         }
     }
 
-    /// The transpose of [`Geometry::compact`]: rows `r0..r1` of `dy` into a padded-width tile
-    /// with zeros in the junk columns.
-    pub fn expand<T: Float>(&self, dy: &[T], r0: usize, r1: usize, dyt: &mut [T]) {
-        let (h, w, wp, n) = (self.h, self.w, self.wp(), (r1 - r0) * self.wp());
-        for (dst, src) in dyt.chunks_exact_mut(n).zip(dy.chunks_exact(h * w)) {
-            for (d, s) in dst
-                .chunks_exact_mut(wp)
-                .zip(src[r0 * w..r1 * w].chunks_exact(w))
-            {
-                d[..w].copy_from_slice(s);
-                d[w..].fill(T::zero());
+    /// `gw[o, c, a, b] += dwf[t][o][c]`: the adjoint of [`Geometry::forward_weights`].
+    pub fn add_weight_grad<T: Float>(&self, co: usize, dwf: &[T], gw: &mut [T]) {
+        let (c, kk) = (self.c, self.k * self.k);
+        for (oc, taps) in gw.chunks_exact_mut(kk).enumerate() {
+            for (t, g) in taps.iter_mut().enumerate() {
+                *g += dwf[t * co * c + oc];
             }
         }
+    }
+
+    /// `X_ab` for output rows `r0..r1` (`C × (r1−r0)·Wp`, see the module docs), `t = a·k + b`.
+    pub fn x_view<'a, T>(&self, xp: &'a [T], t: usize, r0: usize, r1: usize) -> MatView<'a, T> {
+        let (a, b, wp) = (t / self.k, t % self.k, self.wp());
+        MatView::new(
+            xp,
+            (r0 + a) * wp + b,
+            self.c,
+            (r1 - r0) * wp,
+            self.plane(),
+            1,
+        )
+    }
+
+    /// `X_abᵀ` for output rows `r0..r1` (`(r1−r0)·Wp × C`).
+    pub fn xt_view<'a, T>(&self, xp: &'a [T], t: usize, r0: usize, r1: usize) -> MatView<'a, T> {
+        let (a, b, wp) = (t / self.k, t % self.k, self.wp());
+        MatView::new(
+            xp,
+            (r0 + a) * wp + b,
+            (r1 - r0) * wp,
+            self.c,
+            1,
+            self.plane(),
+        )
+    }
+
+    /// `Z_ab` for padded-gradient rows `u0..u1` (`Co × (u1−u0)·Wz`).
+    pub fn z_view<'a, T>(
+        &self,
+        co: usize,
+        dyz: &'a [T],
+        t: usize,
+        u0: usize,
+        u1: usize,
+    ) -> MatView<'a, T> {
+        let (a, b, wz) = (t / self.k, t % self.k, self.wz());
+        MatView::new(
+            dyz,
+            (u0 + a) * wz + b,
+            co,
+            (u1 - u0) * wz,
+            self.plane_z(),
+            1,
+        )
     }
 }
 
-/// Output-row tiles `r0..r1` sized so a tile's column matrix stays in L2 (~512 KiB of f32).
-pub(crate) fn tiles(g: &Geometry) -> Vec<(usize, usize)> {
+/// Row tiles `r0..r1` of `0..rows` such that a tile touches about [`TILE_ELEMS`] elements
+/// (`per_row` per row), so its working set stays in L2.
+pub(crate) fn tiles(rows: usize, per_row: usize) -> Vec<(usize, usize)> {
     let target = TILE_ELEMS.load(std::sync::atomic::Ordering::Relaxed);
-    let per_row = (g.col_rows() * g.wp()).max(1);
-    let rows = target.div_ceil(per_row).clamp(1, g.h.max(1));
-    let n = g.h.div_ceil(rows).max(1);
-    let rows = g.h.div_ceil(n).max(1);
-    (0..g.h)
-        .step_by(rows)
-        .map(|r0| (r0, (r0 + rows).min(g.h)))
+    let per = target.div_ceil(per_row.max(1)).clamp(1, rows.max(1));
+    let n = rows.div_ceil(per).max(1);
+    let per = rows.div_ceil(n).max(1);
+    (0..rows)
+        .step_by(per)
+        .map(|r0| (r0, (r0 + per).min(rows)))
         .collect()
 }
 
-/// Target size of one tile's column matrix, in elements (tuning knob; results do not depend
-/// on it).
+/// Target working set of one tile, in elements (tuning knob; results do not depend on it).
 pub(crate) static TILE_ELEMS: std::sync::atomic::AtomicUsize =
     std::sync::atomic::AtomicUsize::new(1 << 17);
 
@@ -216,6 +345,12 @@ pub(crate) struct Scratch<T: Float> {
 impl<T: Float> Scratch<T> {
     /// A scratch slice of `len` elements with unspecified contents.
     pub fn take(len: usize) -> Self {
+        if len == 0 {
+            return Scratch {
+                buf: Vec::new(),
+                len,
+            };
+        }
         let mut stash = STASH.lock().unwrap_or_else(|e| e.into_inner());
         let mut best: Option<(usize, usize)> = None;
         for (i, b) in stash.iter().enumerate() {
@@ -259,6 +394,9 @@ impl<T: Float> std::ops::DerefMut for Scratch<T> {
 impl<T: Float> Drop for Scratch<T> {
     fn drop(&mut self) {
         let buf = std::mem::take(&mut self.buf);
+        if buf.is_empty() {
+            return;
+        }
         let mut stash = STASH.lock().unwrap_or_else(|e| e.into_inner());
         if stash.len() < STASH_MAX {
             stash.push(Box::new(buf));
@@ -269,6 +407,15 @@ impl<T: Float> Drop for Scratch<T> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    fn rng(mut seed: u64) -> impl FnMut() -> f64 {
+        move || {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+        }
+    }
 
     #[test]
     fn reflect_matches_pytorch_convention() {
@@ -281,74 +428,62 @@ mod tests {
     }
 
     #[test]
-    fn backward_maps_are_adjoint_to_forward_maps() {
-        // <compact(im2col(pad x)), y> == <x, fold(col2im(expand y))> for random x, y.
-        let mut seed = 7u64;
-        let mut rnd = || {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5
-        };
+    fn fold_is_adjoint_to_pad_and_weight_maps_are_adjoint() {
+        // <pad(x), z> == <x, fold(z)> with z laid out planar at row width Wz.
+        let mut rnd = rng(7);
         for mode in [Padding::Zero, Padding::Reflect] {
-            for (h, w, k) in [(2, 2, 3), (3, 5, 3), (6, 4, 5), (5, 3, 1)] {
-                let g = Geometry {
-                    c: 2,
-                    h,
-                    w,
-                    k,
-                    mode,
-                };
-                let x: Vec<f64> = (0..2 * h * w).map(|_| rnd()).collect();
+            for (c, h, w, k) in [(2, 2, 2, 3), (3, 3, 5, 3), (2, 6, 4, 5)] {
+                let g = Geometry { c, h, w, k, mode };
+                let (hp, wp, wz) = (g.hp(), g.wp(), g.wz());
+                let x: Vec<f64> = (0..c * h * w).map(|_| rnd()).collect();
                 let mut xp = vec![f64::NAN; g.padded_len()];
                 g.pad(&x, &mut xp);
-                for (r0, r1) in [(0, h), (1, h), (0, 1)] {
-                    let n = (r1 - r0) * g.wp();
-                    // One "output channel" per column-matrix row.
-                    let rows = g.col_rows();
-                    let y: Vec<f64> = (0..rows * h * w).map(|_| rnd()).collect();
-                    let mut col = vec![0.0; rows * n];
-                    g.im2col(&xp, r0, r1, &mut col);
-                    let lhs: f64 = (0..rows)
-                        .flat_map(|r| (r0..r1).flat_map(move |i| (0..w).map(move |j| (r, i, j))))
-                        .map(|(r, i, j)| {
-                            col[r * n + (i - r0) * g.wp() + j] * y[(r * h + i) * w + j]
-                        })
-                        .sum();
-                    let mut yt = vec![0.0; rows * n];
-                    g.expand(&y, r0, r1, &mut yt);
-                    let mut dxp = vec![0.0; g.padded_len()];
-                    g.col2im_add(&yt, r0, r1, &mut dxp);
-                    let mut dx = vec![0.0; x.len()];
-                    g.fold_add(&dxp, &mut dx);
-                    let rhs: f64 = x.iter().zip(&dx).map(|(a, b)| a * b).sum();
-                    assert!(
-                        (lhs - rhs).abs() < 1e-12,
-                        "{mode:?} {h}x{w} k{k} rows {r0}..{r1}: {lhs} vs {rhs}"
-                    );
+                let z: Vec<f64> = (0..c * hp * wz).map(|_| rnd()).collect();
+                let lhs: f64 = (0..c)
+                    .flat_map(|ch| (0..hp).flat_map(move |u| (0..wp).map(move |v| (ch, u, v))))
+                    .map(|(ch, u, v)| xp[(ch * hp + u) * wp + v] * z[(ch * hp + u) * wz + v])
+                    .sum();
+                let mut dx = vec![0.0; x.len()];
+                // Two tiles, to exercise the row offsets.
+                let mid = hp / 2;
+                for (u0, u1) in [(0, mid), (mid, hp)] {
+                    let t: Vec<f64> = (0..c)
+                        .flat_map(|ch| z[(ch * hp + u0) * wz..(ch * hp + u1) * wz].to_vec())
+                        .collect();
+                    g.fold_rows_add(&t, u0, u1, &mut dx);
                 }
+                let rhs: f64 = x.iter().zip(&dx).map(|(a, b)| a * b).sum();
+                assert!(
+                    (lhs - rhs).abs() < 1e-12,
+                    "{mode:?} {c}x{h}x{w} k{k}: {lhs} vs {rhs}"
+                );
+                assert!(
+                    xp[c * g.plane()..].iter().all(|&v| v == 0.0),
+                    "slack is zero"
+                );
+                let co = 3;
+                let wt: Vec<f64> = (0..co * c * k * k).map(|_| rnd()).collect();
+                let mut wf = vec![0.0; wt.len()];
+                g.forward_weights(co, &wt, &mut wf);
+                let mut back = vec![0.0; wt.len()];
+                g.add_weight_grad(co, &wf, &mut back);
+                assert_eq!(back, wt, "add_weight_grad inverts forward_weights");
             }
         }
     }
 
     #[test]
     fn tiles_cover_all_rows() {
-        for (c, h, w, k) in [
-            (16, 64, 64, 3),
-            (64, 16, 16, 3),
-            (16, 256, 256, 3),
-            (1, 3, 2, 3),
+        for (rows, per_row) in [
+            (64, 16 * 66),
+            (16, 64 * 18),
+            (258, 16 * 258),
+            (3, 1),
+            (1, 1 << 30),
         ] {
-            let g = Geometry {
-                c,
-                h,
-                w,
-                k,
-                mode: Padding::Zero,
-            };
-            let t = tiles(&g);
+            let t = tiles(rows, per_row);
             assert_eq!(t.first().unwrap().0, 0);
-            assert_eq!(t.last().unwrap().1, h);
+            assert_eq!(t.last().unwrap().1, rows);
             assert!(t.windows(2).all(|p| p[0].1 == p[1].0));
         }
     }

@@ -81,8 +81,33 @@ fn conv_case() -> impl Strategy<Value = (Tensor<f64>, Tensor<f64>, Padding)> {
         })
 }
 
+/// `relu(naive_conv)` and its input/weight gradients for the cotangent `r`.
+fn naive_conv_relu_grads(
+    x: &Tensor<f64>,
+    w: &Tensor<f64>,
+    r: &Tensor<f64>,
+    mode: Padding,
+) -> (Tensor<f64>, Tensor<f64>, Tensor<f64>) {
+    let y = naive_conv(x, w, mode);
+    let masked = Tensor::from_fn(
+        r.shape(),
+        |i| if y.data()[i] > 0.0 { r.data()[i] } else { 0.0 },
+    );
+    let (gx, gw) = naive_conv_grads(x, w, &masked, mode);
+    (Tensor::from_fn(y.shape(), |i| y.data()[i].max(0.0)), gx, gw)
+}
+
 proptest! {
     #![proptest_config(st::config())]
+
+    #[test]
+    fn conv2d_relu_gradients((x, w, mode) in conv_case()) {
+        // Skip draws with an output within 1e-3 of the ReLU kink (finite differences straddle it).
+        let y = naive_conv(&x, &w, mode);
+        prop_assume!(y.data().iter().all(|v| v.abs() > 1e-3));
+        let r = check_gradients(|t, v| t.conv2d_relu(v[0], v[1], mode), &[x.clone(), w.clone()], &CheckConfig::default());
+        prop_assert!(r.is_ok(), "conv2d_relu {mode:?} x {:?} w {:?}: {}", x.shape(), w.shape(), r.unwrap_err());
+    }
 
     #[test]
     fn conv2d_gradients((x, w, mode) in conv_case()) {
@@ -176,22 +201,17 @@ fn naive_conv_grads(
 
 #[test]
 fn tiled_large_image_matches_direct_loops() {
-    // 300×37 with 8 input channels is cut into many row tiles (several per image).
-    let g = lowering::Geometry {
-        c: 8,
-        h: 300,
-        w: 37,
-        k: 3,
-        mode: Padding::Reflect,
-    };
+    // 300×150 with 8 input and 3 output channels is cut into several row tiles per image, in
+    // forward and in both halves of backward.
     assert!(
-        lowering::tiles(&g).len() >= 3,
+        lowering::tiles(300, 152 * (8 + 3)).len() >= 3
+            && lowering::tiles(302, 154 * (8 + 3)).len() >= 3,
         "test must exercise several tiles"
     );
-    for (mode, batch) in [(Padding::Reflect, 1), (Padding::Zero, 3)] {
-        let x = lcg_tensor(&[batch, 8, 300, 37], 1);
+    for (mode, batch) in [(Padding::Reflect, 1), (Padding::Zero, 2)] {
+        let x = lcg_tensor(&[batch, 8, 300, 150], 1);
         let w = lcg_tensor(&[3, 8, 3, 3], 2);
-        let r = lcg_tensor(&[batch, 3, 300, 37], 3);
+        let r = lcg_tensor(&[batch, 3, 300, 150], 3);
         let mut t = Tape::<f64>::new();
         let (xv, wv) = (t.leaf(x.clone()), t.leaf(w.clone()));
         let y = t.conv2d(xv, wv, mode);
@@ -256,87 +276,120 @@ fn f32_matches_f64() {
     assert!(t.value(y).cast::<f64>().max_abs_diff(&want) < 1e-5);
 }
 
-/// Timing breakdown for tuning (`cargo test --release -p autodiff conv_profile -- --ignored --nocapture`).
 #[test]
-#[ignore]
-fn conv_profile() {
-    use std::time::Instant;
-    for &(b, ci, h, co) in &[
-        (8usize, 16usize, 64usize, 16usize),
-        (8, 64, 16, 64),
-        (4, 16, 256, 16),
+fn conv2d_relu_matches_direct_loops() {
+    // Values, ∂x and ∂w of the fused op against relu(direct conv), zero and reflect, 3×3 and
+    // 1×1, on images large enough to be tiled.
+    for (mode, batch, k, h, wd) in [
+        (Padding::Reflect, 2, 3, 150, 37),
+        (Padding::Zero, 3, 3, 20, 9),
+        (Padding::Reflect, 2, 5, 11, 8),
+        (Padding::Zero, 2, 1, 7, 5),
     ] {
-        let x: Tensor<f32> = lcg_tensor(&[b, ci, h, h], 1).cast();
-        let w: Tensor<f32> = lcg_tensor(&[co, ci, 3, 3], 2).cast();
-        let g = lowering::Geometry {
-            c: ci,
-            h,
-            w: h,
-            k: 3,
-            mode: Padding::Reflect,
-        };
-        let tl = lowering::tiles(&g);
-        let px = (tl[0].1 - tl[0].0) * g.wp();
-        let mut col = vec![0f32; g.col_rows() * px];
-        let mut xp = vec![0f32; g.padded_len()];
-        let mut yt = vec![0f32; co * px];
-        let reps = 20;
-        let t0 = Instant::now();
-        for _ in 0..reps {
-            for bi in 0..b {
-                g.pad(&x.data()[bi * ci * h * h..][..ci * h * h], &mut xp);
-                for &(r0, r1) in &tl {
-                    g.im2col(&xp, r0, r1, &mut col[..g.col_rows() * (r1 - r0) * g.wp()]);
-                }
-            }
-        }
-        let t_im2col = t0.elapsed().as_secs_f64() / reps as f64;
-        let t0 = Instant::now();
-        for _ in 0..reps {
-            for _ in 0..b * tl.len() {
-                f32::gemm(
-                    &mut yt,
-                    false,
-                    w.data(),
-                    false,
-                    &col,
-                    false,
-                    co,
-                    px,
-                    g.col_rows(),
-                    1.0,
-                );
-            }
-        }
-        let t_gemm = t0.elapsed().as_secs_f64() / reps as f64;
-        let mut t = Tape::<f32>::new();
-        let mut best = Vec::new();
-        for tile in [1usize << 16, 1 << 17, 1 << 18, 1 << 19, 1 << 20] {
-            lowering::TILE_ELEMS.store(tile, std::sync::atomic::Ordering::Relaxed);
-            let (mut tf, mut tb) = (f64::MAX, f64::MAX);
-            for _ in 0..reps {
-                t.clear();
-                let xv = t.leaf(x.clone());
-                let wv = t.leaf(w.clone());
-                let t0 = Instant::now();
-                let y = t.conv2d(xv, wv, Padding::Reflect);
-                tf = tf.min(t0.elapsed().as_secs_f64());
-                let l = t.sum(y);
-                let t0 = Instant::now();
-                t.backward(l);
-                tb = tb.min(t0.elapsed().as_secs_f64());
-            }
-            best.push(format!(
-                "tile 2^{}: fwd {:.2} bwd {:.2}",
-                tile.trailing_zeros(),
-                tf * 1e3,
-                tb * 1e3
-            ));
-        }
-        lowering::TILE_ELEMS.store(1 << 17, std::sync::atomic::Ordering::Relaxed);
-        eprintln!(
-            "({b},{ci},{h},{h})->{co}: 1-thread im2col {:.2} ms, fwd gemm {:.2} ms ({:.0} GFLOP/s); tape min fwd/bwd(+sum) in ms: {}",
-            t_im2col * 1e3, t_gemm * 1e3, 2.0 * (b * h * h * co * ci * 9) as f64 / t_gemm / 1e9, best.join(" | ")
+        let x = lcg_tensor(&[batch, 6, h, wd], 11);
+        let w = lcg_tensor(&[4, 6, k, k], 12);
+        let r = lcg_tensor(&[batch, 4, h, wd], 13);
+        let mut t = Tape::<f64>::new();
+        let (xv, wv) = (t.leaf(x.clone()), t.leaf(w.clone()));
+        let y = t.conv2d_relu(xv, wv, mode);
+        let (want, gx, gw) = naive_conv_relu_grads(&x, &w, &r, mode);
+        assert!(want.data().iter().any(|&v| v == 0.0) && want.data().iter().any(|&v| v > 0.0));
+        assert!(
+            t.value(y).max_abs_diff(&want) < 1e-12,
+            "{mode:?} k{k} value"
+        );
+        t.backward_from(&[(y, r)], &mut crate::NoHooks);
+        assert!(
+            t.grad(xv).unwrap().max_abs_diff(&gx) < 1e-10,
+            "{mode:?} k{k} dx"
+        );
+        assert!(
+            t.grad(wv).unwrap().max_abs_diff(&gw) < 1e-9,
+            "{mode:?} k{k} dw"
         );
     }
+}
+
+#[test]
+fn output_buffers_are_not_assumed_zero() {
+    // The tape hands conv a recycled buffer without zeroing it (`overwrites_output`): run a
+    // different computation first so the pooled buffers hold garbage, then compare.
+    let x = lcg_tensor(&[2, 3, 8, 8], 21);
+    let w = lcg_tensor(&[3, 3, 3, 3], 22);
+    let want = naive_conv(&x, &w, Padding::Reflect);
+    let mut t = Tape::<f64>::new();
+    let junk = t.constant(Tensor::full([2, 3, 8, 8], 7.0));
+    let _ = t.relu(junk);
+    t.clear();
+    let (xv, wv) = (t.constant(x.clone()), t.constant(w.clone()));
+    let y = t.conv2d(xv, wv, Padding::Reflect);
+    assert!(t.value(y).max_abs_diff(&want) < 1e-12);
+}
+
+/// GEMM layout experiment (`cargo test --release -p autodiff conv_gemm_layouts -- --ignored --nocapture`).
+#[test]
+#[ignore]
+fn conv_gemm_layouts() {
+    use crate::gemm::MatView;
+    use std::time::Instant;
+    crate::gemm::set_gemm_threads(1);
+    for &(c, co, h) in &[(16usize, 16usize, 64usize), (64, 64, 16), (16, 16, 32)] {
+        let (wp, hp) = (h + 2, h + 2);
+        let n = h * wp;
+        let plane = hp * wp;
+        let xp: Vec<f32> = (0..c * plane + 2 * wp + 8)
+            .map(|i| (i % 7) as f32)
+            .collect();
+        let xcl: Vec<f32> = (0..(plane + 4) * c).map(|i| (i % 7) as f32).collect();
+        let wsm: Vec<f32> = (0..co * c * 9).map(|i| (i % 5) as f32).collect();
+        let col: Vec<f32> = (0..9 * c * n).map(|i| (i % 3) as f32).collect();
+        let mut dst = vec![0f32; co * n];
+        let reps = 200;
+        let flops = 2.0 * (co * c * 9 * n) as f64;
+        let mut time = |name: &str, f: &mut dyn FnMut(&mut [f32])| {
+            f(&mut dst);
+            let t0 = Instant::now();
+            for _ in 0..reps {
+                f(&mut dst);
+            }
+            let t = t0.elapsed().as_secs_f64() / reps as f64;
+            eprintln!(
+                "c{c} co{co} h{h} {name}: {:.1} us, {:.0} GFLOP/s",
+                t * 1e6,
+                flops / t / 1e9
+            );
+        };
+        time("im2col-gemm only", &mut |d| {
+            f32::gemm(d, false, &wsm, false, &col, false, co, n, 9 * c, 1.0)
+        });
+        time("A1 rowmaj dst, 3x K=3C cl", &mut |d| {
+            for a in 0..3 {
+                let wa = MatView::row_major(&wsm[a * co * 3 * c..][..co * 3 * c], co, 3 * c);
+                let x = MatView::new(&xcl, a * wp * c, 3 * c, n, 1, c);
+                f32::gemm_view(d, a > 0, wa, x, 1.0);
+            }
+        });
+        time("B1 cl dst, 3x K=3C cl", &mut |d| {
+            for a in 0..3 {
+                let wa = MatView::new(&wsm[a * co * 3 * c..][..co * 3 * c], 0, 3 * c, co, 1, 3 * c);
+                let x = MatView::new(&xcl, a * wp * c, n, 3 * c, c, 1);
+                f32::gemm_view(d, a > 0, x, wa, 1.0);
+            }
+        });
+        time("P9 rowmaj dst, 9x K=C planar", &mut |d| {
+            for t in 0..9 {
+                let wa = MatView::row_major(&wsm[t * co * c..][..co * c], co, c);
+                let x = MatView::new(&xp, (t / 3) * wp + t % 3, c, n, plane, 1);
+                f32::gemm_view(d, t > 0, wa, x, 1.0);
+            }
+        });
+        time("P9T cl dst, 9x K=C planar", &mut |d| {
+            for t in 0..9 {
+                let wa = MatView::new(&wsm[t * co * c..][..co * c], 0, c, co, 1, c);
+                let x = MatView::new(&xp, (t / 3) * wp + t % 3, n, c, 1, plane);
+                f32::gemm_view(d, t > 0, x, wa, 1.0);
+            }
+        });
+    }
+    crate::gemm::set_gemm_threads(0);
 }

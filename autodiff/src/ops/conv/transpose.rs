@@ -136,6 +136,10 @@ impl<T: Float> Op<T> for ConvTranspose2x2 {
         }
     }
 
+    fn overwrites_output(&self) -> bool {
+        true
+    }
+
     fn weight_inputs(&self) -> &'static [usize] {
         &[1]
     }

@@ -35,6 +35,19 @@ fn for_chunks<T: Float>(out: &mut [Complex<T>], f: impl Fn(usize, &mut [Complex<
     }
 }
 
+/// Splits the flat range `start..start + len` of `a` at multiples of `m` (the length of the
+/// broadcast `b`) and calls `f(i, j, n)` for each piece: `a[i..i + n]` pairs with `b[j..j + n]`.
+#[inline(always)]
+fn pieces(start: usize, len: usize, m: usize, mut f: impl FnMut(usize, usize, usize)) {
+    let (mut i, end) = (start, start + len);
+    while i < end {
+        let j = i % m;
+        let n = (m - j).min(end - i);
+        f(i, j, n);
+        i += n;
+    }
+}
+
 /// Number of complex elements of `b` when its shape is a complex suffix of `a`'s; panics naming
 /// `op` and both shapes otherwise.
 #[track_caller]
@@ -165,10 +178,12 @@ impl<T: Float> Op<T> for ComplexBinary<T> {
         let (a, b) = (as_complex(inputs[0].data()), as_complex(inputs[1].data()));
         let m = b.len();
         for_chunks(as_complex_mut(out.data_mut()), |start, out| {
-            for (k, o) in out.iter_mut().enumerate() {
-                let i = start + k;
-                *o = self.apply(a[i], b[i % m]);
-            }
+            pieces(start, out.len(), m, |i, j, n| {
+                let o = &mut out[i - start..][..n];
+                for ((o, &a), &b) in o.iter_mut().zip(&a[i..i + n]).zip(&b[j..j + n]) {
+                    *o = self.apply(a, b);
+                }
+            });
         });
     }
     fn backward(&self, cx: &BackwardCx<'_, T>, dx: &mut GradSlots<'_, T>) {
@@ -180,19 +195,22 @@ impl<T: Float> Op<T> for ComplexBinary<T> {
         let m = b.len();
         if let Some(ga) = dx.slot_data(0) {
             for_chunks(as_complex_mut(ga), |start, ga| {
-                for (k, g) in ga.iter_mut().enumerate() {
-                    let i = start + k;
-                    *g = *g + self.grad_a(b[i % m], gy[i]);
-                }
+                pieces(start, ga.len(), m, |i, j, n| {
+                    let g = &mut ga[i - start..][..n];
+                    for ((g, &b), &gy) in g.iter_mut().zip(&b[j..j + n]).zip(&gy[i..i + n]) {
+                        *g = *g + self.grad_a(b, gy);
+                    }
+                });
             });
         }
         if let Some(gb) = dx.slot_data(1) {
             let batch = a.len() / m.max(1);
             for_chunks(as_complex_mut(gb), |start, gb| {
+                let (len, b) = (gb.len(), &b[start..start + gb.len()]);
                 for n in 0..batch {
-                    let off = n * m + start;
-                    for (k, g) in gb.iter_mut().enumerate() {
-                        *g = *g + self.grad_b(a[off + k], b[start + k], gy[off + k]);
+                    let (a, gy) = (&a[n * m + start..][..len], &gy[n * m + start..][..len]);
+                    for (((g, &a), &b), &gy) in gb.iter_mut().zip(a).zip(b).zip(gy) {
+                        *g = *g + self.grad_b(a, b, gy);
                     }
                 }
             });

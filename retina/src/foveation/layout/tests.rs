@@ -59,7 +59,11 @@ fn jitter_std_is_about_half_a_cell() {
     let mut all = vec![];
     for seed in 0..4 {
         let l = paper(seed);
-        all.extend(l.jitter_cells.iter().flat_map(|j| [j[0] as f64, j[1] as f64]));
+        all.extend(
+            l.jitter_cells
+                .iter()
+                .flat_map(|j| [j[0] as f64, j[1] as f64]),
+        );
     }
     let mean = all.iter().sum::<f64>() / all.len() as f64;
     let std = (all.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / all.len() as f64).sqrt();
@@ -98,6 +102,9 @@ fn identity_layout_is_the_pixel_grid() {
     let l = ConeLayout::compute(&LayoutConfig::Identity, 8, 8, 0);
     assert_eq!(l.positions_px[8 * 3 + 5], [5.0, 3.0]);
     assert_eq!(l.spacing_px(), vec![1.0; 64]);
-    assert!(l.cell_signed_areas_px2().iter().all(|&a| (a - 1.0).abs() < 1e-12));
+    assert!(l
+        .cell_signed_areas_px2()
+        .iter()
+        .all(|&a| (a - 1.0).abs() < 1e-12));
     assert_eq!(l.positions_normalised()[0], [-1.0, -1.0]);
 }

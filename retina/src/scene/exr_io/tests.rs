@@ -29,7 +29,11 @@ fn round_trip_is_bit_exact() {
         let back = read_spectral_exr(&p).unwrap();
         assert_eq!(back.grid, img.grid);
         assert_eq!((back.h, back.w), (17, 23));
-        assert!(back.data.iter().zip(&img.data).all(|(a, b)| a.to_bits() == b.to_bits()));
+        assert!(back
+            .data
+            .iter()
+            .zip(&img.data)
+            .all(|(a, b)| a.to_bits() == b.to_bits()));
     }
 }
 

@@ -1,0 +1,270 @@
+//! The resolved settings of a run: a preset, then a TOML file, then command-line options, each
+//! overriding the last. Every number is a config value; a preset is a named set of them.
+//!
+//! A TOML file may give any subset of the fields; unknown fields are errors that name the file
+//! and the field (a typo never silently does nothing). The resolved config is written into the
+//! run folder as `config.toml`, so a run can be repeated with `--config runs/X/config.toml`.
+
+use crate::cli::CommonOptions;
+use crate::observer::ObserverSettings;
+use colorimetry::cmf_sim::CmfSimSettings;
+use cortex::CortexConfig;
+use retina::RetinaConfig;
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+
+/// A configuration problem, naming the file and field where there is one.
+#[derive(Debug, thiserror::Error)]
+pub enum ConfigError {
+    /// The file could not be read.
+    #[error("{path}: {source}")]
+    Read {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        source: std::io::Error,
+    },
+    /// The file is not valid TOML or has a wrong/unknown field.
+    #[error("{path}: {message}")]
+    Parse {
+        /// The file (or `<preset>` for a command-line value).
+        path: String,
+        /// The TOML parser's message, which names the field.
+        message: String,
+    },
+    /// A value is out of range.
+    #[error("setting `{field}`: {reason}")]
+    Invalid {
+        /// The field.
+        field: String,
+        /// Why.
+        reason: String,
+    },
+}
+
+/// When a run checkpoints, measures and draws.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Schedule {
+    /// Steps between CMF-SIM measurements (0: only at the end).
+    pub cmf_every_steps: u64,
+    /// Steps between pictures (0: only at the end).
+    pub pictures_every_steps: u64,
+    /// Steps between held-out prediction-error measurements.
+    pub eval_every_steps: u64,
+    /// Held-out batches per prediction-error measurement.
+    pub eval_batches: usize,
+    /// Stop training early once CMF-SIM has reported this dimension (0: never stop early).
+    pub stop_at_dimension: usize,
+}
+
+/// Everything a run needs.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RunConfig {
+    /// Preset the values started from.
+    pub preset: String,
+    /// Cone types (see `--cones`).
+    pub cones: String,
+    /// Seed of every random draw.
+    pub seed: u64,
+    /// Gradient updates.
+    pub steps: u64,
+    /// Use the oracle eye motion (said in the run's output when on).
+    pub oracle_motion: bool,
+    /// The eye.
+    pub retina: RetinaConfig,
+    /// The cortex.
+    pub cortex: CortexConfig,
+    /// CMF-SIM.
+    pub cmf_sim: CmfSimSettings,
+    /// The observer CMF-SIM probes.
+    pub observer: ObserverSettings,
+    /// Checkpoints, measurements, pictures.
+    pub schedule: Schedule,
+}
+
+impl RunConfig {
+    /// The named preset with `cones`.
+    pub fn preset(name: &str, cones: &str) -> Result<RunConfig, ConfigError> {
+        let invalid = |reason: String| ConfigError::Invalid { field: "preset".into(), reason };
+        let mut retina = RetinaConfig::preset(name).map_err(|e| invalid(e.to_string()))?;
+        retina.cones = cones.to_string();
+        let cortex = CortexConfig::preset(name).map_err(|e| invalid(e.to_string()))?;
+        let (steps, cmf_every, sets_per_k, wavelengths, pairs) = match name {
+            "tiny" => (300, 0, 8, 30, 2),
+            "sandbox" => (3000, 1000, 20, 50, 4),
+            "paper" => (100_000, 10_000, 100, 100, 8),
+            _ => (3000, 1000, 20, 50, 4),
+        };
+        let cmf_sim = CmfSimSettings {
+            sets_per_k,
+            n_test_wavelengths: wavelengths,
+            location_pairs: pairs,
+            max_primaries: 5,
+            ..CmfSimSettings::default()
+        };
+        Ok(RunConfig {
+            preset: name.to_string(),
+            cones: cones.to_string(),
+            seed: 0,
+            steps,
+            oracle_motion: matches!(cortex.m.mode, cortex::config::MMode::Oracle),
+            retina,
+            cortex,
+            cmf_sim,
+            observer: ObserverSettings::default(),
+            schedule: Schedule {
+                cmf_every_steps: cmf_every,
+                pictures_every_steps: steps.max(1) / 4,
+                eval_every_steps: (steps / 20).max(10),
+                eval_batches: 4,
+                stop_at_dimension: 0,
+            },
+        })
+    }
+
+    /// Preset (from `--preset` or the file), file overrides, then command-line options.
+    pub fn resolve(options: &CommonOptions, default_preset: &str) -> Result<RunConfig, ConfigError> {
+        let file = match &options.config {
+            Some(path) => {
+                let text = std::fs::read_to_string(path)
+                    .map_err(|source| ConfigError::Read { path: path.clone(), source })?;
+                let value: toml::Value = toml::from_str(&text)
+                    .map_err(|e| ConfigError::Parse { path: path.display().to_string(), message: e.to_string() })?;
+                Some((path.display().to_string(), value))
+            }
+            None => None,
+        };
+        let file_str = |key: &str| {
+            file.as_ref().and_then(|(_, v)| v.get(key)).and_then(|v| v.as_str()).map(str::to_string)
+        };
+        let preset = options.preset.clone().or_else(|| file_str("preset")).unwrap_or_else(|| default_preset.to_string());
+        let cones = options.cones.clone().or_else(|| file_str("cones")).unwrap_or_else(|| "LMS".to_string());
+        let base = RunConfig::preset(&preset, &cones)?;
+        let mut config = match file {
+            Some((path, value)) => {
+                let mut merged = toml::Value::try_from(&base).expect("a RunConfig serialises to TOML");
+                merge(&mut merged, value);
+                merged.try_into::<RunConfig>().map_err(|e| ConfigError::Parse { path, message: e.to_string() })?
+            }
+            None => base,
+        };
+        config.preset = preset;
+        config.cones = cones.clone();
+        config.retina.cones = cones;
+        if let Some(seed) = options.seed {
+            config.seed = seed;
+        }
+        if let Some(steps) = options.steps {
+            config.steps = steps as u64;
+        }
+        config.apply_seed();
+        config.validate()?;
+        Ok(config)
+    }
+
+    /// Derives every component's seed from `seed` (seed 0 keeps the presets' official seeds).
+    fn apply_seed(&mut self) {
+        if self.seed == 0 {
+            return;
+        }
+        let s = self.seed;
+        self.retina.mosaic_seed = s.wrapping_mul(0x9E37_79B9_7F4A_7C15);
+        self.retina.layout_seed = s.wrapping_mul(0xC2B2_AE3D_27D4_EB4F);
+        self.retina.scene_seed = s.wrapping_mul(0x1656_67B1_9E37_79F9);
+        self.cortex.train.seed = s.wrapping_mul(0x27D4_EB2F_1656_67C5);
+        self.cmf_sim.seed = s;
+    }
+
+    /// Checks values that must agree across components.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        let invalid = |field: &str, reason: String| ConfigError::Invalid { field: field.into(), reason };
+        if self.retina.cones_per_side != self.cortex.ons_size_px {
+            return Err(invalid(
+                "cortex.ons_size_px",
+                format!("{} but the retina has {} cones per side", self.cortex.ons_size_px, self.retina.cones_per_side),
+            ));
+        }
+        self.retina.validate().map_err(|e| invalid("retina", e.to_string()))?;
+        self.cortex.validate().map_err(|e| invalid("cortex", e.to_string()))?;
+        if self.steps == 0 {
+            return Err(invalid("steps", "must be at least 1".into()));
+        }
+        Ok(())
+    }
+
+    /// The resolved config as TOML text.
+    pub fn to_toml(&self) -> String {
+        toml::to_string_pretty(self).expect("a RunConfig serialises to TOML")
+    }
+
+    /// The default run folder: `runs/<command>-<preset>-<cones>-seed<seed>`.
+    pub fn default_out(&self, command: &str) -> PathBuf {
+        let cones: String = self.cones.chars().map(|c| if c.is_ascii_alphanumeric() { c } else { '_' }).collect();
+        Path::new("runs").join(format!("{command}-{}-{cones}-seed{}", self.preset, self.seed))
+    }
+}
+
+/// Deep-merges `over` into `base` (tables recursively, everything else replaced).
+fn merge(base: &mut toml::Value, over: toml::Value) {
+    match (base, over) {
+        (toml::Value::Table(b), toml::Value::Table(o)) => {
+            for (k, v) in o {
+                match b.get_mut(&k) {
+                    Some(slot) => merge(slot, v),
+                    None => {
+                        b.insert(k, v);
+                    }
+                }
+            }
+        }
+        (slot, v) => *slot = v,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn options(config: Option<PathBuf>) -> CommonOptions {
+        CommonOptions { preset: None, cones: None, seed: None, steps: None, out: None, config }
+    }
+
+    #[test]
+    fn every_preset_resolves_and_round_trips_through_toml() {
+        for preset in ["tiny", "quick", "sandbox", "paper"] {
+            let c = RunConfig::preset(preset, "LMS").unwrap();
+            c.validate().unwrap();
+            let back: RunConfig = toml::from_str(&c.to_toml()).unwrap();
+            assert_eq!(back, c, "{preset}");
+        }
+    }
+
+    #[test]
+    fn a_typo_in_a_config_file_names_the_file_and_the_field() {
+        let dir = std::env::temp_dir().join(format!("cv_cfg_{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("typo.toml");
+        std::fs::write(&path, "preset = \"tiny\"\n[cortex.train]\nlearning_rat = 0.01\n").unwrap();
+        let err = RunConfig::resolve(&options(Some(path.clone())), "quick").unwrap_err().to_string();
+        assert!(err.contains("typo.toml") && err.contains("learning_rat"), "{err}");
+        std::fs::write(&path, "preset = \"tiny\"\nsteps = 7\n[cortex.train]\nlearning_rate = 0.01\n").unwrap();
+        let c = RunConfig::resolve(&options(Some(path)), "quick").unwrap();
+        assert_eq!((c.steps, c.cortex.train.learning_rate, c.preset.as_str()), (7, 0.01, "tiny"));
+        std::fs::remove_dir_all(dir).ok();
+    }
+
+    #[test]
+    fn command_line_overrides_the_file_and_mismatched_sizes_are_rejected() {
+        let mut o = options(None);
+        o.preset = Some("tiny".into());
+        o.cones = Some("LM".into());
+        o.steps = Some(5);
+        let c = RunConfig::resolve(&o, "quick").unwrap();
+        assert_eq!((c.cones.as_str(), c.retina.cones.as_str(), c.steps), ("LM", "LM", 5));
+        let mut bad = c.clone();
+        bad.cortex.ons_size_px = 64;
+        assert!(bad.validate().unwrap_err().to_string().contains("ons_size_px"));
+    }
+}

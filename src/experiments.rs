@@ -1,0 +1,165 @@
+//! The paper's experiments by name (`colorvision experiment NAME`), each writing run folders
+//! with `summary.json` under `--out` (default `runs/experiment-<name>`).
+//!
+//! | name | what | paper |
+//! |---|---|---|
+//! | `emergence` | one retina (`--cones`), train, CMF-SIM | §6, Fig. 3, 5 |
+//! | `monochromats` | L, M, S | Fig. 5 |
+//! | `dichromats` | LM, LS, MS | Fig. 5.2 |
+//! | `trichromat` | LMS, dimension over training | Fig. 3.3 |
+//! | `tetrachromats` | LMS + pigeon Q (506) and LMS + human Q (545) | S-07, Fig. 10 |
+//! | `baselines` | Φ = identity; cone activations as ONS; no demosaicker (LMS) | S-05, Fig. 8 |
+//! | `gene-therapy` | MS trained, then L replacing / co-expressing / mixing into 50 % of M | S-06, Fig. 6.1, 9 |
+//! | `boost` | LMS trained, then LMSQ, training continued | Fig. 6.2 |
+//! | `robustness` | L:M 1:1 and 1:2, three seeds | RS-08 |
+//! | `stiles-burch` | fixed primaries 444.4/526.3/645.2 nm vs Stiles & Burch 1955 (analytic and trained) | RS-08, Fig. 11 |
+
+use crate::cli::CommonOptions;
+use crate::config::RunConfig;
+use crate::observer::LearnedObserver;
+use crate::run::{self, RunError, RunMode, Summary};
+use colorimetry::analytic::ConeObserver;
+use colorimetry::{compare_stiles_burch, run_cmf_sim, StilesBurchSettings};
+use cortex::config::Baseline;
+use retina::Retina;
+use std::path::{Path, PathBuf};
+
+/// Names accepted by `colorvision experiment`.
+pub const EXPERIMENTS: &[(&str, &str)] = &[
+    ("emergence", "one retina (--cones): train, then CMF-SIM"),
+    ("monochromats", "L, M, S: expect 1-D each"),
+    ("dichromats", "LM, LS, MS: expect 2-D each"),
+    ("trichromat", "LMS: expect 3-D, passing through 1-D and 2-D"),
+    ("tetrachromats", "LMS+pigeon Q and LMS+human Q on natural scenes"),
+    ("baselines", "identity percept, cone activations as ONS, no demosaicker (LMS)"),
+    ("gene-therapy", "MS trained, then L replacing/co-expressing/mixing into 50 % of M"),
+    ("boost", "LMS trained, then LMSQ (pigeon Q), training continued"),
+    ("robustness", "L:M 1:1 and 1:2, three seeds"),
+    ("stiles-burch", "CMFs with primaries 444.4/526.3/645.2 nm vs Stiles & Burch 1955"),
+];
+
+fn with_cones(options: &CommonOptions, cones: &str) -> CommonOptions {
+    CommonOptions { cones: Some(cones.to_string()), ..options.clone() }
+}
+
+fn sub(out: &Path, name: &str) -> PathBuf {
+    out.join(name.replace([',', ':', '+', '@', '='], "_"))
+}
+
+/// Trains one retina and measures it; returns its summary.
+pub fn emergence(options: &CommonOptions, out: &Path) -> Result<Summary, RunError> {
+    let config = RunConfig::resolve(options, "quick")?;
+    let summary = run::run(&config, out, RunMode { cmf_sim: true, pictures: true, progress: true })?;
+    run::print_outcome(out, &summary);
+    Ok(summary)
+}
+
+fn cone_sweep(options: &CommonOptions, out: &Path, cones: &[&str]) -> Result<(), RunError> {
+    let mut table = Vec::new();
+    for c in cones {
+        let s = emergence(&with_cones(options, c), &sub(out, c))?;
+        table.push((c.to_string(), s.dimension, s.steps, s.wall_seconds));
+    }
+    println!("\n{:<22} {:>9} {:>7} {:>9}", "cones", "dimension", "steps", "wall s");
+    for (c, d, s, w) in &table {
+        println!("{c:<22} {d:>9} {s:>7} {w:>9.0}");
+    }
+    let rows: Vec<_> = table.iter().map(|(c, d, s, w)| serde_json::json!({"cones": c, "dimension": d, "steps": s, "wall_seconds": w})).collect();
+    crate::io::write_json(&out.join("table.json"), &rows)?;
+    Ok(())
+}
+
+fn baselines(options: &CommonOptions, out: &Path) -> Result<(), RunError> {
+    for (name, baseline) in [("identity", Baseline::IdentityPercept), ("cones_as_ons", Baseline::ConeActivationsAsOns), ("no_demosaicker", Baseline::NoDemosaicker)] {
+        let mut config = RunConfig::resolve(&with_cones(options, options.cones.as_deref().unwrap_or("LMS")), "quick")?;
+        config.cortex.baseline = baseline;
+        if baseline == Baseline::ConeActivationsAsOns {
+            // The eye delivers cone activations: no lateral inhibition.
+            config.retina.lateral_inhibition = None;
+        }
+        let dir = sub(out, name);
+        if baseline == Baseline::IdentityPercept {
+            // Φ = identity needs no training: CMF-SIM on the ONS itself (paper S-05 baseline 1).
+            let retina = Retina::new(config.retina.clone())?;
+            let observer = LearnedObserver::ons_identity(&retina, config.observer.clone());
+            let r = run_cmf_sim(&observer, &config.cmf_sim)?;
+            r.save(&dir)?;
+            println!("baseline {name}: dimension {} ({})", r.dimension, r.verdict);
+            continue;
+        }
+        let s = run::run(&config, &dir, RunMode { cmf_sim: true, pictures: true, progress: true })?;
+        println!("baseline {name}: dimension {} ({})", s.dimension, s.verdict);
+    }
+    Ok(())
+}
+
+/// Trains on `before`, then continues the same cortex on each of `after` (official §3.9: Adam
+/// recreated, step count continues).
+fn continued(options: &CommonOptions, out: &Path, before: &str, after: &[&str]) -> Result<(), RunError> {
+    let first = sub(out, &format!("before_{before}"));
+    let s = emergence(&with_cones(options, before), &first)?;
+    println!("before ({before}): dimension {}", s.dimension);
+    let checkpoint = cortex::checkpoint::latest_checkpoint(&first.join("checkpoints"))?.expect("a run leaves a checkpoint");
+    for a in after {
+        let config = RunConfig::resolve(&with_cones(options, a), "quick")?;
+        let dir = sub(out, &format!("after_{a}"));
+        let s = run::run_continued(&config, &dir, &checkpoint)?;
+        println!("after ({a}): dimension {}", s.dimension);
+    }
+    Ok(())
+}
+
+fn stiles_burch(options: &CommonOptions, out: &Path) -> Result<(), RunError> {
+    let config = RunConfig::resolve(&with_cones(options, "LMS"), "quick")?;
+    let grid = colorimetry::WavelengthGrid::range(390.0, 730.0, 1.0)?;
+    let observer = ConeObserver::new(&colorimetry::ConeClass::lms(), &colorimetry::ConeTemplate::StockmanSharpe2deg, &grid)?;
+    let r = compare_stiles_burch(&observer, &StilesBurchSettings::default())?;
+    r.save(sub(out, "analytic_stockman_sharpe"))?;
+    println!("analytic Stockman–Sharpe observer: {}", summary_line(&r));
+    let trained = sub(out, "trained_LMS");
+    run::run(&config, &trained, RunMode { cmf_sim: false, pictures: false, progress: true })?;
+    let (_, trainer, _) = crate::commands::load_run(&trained)?;
+    let retina = Retina::new(config.retina.clone())?;
+    let observer = LearnedObserver::new(&retina, &trainer.cortex, config.observer.clone());
+    let r = compare_stiles_burch(&observer, &StilesBurchSettings::default())?;
+    r.save(&trained)?;
+    println!("trained LMS cortex: {}", summary_line(&r));
+    Ok(())
+}
+
+fn summary_line(r: &colorimetry::StilesBurchResult) -> String {
+    r.channels.iter().map(|c| format!("{} r = {:.4}, RMSE {:.4}", c.channel, c.correlation, c.rmse)).collect::<Vec<_>>().join("; ")
+}
+
+/// Runs experiment `name` (or prints the list).
+pub fn run_named(name: &str, options: &CommonOptions) -> Result<(), RunError> {
+    let out = options.out.clone().unwrap_or_else(|| Path::new("runs").join(format!("experiment-{name}")));
+    match name {
+        "list" => {
+            for (n, what) in EXPERIMENTS {
+                println!("{n:<14} {what}");
+            }
+            Ok(())
+        }
+        "emergence" => emergence(options, &out).map(|_| ()),
+        "monochromats" => cone_sweep(options, &out, &["L", "M", "S"]),
+        "dichromats" => cone_sweep(options, &out, &["LM", "LS", "MS"]),
+        "trichromat" => cone_sweep(options, &out, &["LMS"]),
+        "tetrachromats" => cone_sweep(options, &out, &["LMSQ,Q:506", "LMSQ"]),
+        "robustness" => {
+            for seed in [1, 2, 3] {
+                let o = CommonOptions { seed: Some(seed), ..options.clone() };
+                cone_sweep(&o, &out.join(format!("seed{seed}")), &["LMS,lm=1", "LMS,lm=0.5"])?;
+            }
+            Ok(())
+        }
+        "baselines" => baselines(options, &out),
+        "gene-therapy" => continued(options, &out, "MS", &["MS+L_replace_M", "MS+L_coexpress_M", "MS+L_ratio_M"]),
+        "boost" => continued(options, &out, "LMS", &["LMSQ,Q:506"]),
+        "stiles-burch" => stiles_burch(options, &out),
+        other => Err(RunError::Config(crate::config::ConfigError::Invalid {
+            field: "experiment".into(),
+            reason: format!("`{other}` is not an experiment; `colorvision experiment list` shows them"),
+        })),
+    }
+}
