@@ -8,6 +8,9 @@
 //! - `matmul_fwd_bwd/*`: `a @ b` forward plus both input gradients through faer's GEMM, f32.
 //!   The loss is `sum(a @ b)`. The throughput line counts multiply-adds: GFLOP/s = 2 × Gelem/s
 //!   (three GEMMs per iteration, counted as 3·m·k·n elements).
+//! - `matmul_fwd_bwd_tall/*`: the same for the tall-skinny shapes of the RealNVP flow on point
+//!   sets (`x (rows, 16) @ W (16, 16)`): the weight gradient `xᵀ·dy` has an inner dimension of
+//!   `rows`, which the op splits across threads (see `autodiff::ops::matmul`).
 //! - `relu_fwd_bwd/8x16x64x64`: relu forward and backward on a U-Net-sized activation (f32),
 //!   including the copy of the input onto the tape and of the cotangent seed.
 
@@ -92,6 +95,32 @@ fn matmul(c: &mut Criterion) {
     group.finish();
 }
 
+fn matmul_tall(c: &mut Criterion) {
+    let mut group = c.benchmark_group("matmul_fwd_bwd_tall");
+    group
+        .sample_size(10)
+        .measurement_time(Duration::from_secs(3))
+        .warm_up_time(Duration::from_secs(1));
+    for (m, k, n) in [(32768, 16, 16), (524288, 16, 16), (524288, 1, 16)] {
+        let a0 = Tensor::from_fn([m, k], |i| ((i * 7919) % 1000) as f32 / 1000.0 - 0.5);
+        let b0 = Tensor::from_fn([k, n], |i| ((i * 104729) % 1000) as f32 / 1000.0 - 0.5);
+        let mut tape = Tape::<f32>::new();
+        group.throughput(Throughput::Elements(3 * (m * k * n) as u64));
+        group.bench_function(format!("{m}x{k}@{k}x{n}"), |bch| {
+            bch.iter(|| {
+                tape.clear();
+                let a = pooled_leaf(&mut tape, &a0);
+                let b = pooled_leaf(&mut tape, &b0);
+                let y = tape.matmul(a, b);
+                let loss = tape.sum(y);
+                tape.backward(loss);
+                black_box(tape.grad(b).unwrap().data()[0])
+            })
+        });
+    }
+    group.finish();
+}
+
 fn relu(c: &mut Criterion) {
     let mut group = c.benchmark_group("relu_fwd_bwd");
     group
@@ -116,5 +145,5 @@ fn relu(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, tape_overhead, matmul, relu);
+criterion_group!(benches, tape_overhead, matmul, matmul_tall, relu);
 criterion_main!(benches);

@@ -119,6 +119,10 @@ pub fn run_continued(config: &RunConfig, out: &Path, checkpoint: &Path) -> Resul
 /// The training loop of [`run`] on a given trainer.
 pub fn run_with_trainer(config: &RunConfig, out: &Path, mode: RunMode, mut trainer: Trainer) -> Result<Summary, RunError> {
     let started = Instant::now();
+    if config.learning_rule == "feedback-alignment" {
+        trainer.set_learning_rule(Box::new(autodiff::learn::FeedbackAlignment::new(config.seed ^ 0xFA)));
+        println!("  learning rule: feedback alignment (fixed random backward weights for conv/matmul kernels)");
+    }
     std::fs::create_dir_all(out).map_err(|source| crate::io::IoError::Fs { path: out.to_path_buf(), source })?;
     crate::io::write_atomic(&out.join("config.toml"), config.to_toml().as_bytes())?;
     println!("colorvision: preset `{}`, cones `{}`, seed {}, {} steps → {}", config.preset, config.cones, config.seed, config.steps, out.display());

@@ -36,18 +36,47 @@ use crate::gemm::MatView;
 use crate::{BackwardCx, Float, GradSlots, Op, Shape, Tape, Tensor, Var};
 use lowering::{tiles, Geometry, Scratch};
 use rayon::prelude::*;
+use std::any::Any;
 
 /// Op names of this file (registry rule, see [`crate::ops`]).
 pub const OPS: &[&str] = &["conv2d", "conv2d_relu", "conv_transpose2x2"];
 
 /// Stride-1 "same" 2-D cross-correlation with an odd square kernel, optionally followed by
-/// ReLU (see the module docs).
-#[derive(Clone, Debug)]
+/// ReLU (see the module docs). Forward keeps the padded input for backward.
 pub struct Conv2d {
     /// What the kernel reads outside the image.
     pub padding: Padding,
     /// Apply `max(·, 0)` to the output (op name `"conv2d_relu"`).
     pub relu: bool,
+    /// The padded input of the last forward (a `SavedPad<T>`), reused by backward.
+    saved: Option<Box<dyn Any + Send + Sync>>,
+}
+
+/// Padded copies of every image of the input at `x_addr` (compared in backward, so a backward
+/// run with substituted inputs pads afresh).
+struct SavedPad<T: Float> {
+    x_addr: usize,
+    buf: Scratch<T>,
+}
+
+impl Conv2d {
+    /// The op; see [`Tape::conv2d`] and [`Tape::conv2d_relu`].
+    pub fn new(padding: Padding, relu: bool) -> Self {
+        Conv2d {
+            padding,
+            relu,
+            saved: None,
+        }
+    }
+}
+
+impl std::fmt::Debug for Conv2d {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Conv2d")
+            .field("padding", &self.padding)
+            .field("relu", &self.relu)
+            .finish()
+    }
 }
 
 impl Conv2d {
@@ -103,7 +132,7 @@ impl<T: Float> Op<T> for Conv2d {
 
     fn forward(&mut self, inputs: &[&Tensor<T>], out: &mut Tensor<T>) {
         let (x, w) = (inputs[0], inputs[1]);
-        let (_, co, g) = self.geometry(x, w);
+        let (batch, co, g) = self.geometry(x, w);
         let (hw, kk, cc) = (g.h * g.w, g.k * g.k, co * g.c);
         let relu = self.relu;
         let images = out
@@ -128,22 +157,19 @@ impl<T: Float> Op<T> for Conv2d {
         let mut wf = Scratch::<T>::take(cc * kk);
         g.forward_weights(co, w.data(), &mut wf);
         let wf = &*wf;
-        let tl = tiles(g.h, g.wp() * (co + g.c));
+        let tl = tiles(g.h, g.rw() * (co + g.c));
         let max_n = tl
             .iter()
-            .map(|&(r0, r1)| (r1 - r0) * g.wp())
+            .map(|&(r0, r1)| (r1 - r0) * g.rw())
             .max()
             .unwrap_or(0);
-        let bufs = || {
-            [
-                Scratch::<T>::take(g.padded_len()),
-                Scratch::take(co * max_n),
-            ]
-        };
-        for_each_image(images, bufs, |[xp, yt], (y, x)| {
+        let mut saved = Scratch::<T>::take(batch * g.padded_len());
+        let images = images.zip(saved.chunks_mut(g.padded_len()));
+        let bufs = || Scratch::<T>::take(co * max_n);
+        for_each_image(images, bufs, |yt, ((y, x), xp)| {
             g.pad(x, xp);
             for &(r0, r1) in &tl {
-                let yt = &mut yt[..co * (r1 - r0) * g.wp()];
+                let yt = &mut yt[..co * (r1 - r0) * g.rw()];
                 for t in 0..kk {
                     let wt = MatView::row_major(&wf[t * cc..][..cc], co, g.c);
                     T::gemm_view(yt, t > 0, wt, g.x_view(xp, t, r0, r1), T::one());
@@ -151,6 +177,8 @@ impl<T: Float> Op<T> for Conv2d {
                 g.compact(yt, r0, r1, y, relu);
             }
         });
+        let x_addr = x.data().as_ptr() as usize;
+        self.saved = Some(Box::new(SavedPad { x_addr, buf: saved }));
     }
 
     fn backward(&self, cx: &BackwardCx<'_, T>, dx: &mut GradSlots<'_, T>) {
@@ -203,10 +231,11 @@ impl<T: Float> Op<T> for Conv2d {
                 g.backward_weights(co, w.data(), &mut wb);
             }
             let wb = &*wb;
-            let tw = tiles(g.h, g.wp() * (co + g.c));
+            let wide = g.rw() == g.wz();
+            let tw = tiles(g.h, g.rw() * (co + g.c));
             let max_w = tw
                 .iter()
-                .map(|&(r0, r1)| (r1 - r0) * g.wp())
+                .map(|&(r0, r1)| (r1 - r0) * g.rw())
                 .max()
                 .unwrap_or(0);
             let (u_lo, u_hi) = g.grad_rows();
@@ -219,37 +248,58 @@ impl<T: Float> Op<T> for Conv2d {
                 .map(|&(u0, u1)| (u1 - u0) * g.wz())
                 .max()
                 .unwrap_or(0);
+            let saved = self
+                .saved
+                .as_ref()
+                .and_then(|b| b.downcast_ref::<SavedPad<T>>())
+                .filter(|s| s.x_addr == x.data().as_ptr() as usize);
+            let saved_xp: Vec<Option<&[T]>> = match saved {
+                Some(s) => s.buf.chunks(g.padded_len()).map(Some).collect(),
+                None => vec![None; batch],
+            };
+            let images = images.zip(saved_xp);
             let bufs = || {
-                let (xw, xx) = (usize::from(want_w), usize::from(want_x));
+                let (xw, xx) = (usize::from(want_w && saved.is_none()), usize::from(want_x));
                 (
                     [
                         Scratch::<T>::take(xw * g.padded_len()),
-                        Scratch::take(xw * co * max_w),
-                        Scratch::take(xx * g.dyz_len(co)),
+                        Scratch::take(usize::from(want_w && !wide) * co * max_w),
+                        Scratch::take(usize::from(want_x || wide) * g.dyz_len(co)),
                         Scratch::take(xx * g.c * max_x),
                     ],
-                    Scratch::<T>::zeroed(xw * cc * kk),
+                    Scratch::<T>::zeroed(usize::from(want_w) * cc * kk),
                 )
             };
             let parts = for_each_image_fold(
                 images,
                 bufs,
-                |([xp, dyt, dyz, dxt], dwf), (((gx, x), dy), mask)| {
+                |([xps, dyt, dyz, dxt], dwf), ((((gx, x), dy), mask), saved_xp)| {
+                    if wide || gx.is_some() {
+                        g.pad_dy(co, dy, mask, dyz);
+                    }
                     if want_w {
-                        g.pad(x, xp);
+                        let xp: &[T] = match saved_xp {
+                            Some(xp) => xp,
+                            None => {
+                                g.pad(x, xps);
+                                xps
+                            }
+                        };
                         for &(r0, r1) in &tw {
-                            let n = (r1 - r0) * g.wp();
-                            let dyt = &mut dyt[..co * n];
-                            g.expand(co, dy, mask, r0, r1, dyt);
+                            let n = (r1 - r0) * g.rw();
+                            let dyv = if wide {
+                                g.dy_view(co, dyz, r0, r1)
+                            } else {
+                                g.expand(co, dy, mask, r0, r1, &mut dyt[..co * n]);
+                                MatView::row_major(&dyt[..co * n], co, n)
+                            };
                             for t in 0..kk {
                                 let dwt = &mut dwf[t * cc..][..cc];
-                                let dyv = MatView::row_major(&dyt[..], co, n);
                                 T::gemm_view(dwt, true, dyv, g.xt_view(xp, t, r0, r1), T::one());
                             }
                         }
                     }
                     if let Some(gx) = gx.as_deref_mut() {
-                        g.pad_dy(co, dy, mask, dyz);
                         for &(u0, u1) in &tx {
                             let dxt = &mut dxt[..g.c * (u1 - u0) * g.wz()];
                             for t in 0..kk {
@@ -336,26 +386,14 @@ impl<T: Float> Tape<T> {
     /// `w (Cout, Cin, k, k)`, `k` odd, no bias → `(B, Cout, H, W)`. See [`Conv2d`].
     #[track_caller]
     pub fn conv2d(&mut self, x: Var, w: Var, padding: Padding) -> Var {
-        self.apply(
-            Conv2d {
-                padding,
-                relu: false,
-            },
-            &[x, w],
-        )
+        self.apply(Conv2d::new(padding, false), &[x, w])
     }
 
     /// `relu(conv2d(x, w, padding))` as one op: same shapes as [`Tape::conv2d`], no extra
     /// pass for the ReLU in forward or backward. See [`Conv2d`].
     #[track_caller]
     pub fn conv2d_relu(&mut self, x: Var, w: Var, padding: Padding) -> Var {
-        self.apply(
-            Conv2d {
-                padding,
-                relu: true,
-            },
-            &[x, w],
-        )
+        self.apply(Conv2d::new(padding, true), &[x, w])
     }
 
     /// Transposed convolution, kernel 2, stride 2: `x (B, Cin, H, W)`, `w (Cin, Cout, 2, 2)` →

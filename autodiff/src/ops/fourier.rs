@@ -16,13 +16,15 @@
 //!   worker keeps its own scratch buffer, so repeated calls neither re-plan nor allocate.
 //!   Images of a batch are transformed in parallel.
 //!
-//! Submodules: [`complex`] (to/from complex, multiply, guarded divide), [`pad`] (zero-pad and
-//! crop of the last two axes) and [`convolve`] (FFT convolution and deconvolution of real images
+//! Submodules: [`complex`] (to/from complex, multiply, guarded divide), [`real`] (`fft2_real`,
+//! `ifft2_real`: the same transforms with a real input or output, at half the cost), [`pad`]
+//! (zero-pad and crop of the last two axes) and [`convolve`] (FFT convolution and deconvolution of real images
 //! at their own size, the W-bucket responses).
 
 pub mod complex;
 pub mod convolve;
 pub mod pad;
+pub mod real;
 
 pub use convolve::{identity_response, kernel_response, response_kernel};
 
@@ -40,6 +42,8 @@ use std::sync::{Arc, Mutex, OnceLock};
 pub const OPS: &[&str] = &[
     "fft2",
     "ifft2",
+    "fft2_real",
+    "ifft2_real",
     "to_complex",
     "real_part",
     "complex_mul",
@@ -402,6 +406,35 @@ mod tests {
                 .map_err(|e| TestCaseError::fail(e.to_string()))?;
         }
 
+        /// The real-input / real-output transforms equal the complex ones around them.
+        #[test]
+        fn real_transforms_match_complex_ones(
+            (x, spec) in sizes().prop_flat_map(|(b, h, w)| (strategies::tensor_of(vec![b, h, w]), complex_tensor(b, h, w)))
+        ) {
+            let mut tape = Tape::<f64>::new();
+            let (vx, vs) = (tape.constant(x), tape.constant(spec));
+            let a = tape.fft2_real(vx);
+            let c = tape.to_complex(vx);
+            let b = tape.fft2(c);
+            prop_assert!(tape.value(a).max_abs_diff(tape.value(b)) < 1e-12);
+            let a = tape.ifft2_real(vs);
+            let c = tape.ifft2(vs);
+            let b = tape.real_part(c);
+            prop_assert!(tape.value(a).max_abs_diff(tape.value(b)) < 1e-12);
+        }
+
+        #[test]
+        fn fft2_real_gradient(x in sizes().prop_flat_map(|(b, h, w)| strategies::tensor_of(vec![b, h, w]))) {
+            check_gradients(|t, v| t.fft2_real(v[0]), &[x], &CheckConfig::default())
+                .map_err(|e| TestCaseError::fail(e.to_string()))?;
+        }
+
+        #[test]
+        fn ifft2_real_gradient(x in sizes().prop_flat_map(|(b, h, w)| complex_tensor(b, h, w))) {
+            check_gradients(|t, v| t.ifft2_real(v[0]), &[x], &CheckConfig::default())
+                .map_err(|e| TestCaseError::fail(e.to_string()))?;
+        }
+
         #[test]
         fn to_complex_and_real_part_gradients(x in strategies::tensor(3)) {
             let cfg = CheckConfig::default();
@@ -604,6 +637,19 @@ mod tmp_timing {
             }
         }
         eprintln!("transpose_rows acc: {:?}", t.elapsed() / 50);
+        let xr: Vec<f32> = (0..h * w).map(|i| (i as f32 * 0.37).sin()).collect();
+        let mut spec = vec![0f32; 2 * h * w];
+        let t = std::time::Instant::now();
+        for _ in 0..50 {
+            real::r2c(&xr, &mut spec, (h, w), 1.0, false);
+        }
+        eprintln!("r2c 1x256^2: {:?}", t.elapsed() / 50);
+        let mut yr = vec![0f32; h * w];
+        let t = std::time::Instant::now();
+        for _ in 0..50 {
+            real::c2r(&spec, &mut yr, (h, w), 1.0, false);
+        }
+        eprintln!("c2r 1x256^2: {:?}", t.elapsed() / 50);
 
         let mut scratch = vec![Complex::new(0f32, 0.0); f.get_inplace_scratch_len()];
         let t = std::time::Instant::now();

@@ -3,6 +3,18 @@
 //! - [`Matmul`]: `y = a · b` for rank-2 `a (m, k)` and `b (k, n)` → `(m, n)`, all row-major.
 //!   Backward, also through GEMM: `da += dy · bᵀ`, `db += aᵀ · dy`. Nothing is saved beyond the
 //!   inputs the tape already owns.
+//! - **Tall-skinny shapes** (the RealNVP flow on point sets: `x (rows, 16) @ W (16, 16)` with
+//!   up to 524 288 rows) are planned by shape rather than handed to one faer call, which
+//!   neither splits a long inner dimension nor divides a narrow tall output well:
+//!   - small output (`m·n ≤ 4096`), long inner dimension (`k ≥ 4096`), e.g. the weight gradient
+//!     `xᵀ·dy`: `k` is cut into `clamp(k / 1024, 1, 64)` equal chunks, each a sequential faer
+//!     GEMM, summed pairwise in a fixed tree (results do not depend on the thread count);
+//!   - tall output (`m ≥ 4096`) with `k, n ≤ 64`, e.g. `x·W` and `dy·Wᵀ`: independent blocks
+//!     of about 2¹⁸ multiply-adds worth of rows, in parallel, one sequential GEMM each.
+//!
+//!   Inside an already parallel op (a rayon task) or on one thread every product is one faer
+//!   call. The split-k path sums in a different order than faer, so f32 results differ from a
+//!   single GEMM at rounding level only.
 //! - **Weight convention:** rows are samples, so a layer is `x @ W` with `x (batch, in)` and
 //!   `W (in, out)`: [`Op::weight_inputs`] is `[1]`, the right operand. Learning rules such as
 //!   [`FeedbackAlignment`](crate::learn::FeedbackAlignment) swap that operand in the backward
@@ -13,8 +25,10 @@
 //!
 //! Inner dimensions that disagree panic naming the op and both shapes.
 
+use crate::gemm::MatView;
 use crate::op::{BackwardCx, GradSlots, Op};
 use crate::{Float, Shape, Tape, Tensor, Var};
+use rayon::prelude::*;
 
 /// Names of the ops in this file (registry rule, see [`crate::ops`]).
 pub const OPS: &[&str] = &["matmul"];
@@ -49,33 +63,196 @@ impl<T: Float> Op<T> for Matmul {
     }
     fn forward(&mut self, inputs: &[&Tensor<T>], out: &mut Tensor<T>) {
         let (m, k, n) = mkn(inputs);
-        T::gemm(
-            out.data_mut(),
-            false,
-            inputs[0].data(),
-            false,
-            inputs[1].data(),
-            false,
-            m,
-            n,
-            k,
-            T::one(),
-        );
+        let a = Operand {
+            data: inputs[0].data(),
+            transposed: false,
+        };
+        let b = Operand {
+            data: inputs[1].data(),
+            transposed: false,
+        };
+        product(out.data_mut(), false, a, b, m, n, k);
     }
     fn backward(&self, cx: &BackwardCx<'_, T>, dx: &mut GradSlots<'_, T>) {
         let (m, k, n) = mkn(cx.inputs);
         let (a, b, dy) = (cx.inputs[0].data(), cx.inputs[1].data(), cx.dy.data());
+        let op = |data, transposed| Operand { data, transposed };
         if let Some(ga) = dx.slot_data(0) {
             // (m, n) @ (n, k): b read transposed.
-            T::gemm(ga, true, dy, false, b, true, m, k, n, T::one());
+            product(ga, true, op(dy, false), op(b, true), m, k, n);
         }
         if let Some(gb) = dx.slot_data(1) {
             // (k, m) @ (m, n): a read transposed.
-            T::gemm(gb, true, a, true, dy, false, k, n, m, T::one());
+            product(gb, true, op(a, true), op(dy, false), k, n, m);
         }
     }
     fn weight_inputs(&self) -> &'static [usize] {
         &[1]
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Shape-aware dispatch around `T::gemm`.
+// ---------------------------------------------------------------------------------------------
+
+/// Outputs with at most this many elements count as small for the split-k path
+/// (the 16×16 weight gradient of a RealNVP coupling layer is 256).
+const SMALL_OUTPUT: usize = 4096;
+/// Inner dimensions at least this long are split across threads when the output is small.
+const LONG_INNER: usize = 4096;
+/// Shortest inner-dimension chunk a split-k task multiplies on its own.
+const MIN_K_CHUNK: usize = 1024;
+/// Most chunks the inner dimension is split into (bounds the tree depth and its stack use).
+const MAX_K_CHUNKS: usize = 64;
+/// Outputs with at least this many rows and inner and column dimensions of at most
+/// `NARROW` are computed as independent row blocks in parallel.
+const TALL_ROWS: usize = 4096;
+/// Largest inner and column dimension of the row-block path.
+const NARROW: usize = 64;
+/// Multiply-adds per row block of the row-block path (tens of µs of work: far above rayon's
+/// per-task cost, small enough to balance across threads).
+const ROW_BLOCK_FLOPS: usize = 1 << 18;
+
+/// One operand of a GEMM: a contiguous row-major buffer read as-is or transposed.
+#[derive(Clone, Copy)]
+struct Operand<'a, T> {
+    data: &'a [T],
+    transposed: bool,
+}
+
+impl<'a, T> Operand<'a, T> {
+    /// Rows `r0..r1` and columns `c0..c1` of the logical `rows × cols` matrix.
+    fn view(
+        &self,
+        rows: usize,
+        cols: usize,
+        r: (usize, usize),
+        c: (usize, usize),
+    ) -> MatView<'a, T> {
+        let (nr, nc) = (r.1 - r.0, c.1 - c.0);
+        if self.transposed {
+            // Stored (cols, rows) row-major: element (i, j) at j·rows + i.
+            MatView::new(self.data, c.0 * rows + r.0, nr, nc, 1, rows)
+        } else {
+            MatView::new(self.data, r.0 * cols + c.0, nr, nc, cols, 1)
+        }
+    }
+}
+
+/// How a GEMM of a given shape is computed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Plan {
+    /// One call to faer (which picks its own threading).
+    Faer,
+    /// Small output, long inner dimension: `k` split into `chunks` equal parts multiplied in
+    /// parallel and summed pairwise in a fixed tree (the result does not depend on the thread
+    /// count or on scheduling).
+    SplitK { chunks: usize },
+    /// Tall output with narrow `k` and `n`: blocks of `rows` output rows, one sequential GEMM each.
+    RowBlocks { rows: usize },
+}
+
+fn plan(m: usize, n: usize, k: usize) -> Plan {
+    if m * n <= SMALL_OUTPUT && k >= LONG_INNER {
+        Plan::SplitK {
+            chunks: (k / MIN_K_CHUNK).clamp(1, MAX_K_CHUNKS),
+        }
+    } else if m >= TALL_ROWS && k <= NARROW && n <= NARROW {
+        Plan::RowBlocks {
+            rows: (ROW_BLOCK_FLOPS / (k * n).max(1)).clamp(64, m),
+        }
+    } else {
+        Plan::Faer
+    }
+}
+
+/// `dst[m×n] (=|+=) a · b` for `a (m×k)` and `b (k×n)`, each possibly read transposed; the
+/// plan follows the shape (see [`Plan`]).
+#[allow(clippy::too_many_arguments)]
+fn product<T: Float>(
+    dst: &mut [T],
+    accumulate: bool,
+    a: Operand<'_, T>,
+    b: Operand<'_, T>,
+    m: usize,
+    n: usize,
+    k: usize,
+) {
+    assert_eq!(
+        dst.len(),
+        m * n,
+        "matmul: output has {} elements, want {m}×{n}",
+        dst.len()
+    );
+    // In a task of an op that is already parallel, or on one thread, keep faer's sequential GEMM.
+    let nested = rayon::current_thread_index().is_some() || rayon::current_num_threads() == 1;
+    match plan(m, n, k) {
+        _ if nested || m == 0 || n == 0 || k == 0 => T::gemm(
+            dst,
+            accumulate,
+            a.data,
+            a.transposed,
+            b.data,
+            b.transposed,
+            m,
+            n,
+            k,
+            T::one(),
+        ),
+        Plan::Faer => T::gemm(
+            dst,
+            accumulate,
+            a.data,
+            a.transposed,
+            b.data,
+            b.transposed,
+            m,
+            n,
+            k,
+            T::one(),
+        ),
+        Plan::SplitK { chunks } => split_k(dst, accumulate, a, b, (m, n, k), (0, chunks), chunks),
+        Plan::RowBlocks { rows } => {
+            let rhs = b.view(k, n, (0, k), (0, n));
+            dst.par_chunks_mut(rows * n)
+                .enumerate()
+                .for_each(|(blk, d)| {
+                    let r0 = blk * rows;
+                    let lhs = a.view(m, k, (r0, r0 + d.len() / n), (0, k));
+                    T::gemm_view(d, accumulate, lhs, rhs, T::one());
+                });
+        }
+    }
+}
+
+/// Chunks `c.0..c.1` of `k` split into `chunks` near-equal parts, into `dst`: the left half
+/// goes into `dst`, the right half into a stack buffer added afterwards.
+fn split_k<T: Float>(
+    dst: &mut [T],
+    accumulate: bool,
+    a: Operand<'_, T>,
+    b: Operand<'_, T>,
+    (m, n, k): (usize, usize, usize),
+    c: (usize, usize),
+    chunks: usize,
+) {
+    let bound = |i: usize| i * k / chunks;
+    if c.1 - c.0 == 1 {
+        let ks = (bound(c.0), bound(c.1));
+        let lhs = a.view(m, k, (0, m), ks);
+        let rhs = b.view(k, n, ks, (0, n));
+        T::gemm_view(dst, accumulate, lhs, rhs, T::one());
+        return;
+    }
+    let mid = c.0 + (c.1 - c.0) / 2;
+    let mut right_buf = [T::zero(); SMALL_OUTPUT];
+    let right = &mut right_buf[..m * n];
+    rayon::join(
+        || split_k(dst, accumulate, a, b, (m, n, k), (c.0, mid), chunks),
+        || split_k(right, false, a, b, (m, n, k), (mid, c.1), chunks),
+    );
+    for (d, &r) in dst.iter_mut().zip(right.iter()) {
+        *d += r;
     }
 }
 
@@ -162,6 +339,147 @@ mod tests {
                 assert!((t.value(y).data()[i * 2 + j] - want).abs() < 1e-5);
             }
         }
+    }
+
+    /// Deterministic values in [-1, 1) that are not a low-rank pattern.
+    fn pseudo(dims: [usize; 2], salt: usize) -> Tensor<f64> {
+        Tensor::from_fn(dims, |i| {
+            (((i * 2654435761 + salt * 40503) >> 7) % 2000) as f64 / 1000.0 - 1.0
+        })
+    }
+
+    /// `op(a) · op(b)` summed in f64, the reference for the planned kernels.
+    fn naive(a: &Tensor<f64>, at: bool, b: &Tensor<f64>, bt: bool) -> (Vec<f64>, usize, usize) {
+        let (ad, bd) = (a.dims(), b.dims());
+        let (m, k) = if at { (ad[1], ad[0]) } else { (ad[0], ad[1]) };
+        let n = if bt { bd[0] } else { bd[1] };
+        let ael = |i: usize, p: usize| {
+            if at {
+                a.data()[p * m + i]
+            } else {
+                a.data()[i * k + p]
+            }
+        };
+        let bel = |p: usize, j: usize| {
+            if bt {
+                b.data()[j * k + p]
+            } else {
+                b.data()[p * n + j]
+            }
+        };
+        let mut out = vec![0.0; m * n];
+        for i in 0..m {
+            for j in 0..n {
+                out[i * n + j] = (0..k).map(|p| ael(i, p) * bel(p, j)).sum();
+            }
+        }
+        (out, m, n)
+    }
+
+    #[track_caller]
+    fn assert_close(got: &[f64], want: &[f64], what: &str) {
+        assert_eq!(got.len(), want.len(), "{what}: length");
+        let scale = want.iter().fold(1.0f64, |s, w| s.max(w.abs()));
+        for (i, (g, w)) in got.iter().zip(want).enumerate() {
+            assert!(
+                (g - w).abs() <= 1e-12 * scale,
+                "{what}: element {i}: {g} vs naive {w} (scale {scale})"
+            );
+        }
+    }
+
+    /// Forward and both gradients (with a random cotangent) of `a @ b` against the naive
+    /// product, for shapes that take the split-k and row-block paths in every operand layout.
+    #[test]
+    fn tall_skinny_paths_match_naive_product() {
+        // (m, k, n) and the plans of forward, da = dy·bᵀ and db = aᵀ·dy.
+        let cases = [
+            // RealNVP layer: x (rows, 16) @ W (16, 16); db has a long inner dimension.
+            (
+                (5000, 16, 16),
+                [
+                    Plan::RowBlocks { rows: 1024 },
+                    Plan::RowBlocks { rows: 1024 },
+                    Plan::SplitK { chunks: 4 },
+                ],
+            ),
+            // A ragged tall shape: block and chunk edges fall mid-way.
+            (
+                (4099, 3, 5),
+                [
+                    Plan::RowBlocks { rows: 4099 },
+                    Plan::RowBlocks { rows: 4099 },
+                    Plan::SplitK { chunks: 4 },
+                ],
+            ),
+            // Long inner dimension in the forward pass (lhs read as stored).
+            (
+                (4, 5000, 3),
+                [
+                    Plan::SplitK { chunks: 4 },
+                    Plan::Faer,
+                    Plan::RowBlocks { rows: 5000 },
+                ],
+            ),
+            // Long inner dimension of da = dy · bᵀ (rhs read transposed).
+            (
+                (8, 6, 9000),
+                [Plan::Faer, Plan::SplitK { chunks: 8 }, Plan::Faer],
+            ),
+        ];
+        for ((m, k, n), plans) in cases {
+            assert_eq!(
+                [plan(m, n, k), plan(m, k, n), plan(k, n, m)],
+                plans,
+                "plans of {m}×{k}@{k}×{n}"
+            );
+            let (a, b, dy) = (pseudo([m, k], 1), pseudo([k, n], 2), pseudo([m, n], 3));
+            let mut t = Tape::<f64>::new();
+            let (av, bv) = (t.leaf(a.clone()), t.leaf(b.clone()));
+            let y = t.matmul(av, bv);
+            assert_close(t.value(y).data(), &naive(&a, false, &b, false).0, "forward");
+            t.backward_from(&[(y, dy.clone())], &mut crate::NoHooks);
+            assert_close(
+                t.grad(av).unwrap().data(),
+                &naive(&dy, false, &b, true).0,
+                "da",
+            );
+            assert_close(
+                t.grad(bv).unwrap().data(),
+                &naive(&a, true, &dy, false).0,
+                "db",
+            );
+        }
+    }
+
+    #[test]
+    fn tall_skinny_gradient() {
+        // 4100 rows: the forward takes the row-block path, db the split-k path.
+        let (x, w) = (pseudo([4100, 2], 4), pseudo([2, 3], 5));
+        assert_eq!(plan(4100, 3, 2), Plan::RowBlocks { rows: 4100 });
+        assert_eq!(plan(2, 3, 4100), Plan::SplitK { chunks: 4 });
+        check_gradients(
+            |t, v| t.matmul(v[0], v[1]),
+            &[x, w],
+            &CheckConfig::default(),
+        )
+        .unwrap();
+    }
+
+    #[test]
+    fn split_k_accumulates_into_existing_gradient() {
+        // The weight used twice: the second backward adds into the first one's gradient.
+        let (x, w) = (pseudo([6000, 4], 6), pseudo([4, 4], 7));
+        let mut t = Tape::<f64>::new();
+        let (xv, wv) = (t.constant(x.clone()), t.leaf(w));
+        let y1 = t.matmul(xv, wv);
+        let y2 = t.matmul(xv, wv);
+        let y = t.add(y1, y2);
+        let dy = pseudo([6000, 4], 8);
+        t.backward_from(&[(y, dy.clone())], &mut crate::NoHooks);
+        let once = naive(&x, true, &dy, false).0;
+        let twice: Vec<f64> = once.iter().map(|v| 2.0 * v).collect();
+        assert_close(t.grad(wv).unwrap().data(), &twice, "db twice");
     }
 
     #[test]

@@ -7,7 +7,9 @@
 //! H reads H − 2). `2p` zeros of slack follow the last plane.
 //!
 //! Padded-width trick. Outputs are computed at positions `q = i·Wp + j`, `j < Wp`; the `2p`
-//! positions with `j ≥ W` per row are junk and dropped. Tap `(a, b)` of channel `c` then reads
+//! positions with `j ≥ W` per row are junk and dropped. (Images at least [`WIDE_PX`] wide use
+//! row width `Wz = W + 4p` instead of `Wp` everywhere, with zero extra columns, so that `∂w`
+//! can read `dy` from `dyz` below without another copy; see [`Geometry::rw`].) Tap `(a, b)` of channel `c` then reads
 //! `xp[c·Hp·Wp + a·Wp + b + q]`: for fixed `(a, b)` this is a strided `C × positions` view
 //! `X_ab` (row stride `Hp·Wp`, column stride 1) of the padded buffer itself, so
 //! `y_tile = Σ_ab Wf_ab · X_ab` with `Wf_ab[o, c] = w[o, c, a, b]` — `k²` accumulating GEMMs
@@ -85,9 +87,20 @@ impl Geometry {
         self.w + 4 * self.p()
     }
 
-    /// Padded plane size `Hp·Wp`.
+    /// Row width of the padded image and of the output tiles: `Wz` for images at least
+    /// [`WIDE_PX`] wide (the `2p` extra zero columns let `∂w` read `dyz` directly), else `Wp`
+    /// (less junk on small images; `∂w` then reads an expanded copy of `dy`).
+    pub fn rw(&self) -> usize {
+        if self.w >= WIDE_PX {
+            self.wz()
+        } else {
+            self.wp()
+        }
+    }
+
+    /// Padded plane size `Hp·rw`.
     pub fn plane(&self) -> usize {
-        self.hp() * self.wp()
+        self.hp() * self.rw()
     }
 
     /// Plane size of `dyz`, `(H + 4p)·Wz`.
@@ -118,7 +131,7 @@ impl Geometry {
         let (h, w, p, wp) = (self.h, self.w, self.p(), self.wp());
         debug_assert_eq!(xp.len(), self.padded_len());
         for (xc, pc) in x.chunks_exact(h * w).zip(xp.chunks_exact_mut(self.plane())) {
-            for (u, row) in pc.chunks_exact_mut(wp).enumerate() {
+            for (u, row) in pc.chunks_exact_mut(self.rw()).enumerate() {
                 let Some(i) = source(u as isize - p as isize, h, self.mode) else {
                     row.fill(T::zero());
                     continue;
@@ -129,6 +142,7 @@ impl Geometry {
                     row[v] =
                         source(v as isize - p as isize, w, self.mode).map_or(T::zero(), |j| src[j]);
                 }
+                row[wp..].fill(T::zero());
             }
         }
         xp[self.c * self.plane()..].fill(T::zero());
@@ -172,7 +186,7 @@ impl Geometry {
         r1: usize,
         dyt: &mut [T],
     ) {
-        let (h, w, wp) = (self.h, self.w, self.wp());
+        let (h, w, wp) = (self.h, self.w, self.rw());
         let n = (r1 - r0) * wp;
         for (o, dst) in dyt[..co * n].chunks_exact_mut(n).enumerate() {
             for (i, d) in (r0..r1).zip(dst.chunks_exact_mut(wp)) {
@@ -194,7 +208,7 @@ impl Geometry {
     /// Copies the valid columns of a padded-width tile `yt` (`Co × (r1−r0)·Wp`) into rows
     /// `r0..r1` of the image `y` (`Co·H·W`), applying ReLU when `relu`.
     pub fn compact<T: Float>(&self, yt: &[T], r0: usize, r1: usize, y: &mut [T], relu: bool) {
-        let (h, w, wp, n) = (self.h, self.w, self.wp(), (r1 - r0) * self.wp());
+        let (h, w, wp, n) = (self.h, self.w, self.rw(), (r1 - r0) * self.rw());
         for (src, dst) in yt.chunks_exact(n).zip(y.chunks_exact_mut(h * w)) {
             for (s, d) in src
                 .chunks_exact(wp)
@@ -268,7 +282,7 @@ impl Geometry {
 
     /// `X_ab` for output rows `r0..r1` (`C × (r1−r0)·Wp`, see the module docs), `t = a·k + b`.
     pub fn x_view<'a, T>(&self, xp: &'a [T], t: usize, r0: usize, r1: usize) -> MatView<'a, T> {
-        let (a, b, wp) = (t / self.k, t % self.k, self.wp());
+        let (a, b, wp) = (t / self.k, t % self.k, self.rw());
         MatView::new(
             xp,
             (r0 + a) * wp + b,
@@ -281,7 +295,7 @@ impl Geometry {
 
     /// `X_abᵀ` for output rows `r0..r1` (`(r1−r0)·Wp × C`).
     pub fn xt_view<'a, T>(&self, xp: &'a [T], t: usize, r0: usize, r1: usize) -> MatView<'a, T> {
-        let (a, b, wp) = (t / self.k, t % self.k, self.wp());
+        let (a, b, wp) = (t / self.k, t % self.k, self.rw());
         MatView::new(
             xp,
             (r0 + a) * wp + b,
@@ -289,6 +303,21 @@ impl Geometry {
             self.c,
             1,
             self.plane(),
+        )
+    }
+
+    /// `dy` rows `r0..r1` at row width `Wz` read straight from `dyz` (`Co × (r1−r0)·Wz`, zeros
+    /// in the junk columns); only for `rw() == wz()`.
+    pub fn dy_view<'a, T>(&self, co: usize, dyz: &'a [T], r0: usize, r1: usize) -> MatView<'a, T> {
+        let (p2, wz) = (2 * self.p(), self.wz());
+        debug_assert_eq!(self.rw(), wz);
+        MatView::new(
+            dyz,
+            (r0 + p2) * wz + p2,
+            co,
+            (r1 - r0) * wz,
+            self.plane_z(),
+            1,
         )
     }
 
@@ -313,6 +342,9 @@ impl Geometry {
     }
 }
 
+/// Images at least this wide use row width `Wz` (see [`Geometry::rw`]).
+pub(crate) const WIDE_PX: usize = 32;
+
 /// Row tiles `r0..r1` of `0..rows` such that a tile touches about [`TILE_ELEMS`] elements
 /// (`per_row` per row), so its working set stays in L2.
 pub(crate) fn tiles(rows: usize, per_row: usize) -> Vec<(usize, usize)> {
@@ -333,7 +365,7 @@ pub(crate) static TILE_ELEMS: std::sync::atomic::AtomicUsize =
 /// A process-wide stash of scratch vectors, so conv kernels running on rayon workers reuse
 /// the same (already touched) pages every step instead of allocating per call.
 static STASH: Mutex<Vec<Box<dyn Any + Send>>> = Mutex::new(Vec::new());
-const STASH_MAX: usize = 32;
+const STASH_MAX: usize = 64;
 
 /// A scratch vector borrowed from the stash; returned on drop. Contents are unspecified
 /// unless taken with [`Scratch::zeroed`].
@@ -432,7 +464,7 @@ mod tests {
         // <pad(x), z> == <x, fold(z)> with z laid out planar at row width Wz.
         let mut rnd = rng(7);
         for mode in [Padding::Zero, Padding::Reflect] {
-            for (c, h, w, k) in [(2, 2, 2, 3), (3, 3, 5, 3), (2, 6, 4, 5)] {
+            for (c, h, w, k) in [(2, 2, 2, 3), (3, 3, 5, 3), (2, 6, 4, 5), (2, 3, 33, 3)] {
                 let g = Geometry { c, h, w, k, mode };
                 let (hp, wp, wz) = (g.hp(), g.wp(), g.wz());
                 let x: Vec<f64> = (0..c * h * w).map(|_| rnd()).collect();
@@ -441,7 +473,7 @@ mod tests {
                 let z: Vec<f64> = (0..c * hp * wz).map(|_| rnd()).collect();
                 let lhs: f64 = (0..c)
                     .flat_map(|ch| (0..hp).flat_map(move |u| (0..wp).map(move |v| (ch, u, v))))
-                    .map(|(ch, u, v)| xp[(ch * hp + u) * wp + v] * z[(ch * hp + u) * wz + v])
+                    .map(|(ch, u, v)| xp[(ch * hp + u) * g.rw() + v] * z[(ch * hp + u) * wz + v])
                     .sum();
                 let mut dx = vec![0.0; x.len()];
                 // Two tiles, to exercise the row offsets.

@@ -4,7 +4,9 @@
 //! Geometry, for an image `x` of `H × W` pixels and a response `R` of shape
 //! `(2H − 1, 2W − 1, 2)` (complex, natural FFT order, no `fftshift`):
 //! 1. `x` is zero-padded into the `(2H − 1) × (2W − 1)` grid with its top-left pixel at `(0, 0)`;
-//! 2. `y = ifft2(fft2(x) · R)` is a circular convolution on that grid;
+//! 2. `y = Re(ifft2(fft2(x) · R))` is a circular convolution on that grid (computed with
+//!    [`Tape::fft2_real`] and [`Tape::ifft2_real`]; `R` need not be Hermitian, and only the
+//!    real part of the result is kept, as in the official code);
 //! 3. the result is the `H × W` window at `(H − 1, W − 1)`.
 //!
 //! With `R = fft2(k)` for a kernel `k` on the grid, this is the zero-padded *linear* convolution
@@ -49,7 +51,8 @@ fn check_response<T: Float>(tape: &Tape<T>, op: &str, x: Var, response: Var) -> 
 impl<T: Float> Tape<T> {
     /// Same-size linear convolution of the real image `x` `(…, H, W)` with the kernel whose
     /// frequency response is `response` `(2H − 1, 2W − 1, 2)`; see the module docs for the
-    /// geometry. Differentiable in both. Cost: one FFT and one inverse FFT of the padded grid.
+    /// geometry. Differentiable in both. Cost: one real-input FFT and one real-output inverse
+    /// FFT of the padded grid (`fft2_real`, `ifft2_real`).
     #[track_caller]
     pub fn fft_convolve_same(&mut self, x: Var, response: Var) -> Var {
         self.frequency_filter_same("fft_convolve_same", x, response, None)
@@ -69,14 +72,12 @@ impl<T: Float> Tape<T> {
         // the mirror image (module docs).
         let (at, crop) = if eps.is_none() { (0, 1) } else { (1, 0) };
         let padded = self.pad2d(x, at * (h - 1), at * (w - 1), 2 * h - 1, 2 * w - 1);
-        let c = self.to_complex(padded);
-        let spectrum = self.fft2(c);
+        let spectrum = self.fft2_real(padded);
         let filtered = match eps {
             None => self.complex_mul(spectrum, response),
             Some(eps) => self.complex_div_guarded(spectrum, response, eps),
         };
-        let back = self.ifft2(filtered);
-        let real = self.real_part(back);
+        let real = self.ifft2_real(filtered);
         self.crop2d(real, crop * (h - 1), crop * (w - 1), h, w)
     }
 }
