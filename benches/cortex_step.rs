@@ -52,10 +52,10 @@ fn bench(name: &str, cfg: CortexConfig, warmup: usize, timed: usize) {
         stats[stats.len() - 1].loss
     );
     let mut line = String::new();
-    for i in 0..BUCKETS {
+    for (i, name) in BUCKET_NAMES.iter().enumerate().take(BUCKETS) {
         let f = median(stats.iter().map(|s| s.forward_ms[i]).collect());
         let b = median(stats.iter().map(|s| s.backward_ms[i]).collect());
-        line.push_str(&format!("{} {f:.1}+{b:.1}  ", BUCKET_NAMES[i]));
+        line.push_str(&format!("{name} {f:.1}+{b:.1}  "));
     }
     let adam = median(stats.iter().map(|s| s.optimizer_ms).collect());
     let credit = median(stats.iter().map(|s| s.credit_ms).collect());

@@ -2,8 +2,10 @@
 //!
 //! Workloads and targets (PyTorch 2 threads, f32, on the project machine; see issue 2):
 //! - FFT kernel multiply, forward + backward to the image and the response: real image
-//!   `(8, n, n)` → `to_complex` → `fft2` → `complex_mul` by a learned `(n, n, 2)` response →
-//!   `ifft2` → `real_part`; n = 64 ≤ 0.77 ms, n = 256 ≤ 6.1 ms.
+//!   `(8, n, n)` → FFT → `complex_mul` by a learned `(n, n, 2)` response → inverse FFT → real
+//!   part; n = 64 ≤ 0.77 ms, n = 256 ≤ 6.1 ms. Two variants: "real" (`fft2_real`,
+//!   `ifft2_real`, what `fft_convolve_same` uses) and "complex" (`to_complex`, `fft2`, `ifft2`,
+//!   `real_part`).
 //! - Bilinear grid sample, forward + backward to the image and the grid:
 //!   `(8, 8, 64, 64)` ≤ 2.8 ms, `(4, 8, 256, 256)` ≤ 39 ms, with a smooth warp that pushes
 //!   some samples past the border.
@@ -62,23 +64,32 @@ fn fft_filter(c: &mut Criterion) {
         let resp = noise(&[n, n, 2], 2);
         let r = Arc::new(noise(&[b, n, n], 3));
         let mut tape = Tape::<f32>::new();
-        group.bench_function(format!("8x{n}^2"), |bench| {
-            bench.iter(|| {
-                tape.clear();
-                let xt = tape.pool().copy_of(x.shape(), x.data());
-                let rt = tape.pool().copy_of(resp.shape(), resp.data());
-                let (xv, rv) = (tape.leaf(xt), tape.leaf(rt));
-                let c = tape.to_complex(xv);
-                let f = tape.fft2(c);
-                let g = tape.complex_mul(f, rv);
-                let y = tape.ifft2(g);
-                let y = tape.real_part(y);
-                let l = tape.apply(InjectGrad(r.clone()), &[y]);
-                tape.backward(l);
-                black_box(tape.grad(rv).unwrap().data()[0]);
-                black_box(tape.grad(xv).unwrap().data()[0]);
-            })
-        });
+        for real in [true, false] {
+            let name = if real { "real" } else { "complex" };
+            group.bench_function(format!("8x{n}^2 {name}"), |bench| {
+                bench.iter(|| {
+                    tape.clear();
+                    let xt = tape.pool().copy_of(x.shape(), x.data());
+                    let rt = tape.pool().copy_of(resp.shape(), resp.data());
+                    let (xv, rv) = (tape.leaf(xt), tape.leaf(rt));
+                    let y = if real {
+                        let f = tape.fft2_real(xv);
+                        let g = tape.complex_mul(f, rv);
+                        tape.ifft2_real(g)
+                    } else {
+                        let c = tape.to_complex(xv);
+                        let f = tape.fft2(c);
+                        let g = tape.complex_mul(f, rv);
+                        let y = tape.ifft2(g);
+                        tape.real_part(y)
+                    };
+                    let l = tape.apply(InjectGrad(r.clone()), &[y]);
+                    tape.backward(l);
+                    black_box(tape.grad(rv).unwrap().data()[0]);
+                    black_box(tape.grad(xv).unwrap().data()[0]);
+                })
+            });
+        }
     }
     group.finish();
 }

@@ -15,7 +15,15 @@ use std::path::{Path, PathBuf};
 pub fn run(options: &CommonOptions) -> Result<(), RunError> {
     let config = RunConfig::resolve(options, "quick")?;
     let out = run::out_dir(&config, options.out.as_ref(), "run");
-    let summary = run::run(&config, &out, RunMode { cmf_sim: true, pictures: true, progress: true })?;
+    let summary = run::run(
+        &config,
+        &out,
+        RunMode {
+            cmf_sim: true,
+            pictures: true,
+            progress: true,
+        },
+    )?;
     run::print_outcome(&out, &summary);
     Ok(())
 }
@@ -24,7 +32,15 @@ pub fn run(options: &CommonOptions) -> Result<(), RunError> {
 pub fn train(options: &CommonOptions) -> Result<(), RunError> {
     let config = RunConfig::resolve(options, "quick")?;
     let out = run::out_dir(&config, options.out.as_ref(), "train");
-    let summary = run::run(&config, &out, RunMode { cmf_sim: false, pictures: true, progress: true })?;
+    let summary = run::run(
+        &config,
+        &out,
+        RunMode {
+            cmf_sim: false,
+            pictures: true,
+            progress: true,
+        },
+    )?;
     run::print_outcome(&out, &summary);
     Ok(())
 }
@@ -36,7 +52,11 @@ pub fn simulate(options: &CommonOptions) -> Result<(), RunError> {
     let retina = Retina::new(config.retina.clone())?;
     let mut rng = <rand::rngs::StdRng as rand::SeedableRng>::seed_from_u64(config.seed);
     let written = retina::write_stage_pictures(&retina, &mut rng, &out)?;
-    println!("colorvision simulate: {} files in {}", written.len(), out.display());
+    println!(
+        "colorvision simulate: {} files in {}",
+        written.len(),
+        out.display()
+    );
     for p in written {
         println!("  {}", p.display());
     }
@@ -46,14 +66,22 @@ pub fn simulate(options: &CommonOptions) -> Result<(), RunError> {
 /// Loads the config and last checkpoint of a run folder.
 pub fn load_run(dir: &Path) -> Result<(RunConfig, Trainer, PathBuf), RunError> {
     let config_path = dir.join("config.toml");
-    let options = CommonOptions { preset: None, cones: None, seed: None, steps: None, out: None, config: Some(config_path) };
+    let options = CommonOptions {
+        preset: None,
+        cones: None,
+        seed: None,
+        steps: None,
+        out: None,
+        config: Some(config_path),
+    };
     let config = RunConfig::resolve(&options, "quick")?;
-    let checkpoint = cortex::checkpoint::latest_checkpoint(&dir.join("checkpoints"))?.ok_or_else(|| {
-        RunError::Config(crate::config::ConfigError::Invalid {
-            field: "run".into(),
-            reason: format!("{} has no checkpoints/ with a checkpoint", dir.display()),
-        })
-    })?;
+    let checkpoint =
+        cortex::checkpoint::latest_checkpoint(&dir.join("checkpoints"))?.ok_or_else(|| {
+            RunError::Config(crate::config::ConfigError::Invalid {
+                field: "run".into(),
+                reason: format!("{} has no checkpoints/ with a checkpoint", dir.display()),
+            })
+        })?;
     let trainer = Trainer::continue_from(&checkpoint, Some(config.cortex.clone()))?;
     Ok((config, trainer, checkpoint))
 }
@@ -66,7 +94,11 @@ pub fn cmf_sim(options: &CmfSimOptions) -> Result<(), RunError> {
             if let Some(k) = options.sets_per_k {
                 config.cmf_sim.sets_per_k = k;
             }
-            println!("colorvision cmf-sim: {} (checkpoint {})", dir.display(), checkpoint.display());
+            println!(
+                "colorvision cmf-sim: {} (checkpoint {})",
+                dir.display(),
+                checkpoint.display()
+            );
             let retina = Retina::new(config.retina.clone())?;
             let observer = LearnedObserver::new(&retina, &trainer.cortex, config.observer.clone());
             (run_cmf_sim(&observer, &config.cmf_sim)?, dir.clone())
@@ -92,11 +124,27 @@ pub fn cmf_sim(options: &CmfSimOptions) -> Result<(), RunError> {
     };
     let (r, out) = result;
     r.save(&out)?;
-    println!("dimension = {}  ({}; {} shows in {:.1} s)", r.dimension, r.verdict, r.shows, r.seconds);
+    println!(
+        "dimension = {}  ({}; {} shows in {:.1} s)",
+        r.dimension, r.verdict, r.shows, r.seconds
+    );
     for k in &r.per_k {
-        println!("  K = {}: {} of {} sets tried, {}", k.n_primaries, k.sets_tried, r.settings.sets_per_k, if k.passed { "a set passed" } else { "all failed" });
+        println!(
+            "  K = {}: {} of {} sets tried, {}",
+            k.n_primaries,
+            k.sets_tried,
+            r.settings.sets_per_k,
+            if k.passed {
+                "a set passed"
+            } else {
+                "all failed"
+            }
+        );
     }
-    println!("wrote {}/cmf_sim.json and cmf_sim_errors.svg", out.display());
+    println!(
+        "wrote {}/cmf_sim.json and cmf_sim_errors.svg",
+        out.display()
+    );
     Ok(())
 }
 
@@ -104,11 +152,18 @@ pub fn cmf_sim(options: &CmfSimOptions) -> Result<(), RunError> {
 pub fn scope(options: &RunDirOptions) -> Result<(), RunError> {
     let (config, trainer, _) = load_run(&options.run)?;
     let retina = Retina::new(config.retina.clone())?;
-    let mut heldout = crate::source::RetinaSource::new(run::heldout_retina(&config)?, config.seed ^ 0xA5A5, false);
+    let mut heldout = crate::source::RetinaSource::new(
+        run::heldout_retina(&config)?,
+        config.seed ^ 0xA5A5,
+        false,
+    );
     let dir = options.run.join("pictures");
     let inv = crate::pictures::write_all(&dir, &config, &retina, &mut heldout, &trainer)?;
     println!("Neural Scope pictures in {}", dir.display());
-    println!("{}", serde_json::to_string_pretty(&inv).expect("plain data"));
+    println!(
+        "{}",
+        serde_json::to_string_pretty(&inv).expect("plain data")
+    );
     Ok(())
 }
 

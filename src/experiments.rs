@@ -30,16 +30,34 @@ pub const EXPERIMENTS: &[(&str, &str)] = &[
     ("monochromats", "L, M, S: expect 1-D each"),
     ("dichromats", "LM, LS, MS: expect 2-D each"),
     ("trichromat", "LMS: expect 3-D, passing through 1-D and 2-D"),
-    ("tetrachromats", "LMS+pigeon Q and LMS+human Q on natural scenes"),
-    ("baselines", "identity percept, cone activations as ONS, no demosaicker (LMS)"),
-    ("gene-therapy", "MS trained, then L replacing/co-expressing/mixing into 50 % of M"),
-    ("boost", "LMS trained, then LMSQ (pigeon Q), training continued"),
+    (
+        "tetrachromats",
+        "LMS+pigeon Q and LMS+human Q on natural scenes",
+    ),
+    (
+        "baselines",
+        "identity percept, cone activations as ONS, no demosaicker (LMS)",
+    ),
+    (
+        "gene-therapy",
+        "MS trained, then L replacing/co-expressing/mixing into 50 % of M",
+    ),
+    (
+        "boost",
+        "LMS trained, then LMSQ (pigeon Q), training continued",
+    ),
     ("robustness", "L:M 1:1 and 1:2, three seeds"),
-    ("stiles-burch", "CMFs with primaries 444.4/526.3/645.2 nm vs Stiles & Burch 1955"),
+    (
+        "stiles-burch",
+        "CMFs with primaries 444.4/526.3/645.2 nm vs Stiles & Burch 1955",
+    ),
 ];
 
 fn with_cones(options: &CommonOptions, cones: &str) -> CommonOptions {
-    CommonOptions { cones: Some(cones.to_string()), ..options.clone() }
+    CommonOptions {
+        cones: Some(cones.to_string()),
+        ..options.clone()
+    }
 }
 
 fn sub(out: &Path, name: &str) -> PathBuf {
@@ -49,7 +67,15 @@ fn sub(out: &Path, name: &str) -> PathBuf {
 /// Trains one retina and measures it; returns its summary.
 pub fn emergence(options: &CommonOptions, out: &Path) -> Result<Summary, RunError> {
     let config = RunConfig::resolve(options, "quick")?;
-    let summary = run::run(&config, out, RunMode { cmf_sim: true, pictures: true, progress: true })?;
+    let summary = run::run(
+        &config,
+        out,
+        RunMode {
+            cmf_sim: true,
+            pictures: true,
+            progress: true,
+        },
+    )?;
     run::print_outcome(out, &summary);
     Ok(summary)
 }
@@ -60,7 +86,10 @@ fn cone_sweep(options: &CommonOptions, out: &Path, cones: &[&str]) -> Result<(),
         let s = emergence(&with_cones(options, c), &sub(out, c))?;
         table.push((c.to_string(), s.dimension, s.steps, s.wall_seconds));
     }
-    println!("\n{:<22} {:>9} {:>7} {:>9}", "cones", "dimension", "steps", "wall s");
+    println!(
+        "\n{:<22} {:>9} {:>7} {:>9}",
+        "cones", "dimension", "steps", "wall s"
+    );
     for (c, d, s, w) in &table {
         println!("{c:<22} {d:>9} {s:>7} {w:>9.0}");
     }
@@ -70,8 +99,15 @@ fn cone_sweep(options: &CommonOptions, out: &Path, cones: &[&str]) -> Result<(),
 }
 
 fn baselines(options: &CommonOptions, out: &Path) -> Result<(), RunError> {
-    for (name, baseline) in [("identity", Baseline::IdentityPercept), ("cones_as_ons", Baseline::ConeActivationsAsOns), ("no_demosaicker", Baseline::NoDemosaicker)] {
-        let mut config = RunConfig::resolve(&with_cones(options, options.cones.as_deref().unwrap_or("LMS")), "quick")?;
+    for (name, baseline) in [
+        ("identity", Baseline::IdentityPercept),
+        ("cones_as_ons", Baseline::ConeActivationsAsOns),
+        ("no_demosaicker", Baseline::NoDemosaicker),
+    ] {
+        let mut config = RunConfig::resolve(
+            &with_cones(options, options.cones.as_deref().unwrap_or("LMS")),
+            "quick",
+        )?;
         config.cortex.baseline = baseline;
         if baseline == Baseline::ConeActivationsAsOns {
             // The eye delivers cone activations: no lateral inhibition.
@@ -87,7 +123,15 @@ fn baselines(options: &CommonOptions, out: &Path) -> Result<(), RunError> {
             println!("baseline {name}: dimension {} ({})", r.dimension, r.verdict);
             continue;
         }
-        let s = run::run(&config, &dir, RunMode { cmf_sim: true, pictures: true, progress: true })?;
+        let s = run::run(
+            &config,
+            &dir,
+            RunMode {
+                cmf_sim: true,
+                pictures: true,
+                progress: true,
+            },
+        )?;
         println!("baseline {name}: dimension {} ({})", s.dimension, s.verdict);
     }
     Ok(())
@@ -95,11 +139,17 @@ fn baselines(options: &CommonOptions, out: &Path) -> Result<(), RunError> {
 
 /// Trains on `before`, then continues the same cortex on each of `after` (official §3.9: Adam
 /// recreated, step count continues).
-fn continued(options: &CommonOptions, out: &Path, before: &str, after: &[&str]) -> Result<(), RunError> {
+fn continued(
+    options: &CommonOptions,
+    out: &Path,
+    before: &str,
+    after: &[&str],
+) -> Result<(), RunError> {
     let first = sub(out, &format!("before_{before}"));
     let s = emergence(&with_cones(options, before), &first)?;
     println!("before ({before}): dimension {}", s.dimension);
-    let checkpoint = cortex::checkpoint::latest_checkpoint(&first.join("checkpoints"))?.expect("a run leaves a checkpoint");
+    let checkpoint = cortex::checkpoint::latest_checkpoint(&first.join("checkpoints"))?
+        .expect("a run leaves a checkpoint");
     for a in after {
         let config = RunConfig::resolve(&with_cones(options, a), "quick")?;
         let dir = sub(out, &format!("after_{a}"));
@@ -112,12 +162,24 @@ fn continued(options: &CommonOptions, out: &Path, before: &str, after: &[&str]) 
 fn stiles_burch(options: &CommonOptions, out: &Path) -> Result<(), RunError> {
     let config = RunConfig::resolve(&with_cones(options, "LMS"), "quick")?;
     let grid = colorimetry::WavelengthGrid::range(390.0, 730.0, 1.0)?;
-    let observer = ConeObserver::new(&colorimetry::ConeClass::lms(), &colorimetry::ConeTemplate::StockmanSharpe2deg, &grid)?;
+    let observer = ConeObserver::new(
+        &colorimetry::ConeClass::lms(),
+        &colorimetry::ConeTemplate::StockmanSharpe2deg,
+        &grid,
+    )?;
     let r = compare_stiles_burch(&observer, &StilesBurchSettings::default())?;
     r.save(sub(out, "analytic_stockman_sharpe"))?;
     println!("analytic Stockman–Sharpe observer: {}", summary_line(&r));
     let trained = sub(out, "trained_LMS");
-    run::run(&config, &trained, RunMode { cmf_sim: false, pictures: false, progress: true })?;
+    run::run(
+        &config,
+        &trained,
+        RunMode {
+            cmf_sim: false,
+            pictures: false,
+            progress: true,
+        },
+    )?;
     let (_, trainer, _) = crate::commands::load_run(&trained)?;
     let retina = Retina::new(config.retina.clone())?;
     let observer = LearnedObserver::new(&retina, &trainer.cortex, config.observer.clone());
@@ -128,12 +190,19 @@ fn stiles_burch(options: &CommonOptions, out: &Path) -> Result<(), RunError> {
 }
 
 fn summary_line(r: &colorimetry::StilesBurchResult) -> String {
-    r.channels.iter().map(|c| format!("{} r = {:.4}, RMSE {:.4}", c.channel, c.correlation, c.rmse)).collect::<Vec<_>>().join("; ")
+    r.channels
+        .iter()
+        .map(|c| format!("{} r = {:.4}, RMSE {:.4}", c.channel, c.correlation, c.rmse))
+        .collect::<Vec<_>>()
+        .join("; ")
 }
 
 /// Runs experiment `name` (or prints the list).
 pub fn run_named(name: &str, options: &CommonOptions) -> Result<(), RunError> {
-    let out = options.out.clone().unwrap_or_else(|| Path::new("runs").join(format!("experiment-{name}")));
+    let out = options
+        .out
+        .clone()
+        .unwrap_or_else(|| Path::new("runs").join(format!("experiment-{name}")));
     match name {
         "list" => {
             for (n, what) in EXPERIMENTS {
@@ -148,18 +217,32 @@ pub fn run_named(name: &str, options: &CommonOptions) -> Result<(), RunError> {
         "tetrachromats" => cone_sweep(options, &out, &["LMSQ,Q:506", "LMSQ"]),
         "robustness" => {
             for seed in [1, 2, 3] {
-                let o = CommonOptions { seed: Some(seed), ..options.clone() };
-                cone_sweep(&o, &out.join(format!("seed{seed}")), &["LMS,lm=1", "LMS,lm=0.5"])?;
+                let o = CommonOptions {
+                    seed: Some(seed),
+                    ..options.clone()
+                };
+                cone_sweep(
+                    &o,
+                    &out.join(format!("seed{seed}")),
+                    &["LMS,lm=1", "LMS,lm=0.5"],
+                )?;
             }
             Ok(())
         }
         "baselines" => baselines(options, &out),
-        "gene-therapy" => continued(options, &out, "MS", &["MS+L_replace_M", "MS+L_coexpress_M", "MS+L_ratio_M"]),
+        "gene-therapy" => continued(
+            options,
+            &out,
+            "MS",
+            &["MS+L_replace_M", "MS+L_coexpress_M", "MS+L_ratio_M"],
+        ),
         "boost" => continued(options, &out, "LMS", &["LMSQ,Q:506"]),
         "stiles-burch" => stiles_burch(options, &out),
         other => Err(RunError::Config(crate::config::ConfigError::Invalid {
             field: "experiment".into(),
-            reason: format!("`{other}` is not an experiment; `colorvision experiment list` shows them"),
+            reason: format!(
+                "`{other}` is not an experiment; `colorvision experiment list` shows them"
+            ),
         })),
     }
 }

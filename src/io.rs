@@ -28,7 +28,10 @@ pub enum IoError {
 }
 
 fn fs_err(path: &Path) -> impl FnOnce(std::io::Error) -> IoError + '_ {
-    move |source| IoError::Fs { path: path.to_path_buf(), source }
+    move |source| IoError::Fs {
+        path: path.to_path_buf(),
+        source,
+    }
 }
 
 /// Writes `bytes` to `path` atomically (temp file + fsync + rename), creating parent folders.
@@ -57,9 +60,18 @@ pub fn write_json<T: serde::Serialize>(path: &Path, value: &T) -> Result<(), IoE
 /// Writes a little-endian f32 `.npy` file (NumPy format 1.0, C order) of `shape`.
 #[track_caller]
 pub fn write_npy_f32(path: &Path, shape: &[usize], data: &[f32]) -> Result<(), IoError> {
-    assert_eq!(shape.iter().product::<usize>(), data.len(), "write_npy_f32: shape {shape:?} vs {} values", data.len());
+    assert_eq!(
+        shape.iter().product::<usize>(),
+        data.len(),
+        "write_npy_f32: shape {shape:?} vs {} values",
+        data.len()
+    );
     let dims: Vec<String> = shape.iter().map(|d| d.to_string()).collect();
-    let shape_text = if shape.len() == 1 { format!("({},)", dims[0]) } else { format!("({})", dims.join(", ")) };
+    let shape_text = if shape.len() == 1 {
+        format!("({},)", dims[0])
+    } else {
+        format!("({})", dims.join(", "))
+    };
     let mut header = format!("{{'descr': '<f4', 'fortran_order': False, 'shape': {shape_text}, }}");
     // Magic (6) + version (2) + header length (2) + header + newline must be a multiple of 64.
     let unpadded = 10 + header.len() + 1;
@@ -79,14 +91,26 @@ pub fn write_npy_f32(path: &Path, shape: &[usize], data: &[f32]) -> Result<(), I
 /// in [0, 1]; values outside are clipped).
 #[track_caller]
 pub fn write_png_rgb(path: &Path, width: usize, height: usize, rgb: &[f32]) -> Result<(), IoError> {
-    assert_eq!(rgb.len(), width * height * 3, "write_png_rgb: {width}×{height} needs {} values, got {}", width * height * 3, rgb.len());
-    let bytes: Vec<u8> = rgb.iter().map(|&v| (v.clamp(0.0, 1.0) * 255.0).round() as u8).collect();
+    assert_eq!(
+        rgb.len(),
+        width * height * 3,
+        "write_png_rgb: {width}×{height} needs {} values, got {}",
+        width * height * 3,
+        rgb.len()
+    );
+    let bytes: Vec<u8> = rgb
+        .iter()
+        .map(|&v| (v.clamp(0.0, 1.0) * 255.0).round() as u8)
+        .collect();
     let mut out = Vec::new();
     {
         let mut enc = png::Encoder::new(&mut out, width as u32, height as u32);
         enc.set_color(png::ColorType::Rgb);
         enc.set_depth(png::BitDepth::Eight);
-        let png_err = |e: png::EncodingError| IoError::Png { path: path.to_path_buf(), message: e.to_string() };
+        let png_err = |e: png::EncodingError| IoError::Png {
+            path: path.to_path_buf(),
+            message: e.to_string(),
+        };
         let mut w = enc.write_header().map_err(png_err)?;
         w.write_image_data(&bytes).map_err(png_err)?;
     }
@@ -96,7 +120,10 @@ pub fn write_png_rgb(path: &Path, width: usize, height: usize, rgb: &[f32]) -> R
 /// Maps a signed image to RGB for display: 0 is mid-grey, `+max|x|` white, `−max|x|` black.
 pub fn signed_to_rgb(values: &[f32]) -> Vec<f32> {
     let m = values.iter().fold(0f32, |m, &v| m.max(v.abs())).max(1e-12);
-    values.iter().flat_map(|&v| [0.5 + 0.5 * v / m; 3]).collect()
+    values
+        .iter()
+        .flat_map(|&v| [0.5 + 0.5 * v / m; 3])
+        .collect()
 }
 
 /// Nearest-neighbour enlargement of an RGB image by an integer `factor` (small mosaics are
@@ -137,7 +164,10 @@ mod tests {
     fn atomic_write_leaves_no_temporary() {
         let dir = std::env::temp_dir().join(format!("cv_atomic_{}", std::process::id()));
         write_atomic(&dir.join("x.json"), b"{}").unwrap();
-        let names: Vec<_> = fs::read_dir(&dir).unwrap().map(|e| e.unwrap().file_name()).collect();
+        let names: Vec<_> = fs::read_dir(&dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name())
+            .collect();
         assert_eq!(names, vec![std::ffi::OsString::from("x.json")]);
         fs::remove_dir_all(dir).ok();
     }

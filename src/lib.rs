@@ -5,12 +5,12 @@
 //! dimensionality that emerges. This crate implements the black-box observer CMF-SIM probes
 //! (retina + learned cortex), the command line, and the run folders.
 
-pub mod io;
 pub mod cli;
-pub mod observer;
+pub mod commands;
 pub mod config;
-pub mod source;
+pub mod experiments;
+pub mod io;
+pub mod observer;
 pub mod pictures;
 pub mod run;
-pub mod commands;
-pub mod experiments;
+pub mod source;

@@ -16,9 +16,9 @@
 //!   shrunk by `fringe_cones` cone spacings (avoids the lateral-inhibition fringe). Evaluation may
 //!   use ground truth; learning never does.
 
+use autodiff::Tape;
 use colorimetry::observer::{Observer, Show};
 use colorimetry::WavelengthGrid;
-use autodiff::Tape;
 use cortex::model::Marks;
 use cortex::Cortex;
 use rand::RngCore;
@@ -88,7 +88,12 @@ impl<'a> LearnedObserver<'a> {
         Self::build(retina, None, settings, Readout::OnsIdentity)
     }
 
-    fn build(retina: &'a Retina, cortex: Option<&'a Cortex>, settings: ObserverSettings, readout: Readout) -> Self {
+    fn build(
+        retina: &'a Retina,
+        cortex: Option<&'a Cortex>,
+        settings: ObserverSettings,
+        readout: Readout,
+    ) -> Self {
         let grid = retina.pool.projection.grid.clone();
         // Equal-energy monochromatic lights: find the largest class response over the grid.
         let projection = &retina.pool.projection;
@@ -101,7 +106,15 @@ impl<'a> LearnedObserver<'a> {
         }
         let intensity = settings.peak_response / peak.max(1e-12);
         let levels = retina.cones.sampler.levels_needed();
-        LearnedObserver { retina, cortex, settings, readout, grid, intensity, levels }
+        LearnedObserver {
+            retina,
+            cortex,
+            settings,
+            readout,
+            grid,
+            intensity,
+            levels,
+        }
     }
 
     fn field_px(&self) -> usize {
@@ -157,7 +170,9 @@ impl<'a> LearnedObserver<'a> {
         let mut planes = vec![0f32; n_planes * f * f];
         for y in 0..f {
             for x in 0..f {
-                let d = ((x as f64 + 0.5 - centre[0]).powi(2) + (y as f64 + 0.5 - centre[1]).powi(2)).sqrt();
+                let d = ((x as f64 + 0.5 - centre[0]).powi(2)
+                    + (y as f64 + 0.5 - centre[1]).powi(2))
+                .sqrt();
                 let cover = (radius + 0.5 - d).clamp(0.0, 1.0) as f32;
                 if cover > 0.0 {
                     for (p, &v) in values.iter().enumerate() {
@@ -171,7 +186,14 @@ impl<'a> LearnedObserver<'a> {
         let (mut act, mut ons) = (vec![0f32; nn], vec![0f32; nn]);
         if self.settings.noise_ratio > 0.0 {
             let mut rng = rand::rngs::SmallRng::seed_from_u64(show.noise_seed);
-            self.retina.encode_frame_noisy(&mut rng, self.settings.noise_ratio, &stack, [0, 0], &mut act, &mut ons);
+            self.retina.encode_frame_noisy(
+                &mut rng,
+                self.settings.noise_ratio,
+                &stack,
+                [0, 0],
+                &mut act,
+                &mut ons,
+            );
         } else {
             self.retina.encode_frame(&stack, [0, 0], &mut act, &mut ons);
         }
@@ -183,7 +205,10 @@ impl Observer for LearnedObserver<'_> {
     fn name(&self) -> String {
         match self.readout {
             Readout::Cortex => format!("retina {} + learned cortex", self.retina.mosaic.spec_text),
-            Readout::OnsIdentity => format!("retina {} + identity (percept = ONS)", self.retina.mosaic.spec_text),
+            Readout::OnsIdentity => format!(
+                "retina {} + identity (percept = ONS)",
+                self.retina.mosaic.spec_text
+            ),
         }
     }
 
@@ -201,31 +226,40 @@ impl Observer for LearnedObserver<'_> {
     fn percepts(&self, shows: &[Show], out: &mut [f64]) {
         let dim = self.percept_dim();
         let nn = self.retina.n() * self.retina.n();
-        assert_eq!(out.len(), shows.len() * dim, "LearnedObserver::percepts: out has {} values for {} shows", out.len(), shows.len());
+        assert_eq!(
+            out.len(),
+            shows.len() * dim,
+            "LearnedObserver::percepts: out has {} values for {} shows",
+            out.len(),
+            shows.len()
+        );
         let chunk = self.settings.decode_batch.max(1);
         // One tape per rayon job, cleared per chunk: its buffer pool makes decoding allocation-free
         // after the first chunk (fresh pages are expensive on these machines).
-        out.par_chunks_mut(chunk * dim).zip(shows.par_chunks(chunk)).for_each_init(Tape::<f32>::new, |tape, (out, shows)| {
-            let ons: Vec<f32> = shows.iter().flat_map(|s| self.render_ons(s)).collect();
-            let n = self.retina.n();
-            let percept: &[f32] = match (self.readout, self.cortex) {
-                (Readout::Cortex, Some(c)) => {
-                    tape.clear();
-                    let o = tape.constant_from([shows.len(), 1, n, n], &ons);
-                    let (v, _, _) = c.record_decode(tape, o, &mut Marks::default());
-                    tape.value(v).data()
+        out.par_chunks_mut(chunk * dim)
+            .zip(shows.par_chunks(chunk))
+            .for_each_init(Tape::<f32>::new, |tape, (out, shows)| {
+                let ons: Vec<f32> = shows.iter().flat_map(|s| self.render_ons(s)).collect();
+                let n = self.retina.n();
+                let percept: &[f32] = match (self.readout, self.cortex) {
+                    (Readout::Cortex, Some(c)) => {
+                        tape.clear();
+                        let o = tape.constant_from([shows.len(), 1, n, n], &ons);
+                        let (v, _, _) = c.record_decode(tape, o, &mut Marks::default());
+                        tape.value(v).data()
+                    }
+                    _ => &ons,
+                };
+                for (s, show) in shows.iter().enumerate() {
+                    let inside = self.cones_inside(self.centre_px(show.location));
+                    for d in 0..dim {
+                        let plane = &percept[(s * dim + d) * nn..(s * dim + d + 1) * nn];
+                        let mean = inside.iter().map(|&i| plane[i] as f64).sum::<f64>()
+                            / inside.len() as f64;
+                        out[s * dim + d] = mean;
+                    }
                 }
-                _ => &ons,
-            };
-            for (s, show) in shows.iter().enumerate() {
-                let inside = self.cones_inside(self.centre_px(show.location));
-                for d in 0..dim {
-                    let plane = &percept[(s * dim + d) * nn..(s * dim + d + 1) * nn];
-                    let mean = inside.iter().map(|&i| plane[i] as f64).sum::<f64>() / inside.len() as f64;
-                    out[s * dim + d] = mean;
-                }
-            }
-        });
+            });
     }
 
     fn stimulus_intensity(&self) -> f64 {

@@ -35,7 +35,12 @@ pub struct Invariants {
     pub scope_rmse: f64,
 }
 
-const CLASS_RGB: [[f64; 3]; 4] = [[1.0, 0.2, 0.2], [0.2, 0.85, 0.2], [0.25, 0.35, 1.0], [1.0, 0.9, 0.1]];
+const CLASS_RGB: [[f64; 3]; 4] = [
+    [1.0, 0.2, 0.2],
+    [0.2, 0.85, 0.2],
+    [0.25, 0.35, 1.0],
+    [1.0, 0.9, 0.1],
+];
 
 fn enlarge(n: usize) -> usize {
     (256 / n).max(1)
@@ -43,7 +48,12 @@ fn enlarge(n: usize) -> usize {
 
 fn save_rgb(path: &Path, n: usize, rgb: &[f32]) -> Result<(), RunError> {
     let f = enlarge(n);
-    Ok(write_png_rgb(path, n * f, n * f, &upscale_rgb(n, n, rgb, f))?)
+    Ok(write_png_rgb(
+        path,
+        n * f,
+        n * f,
+        &upscale_rgb(n, n, rgb, f),
+    )?)
 }
 
 /// Pearson correlation.
@@ -52,8 +62,17 @@ pub fn correlation(a: &[f64], b: &[f64]) -> f64 {
 }
 
 /// Writes every picture into `dir` and returns the measured invariants.
-pub fn write_all(dir: &Path, config: &RunConfig, retina: &Retina, source: &mut RetinaSource, trainer: &Trainer) -> Result<Invariants, RunError> {
-    std::fs::create_dir_all(dir).map_err(|source| crate::io::IoError::Fs { path: dir.to_path_buf(), source })?;
+pub fn write_all(
+    dir: &Path,
+    config: &RunConfig,
+    retina: &Retina,
+    source: &mut RetinaSource,
+    trainer: &Trainer,
+) -> Result<Invariants, RunError> {
+    std::fs::create_dir_all(dir).map_err(|source| crate::io::IoError::Fs {
+        path: dir.to_path_buf(),
+        source,
+    })?;
     let n = retina.n();
     let nn = n * n;
     let cortex = &trainer.cortex;
@@ -100,7 +119,8 @@ pub fn write_all(dir: &Path, config: &RunConfig, retina: &Retina, source: &mut R
         let rgb = scope.apply(&v);
         for c in 0..3 {
             left[i * 3 + c] = srgb::oetf((rgb[c] / peak).clamp(0.0, 1.0)) as f32;
-            right[i * 3 + c] = srgb::oetf((last_truth[c * nn + i] as f64 / peak).clamp(0.0, 1.0)) as f32;
+            right[i * 3 + c] =
+                srgb::oetf((last_truth[c * nn + i] as f64 / peak).clamp(0.0, 1.0)) as f32;
         }
     }
     let mut both = Vec::with_capacity(nn * 6);
@@ -109,18 +129,31 @@ pub fn write_all(dir: &Path, config: &RunConfig, retina: &Retina, source: &mut R
         both.extend_from_slice(&right[y * n * 3..(y + 1) * n * 3]);
     }
     let f = enlarge(n);
-    write_png_rgb(&dir.join("scope.png"), 2 * n * f, n * f, &upscale_rgb(2 * n, n, &both, f))?;
+    write_png_rgb(
+        &dir.join("scope.png"),
+        2 * n * f,
+        n * f,
+        &upscale_rgb(2 * n, n, &both, f),
+    )?;
 
     // True mosaic and learned C.
     let dominant = retina.mosaic.dominant_class();
-    let true_rgb: Vec<f32> = dominant.iter().flat_map(|&c| CLASS_RGB[c.min(3)].map(|v| v as f32)).collect();
+    let true_rgb: Vec<f32> = dominant
+        .iter()
+        .flat_map(|&c| CLASS_RGB[c.min(3)].map(|v| v as f32))
+        .collect();
     save_rgb(&dir.join("true_mosaic.png"), n, &true_rgb)?;
     let c_ari = cortex.learned_c().map(|c| {
         let c = c.data().to_vec(); // (n, n, N)
         let targets: Vec<f64> = dominant.iter().flat_map(|&k| CLASS_RGB[k.min(3)]).collect();
         let map = colorimetry::NeuralScope::fit(&c, &targets, dim);
         let rgb: Vec<f32> = match &map {
-            Ok(m) => (0..nn).flat_map(|i| m.apply(&c[i * dim..(i + 1) * dim]).map(|v| v.clamp(0.0, 1.0) as f32)).collect(),
+            Ok(m) => (0..nn)
+                .flat_map(|i| {
+                    m.apply(&c[i * dim..(i + 1) * dim])
+                        .map(|v| v.clamp(0.0, 1.0) as f32)
+                })
+                .collect(),
             Err(_) => vec![0.5; nn * 3],
         };
         let _ = save_rgb(&dir.join("learned_c.png"), n, &rgb);
@@ -129,7 +162,7 @@ pub fn write_all(dir: &Path, config: &RunConfig, retina: &Retina, source: &mut R
 
     // W kernel beside the DoG.
     let w_corr = match (cortex.learned_w_kernel(7), retina.dog_kernel()) {
-        (Some(learned), Some((dog, size))) if size == 7 => {
+        (Some(learned), Some((dog, 7))) => {
             let l = learned.data().to_vec();
             let mut both = Vec::with_capacity(7 * 14);
             for y in 0..7 {
@@ -137,7 +170,12 @@ pub fn write_all(dir: &Path, config: &RunConfig, retina: &Retina, source: &mut R
                 both.extend_from_slice(&dog[y * 7..(y + 1) * 7]);
             }
             let rgb = signed_to_rgb(&both.iter().map(|&v| v as f32).collect::<Vec<_>>());
-            write_png_rgb(&dir.join("w_kernel.png"), 14 * 16, 7 * 16, &upscale_rgb(14, 7, &rgb, 16))?;
+            write_png_rgb(
+                &dir.join("w_kernel.png"),
+                14 * 16,
+                7 * 16,
+                &upscale_rgb(14, 7, &rgb, 16),
+            )?;
             Some(correlation(&l, dog))
         }
         _ => None,
@@ -149,11 +187,27 @@ pub fn write_all(dir: &Path, config: &RunConfig, retina: &Retina, source: &mut R
     let truth = retina.layout.positions_normalised();
     let mut svg = String::from("<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"840\" height=\"420\" viewBox=\"0 0 840 420\">\n<rect width=\"840\" height=\"420\" fill=\"white\"/>\n<text x=\"10\" y=\"16\" font-size=\"13\">learned positions P(uv) (left) and true cone positions (right)</text>\n");
     let step = (n / 32).max(1);
-    for (panel, pts) in [(0.0, (0..nn).map(|i| [learned[2 * i], learned[2 * i + 1]]).collect::<Vec<_>>()), (420.0, truth.iter().map(|p| [p[0] as f64, p[1] as f64]).collect())] {
+    for (panel, pts) in [
+        (
+            0.0,
+            (0..nn)
+                .map(|i| [learned[2 * i], learned[2 * i + 1]])
+                .collect::<Vec<_>>(),
+        ),
+        (
+            420.0,
+            truth.iter().map(|p| [p[0] as f64, p[1] as f64]).collect(),
+        ),
+    ] {
         for y in (0..n).step_by(step) {
             for x in (0..n).step_by(step) {
                 let p = pts[y * n + x];
-                let _ = writeln!(svg, "<circle cx=\"{:.1}\" cy=\"{:.1}\" r=\"1.6\" fill=\"#333\"/>", panel + 210.0 + 190.0 * p[0], 220.0 + 190.0 * p[1]);
+                let _ = writeln!(
+                    svg,
+                    "<circle cx=\"{:.1}\" cy=\"{:.1}\" r=\"1.6\" fill=\"#333\"/>",
+                    panel + 210.0 + 190.0 * p[0],
+                    220.0 + 190.0 * p[1]
+                );
             }
         }
     }
@@ -173,7 +227,12 @@ pub fn write_all(dir: &Path, config: &RunConfig, retina: &Retina, source: &mut R
     let ls = spacing(&|i| [learned[2 * i], learned[2 * i + 1]]);
     let ts = spacing(&|i| [truth[i][0] as f64, truth[i][1] as f64]);
     let p_corr = correlation(&ls, &ts);
-    Ok(Invariants { c_adjusted_rand_index: c_ari, w_kernel_correlation: w_corr, p_spacing_correlation: if p_corr.is_finite() { p_corr } else { 0.0 }, scope_rmse })
+    Ok(Invariants {
+        c_adjusted_rand_index: c_ari,
+        w_kernel_correlation: w_corr,
+        p_spacing_correlation: if p_corr.is_finite() { p_corr } else { 0.0 },
+        scope_rmse,
+    })
 }
 
 /// Deterministic k-means (k-means++-like farthest-point init from point 0) on `(m, dim)` rows.
@@ -185,8 +244,14 @@ pub fn kmeans(x: &[f64], dim: usize, k: usize, iterations: usize) -> Vec<usize> 
     while centres.len() < k.min(m) {
         let far = (0..m)
             .max_by(|&a, &b| {
-                let da = centres.iter().map(|c| d2(row(a), c)).fold(f64::INFINITY, f64::min);
-                let db = centres.iter().map(|c| d2(row(b), c)).fold(f64::INFINITY, f64::min);
+                let da = centres
+                    .iter()
+                    .map(|c| d2(row(a), c))
+                    .fold(f64::INFINITY, f64::min);
+                let db = centres
+                    .iter()
+                    .map(|c| d2(row(b), c))
+                    .fold(f64::INFINITY, f64::min);
                 da.total_cmp(&db)
             })
             .expect("rows exist");
@@ -195,7 +260,9 @@ pub fn kmeans(x: &[f64], dim: usize, k: usize, iterations: usize) -> Vec<usize> 
     let mut labels = vec![0; m];
     for _ in 0..iterations {
         for (i, l) in labels.iter_mut().enumerate() {
-            *l = (0..centres.len()).min_by(|&a, &b| d2(row(i), &centres[a]).total_cmp(&d2(row(i), &centres[b]))).unwrap_or(0);
+            *l = (0..centres.len())
+                .min_by(|&a, &b| d2(row(i), &centres[a]).total_cmp(&d2(row(i), &centres[b])))
+                .unwrap_or(0);
         }
         for (c, centre) in centres.iter_mut().enumerate() {
             let members: Vec<usize> = (0..m).filter(|&i| labels[i] == c).collect();
@@ -212,16 +279,29 @@ pub fn kmeans(x: &[f64], dim: usize, k: usize, iterations: usize) -> Vec<usize> 
 /// Adjusted Rand index of two labelings (Hubert & Arabie 1985): 1 = identical partitions,
 /// ≈ 0 = chance.
 pub fn adjusted_rand_index(a: &[usize], b: &[usize]) -> f64 {
-    assert_eq!(a.len(), b.len(), "adjusted_rand_index: {} vs {} labels", a.len(), b.len());
-    let (ka, kb) = (a.iter().max().map_or(0, |m| m + 1), b.iter().max().map_or(0, |m| m + 1));
+    assert_eq!(
+        a.len(),
+        b.len(),
+        "adjusted_rand_index: {} vs {} labels",
+        a.len(),
+        b.len()
+    );
+    let (ka, kb) = (
+        a.iter().max().map_or(0, |m| m + 1),
+        b.iter().max().map_or(0, |m| m + 1),
+    );
     let mut table = vec![0f64; ka * kb];
     for (&i, &j) in a.iter().zip(b) {
         table[i * kb + j] += 1.0;
     }
     let c2 = |x: f64| x * (x - 1.0) / 2.0;
     let sum_ij: f64 = table.iter().map(|&v| c2(v)).sum();
-    let sum_a: f64 = (0..ka).map(|i| c2((0..kb).map(|j| table[i * kb + j]).sum())).sum();
-    let sum_b: f64 = (0..kb).map(|j| c2((0..ka).map(|i| table[i * kb + j]).sum())).sum();
+    let sum_a: f64 = (0..ka)
+        .map(|i| c2((0..kb).map(|j| table[i * kb + j]).sum()))
+        .sum();
+    let sum_b: f64 = (0..kb)
+        .map(|j| c2((0..ka).map(|i| table[i * kb + j]).sum()))
+        .sum();
     let total = c2(a.len() as f64);
     let expected = sum_a * sum_b / total.max(1.0);
     let max = 0.5 * (sum_a + sum_b);

@@ -96,7 +96,7 @@ pub struct Summary {
 /// A held-out eye: the same mosaic and layout, different scenes.
 pub fn heldout_retina(config: &RunConfig) -> Result<Retina, RunError> {
     let mut c = config.retina.clone();
-    c.scene_seed = c.scene_seed.wrapping_add(0x5EED_0F_0E1D);
+    c.scene_seed = c.scene_seed.wrapping_add(0x005E_ED0F_0E1D);
     Ok(Retina::new(c)?)
 }
 
@@ -110,32 +110,85 @@ pub fn run(config: &RunConfig, out: &Path, mode: RunMode) -> Result<Summary, Run
 /// Continues training the cortex of `checkpoint` on the (changed) eye of `config` for
 /// `config.steps` more steps (gene therapy, dimensionality boosting; official §3.9: Adam is
 /// recreated, the step count continues).
-pub fn run_continued(config: &RunConfig, out: &Path, checkpoint: &Path) -> Result<Summary, RunError> {
-    println!("  continuing the cortex of {} on cones `{}`", checkpoint.display(), config.cones);
+pub fn run_continued(
+    config: &RunConfig,
+    out: &Path,
+    checkpoint: &Path,
+) -> Result<Summary, RunError> {
+    println!(
+        "  continuing the cortex of {} on cones `{}`",
+        checkpoint.display(),
+        config.cones
+    );
     let trainer = Trainer::continue_from(checkpoint, Some(config.cortex.clone()))?;
-    run_with_trainer(config, out, RunMode { cmf_sim: true, pictures: true, progress: true }, trainer)
+    run_with_trainer(
+        config,
+        out,
+        RunMode {
+            cmf_sim: true,
+            pictures: true,
+            progress: true,
+        },
+        trainer,
+    )
 }
 
 /// The training loop of [`run`] on a given trainer.
-pub fn run_with_trainer(config: &RunConfig, out: &Path, mode: RunMode, mut trainer: Trainer) -> Result<Summary, RunError> {
+pub fn run_with_trainer(
+    config: &RunConfig,
+    out: &Path,
+    mode: RunMode,
+    mut trainer: Trainer,
+) -> Result<Summary, RunError> {
     let started = Instant::now();
     if config.learning_rule == "feedback-alignment" {
-        trainer.set_learning_rule(Box::new(autodiff::learn::FeedbackAlignment::new(config.seed ^ 0xFA)));
+        trainer.set_learning_rule(Box::new(autodiff::learn::FeedbackAlignment::new(
+            config.seed ^ 0xFA,
+        )));
         println!("  learning rule: feedback alignment (fixed random backward weights for conv/matmul kernels)");
     }
-    std::fs::create_dir_all(out).map_err(|source| crate::io::IoError::Fs { path: out.to_path_buf(), source })?;
+    std::fs::create_dir_all(out).map_err(|source| crate::io::IoError::Fs {
+        path: out.to_path_buf(),
+        source,
+    })?;
     crate::io::write_atomic(&out.join("config.toml"), config.to_toml().as_bytes())?;
-    println!("colorvision: preset `{}`, cones `{}`, seed {}, {} steps → {}", config.preset, config.cones, config.seed, config.steps, out.display());
+    println!(
+        "colorvision: preset `{}`, cones `{}`, seed {}, {} steps → {}",
+        config.preset,
+        config.cones,
+        config.seed,
+        config.steps,
+        out.display()
+    );
     if config.oracle_motion {
         println!("  note: the cortex receives the ORACLE eye motion (true shift) besides the optic nerve signal");
     } else {
-        println!("  the cortex receives the optic nerve signal only (eye motion estimated by bucket M)");
+        println!(
+            "  the cortex receives the optic nerve signal only (eye motion estimated by bucket M)"
+        );
     }
     let retina = Retina::new(config.retina.clone())?;
-    println!("  retina: {} cones per side, classes {:?}", retina.n(), retina.mosaic.classes.iter().map(|c| c.name.as_str()).collect::<Vec<_>>());
+    println!(
+        "  retina: {} cones per side, classes {:?}",
+        retina.n(),
+        retina
+            .mosaic
+            .classes
+            .iter()
+            .map(|c| c.name.as_str())
+            .collect::<Vec<_>>()
+    );
     let mut source = RetinaSource::new(retina, config.seed, config.oracle_motion);
-    let mut heldout = RetinaSource::new(heldout_retina(config)?, config.seed ^ 0xA5A5, config.oracle_motion);
-    let bar = if mode.progress { ProgressBar::new(config.steps) } else { ProgressBar::hidden() };
+    let mut heldout = RetinaSource::new(
+        heldout_retina(config)?,
+        config.seed ^ 0xA5A5,
+        config.oracle_motion,
+    );
+    let bar = if mode.progress {
+        ProgressBar::new(config.steps)
+    } else {
+        ProgressBar::hidden()
+    };
     bar.set_style(
         ProgressStyle::with_template("{elapsed_precise} [{bar:30}] {pos}/{len} {msg}")
             .expect("a valid template")
@@ -163,7 +216,10 @@ pub fn run_with_trainer(config: &RunConfig, out: &Path, mode: RunMode, mut train
         losses.0.push(k as f64);
         losses.1.push(stats.loss);
         let due = |every: u64| k == config.steps || (every > 0 && k % every == 0);
-        let mut row = format!("{k},{},{},{:.3}", stats.loss, stats.main_loss, stats.total_ms);
+        let mut row = format!(
+            "{k},{},{},{:.3}",
+            stats.loss, stats.main_loss, stats.total_ms
+        );
         if due(schedule.eval_every_steps) {
             let e = heldout_error(&mut trainer, &mut heldout, bs, schedule.eval_batches)?;
             last_eval = Some(e);
@@ -175,8 +231,17 @@ pub fn run_with_trainer(config: &RunConfig, out: &Path, mode: RunMode, mut train
             bar.set_message(format!("loss {:.4} · CMF-SIM…", stats.loss));
             let r = measure(config, &source.retina, &trainer)?;
             r.save(out.join("cmf_sim").join(format!("step_{k:06}")))?;
-            bar.println(format!("  step {k}: CMF-SIM dimension {} ({:.0} s; {})", r.dimension, r.seconds, r.verdict));
-            dims.push(DimensionPoint { step: k, dimension: r.dimension, seconds: r.seconds });
+            bar.suspend(|| {
+                println!(
+                    "  step {k}: CMF-SIM dimension {} ({:.0} s; {})",
+                    r.dimension, r.seconds, r.verdict
+                )
+            });
+            dims.push(DimensionPoint {
+                step: k,
+                dimension: r.dimension,
+                seconds: r.seconds,
+            });
             let _ = write!(row, ",{}", r.dimension);
             last_cmf = Some(r);
             trainer.save_checkpoint(&checkpoints, Some(&source))?;
@@ -185,13 +250,42 @@ pub fn run_with_trainer(config: &RunConfig, out: &Path, mode: RunMode, mut train
         }
         metrics.push_str(&row);
         metrics.push('\n');
-        if mode.pictures && schedule.pictures_every_steps > 0 && k % schedule.pictures_every_steps == 0 && k != config.steps {
-            pictures::write_all(&out.join("pictures").join(format!("step_{k:06}")), config, &source.retina, &mut heldout, &trainer)?;
+        if mode.pictures
+            && schedule.pictures_every_steps > 0
+            && k % schedule.pictures_every_steps == 0
+            && k != config.steps
+        {
+            pictures::write_all(
+                &out.join("pictures").join(format!("step_{k:06}")),
+                config,
+                &source.retina,
+                &mut heldout,
+                &trainer,
+            )?;
+        }
+        if bar.is_hidden() && (k % (config.steps / 10).max(1) == 0) {
+            // Not a terminal: a line every tenth of the run instead of a bar.
+            println!(
+                "  step {k}/{}: loss {:.4}, {:.0} ms/step",
+                config.steps, stats.loss, stats.total_ms
+            );
         }
         bar.set_position(k);
-        bar.set_message(format!("loss {:.4} · {:.0} ms/step", stats.loss, stats.total_ms));
-        if schedule.stop_at_dimension > 0 && dims.last().is_some_and(|d| d.dimension >= schedule.stop_at_dimension) {
-            bar.println(format!("  reached dimension {} at step {k}: stopping early", schedule.stop_at_dimension));
+        bar.set_message(format!(
+            "loss {:.4} · {:.0} ms/step",
+            stats.loss, stats.total_ms
+        ));
+        if schedule.stop_at_dimension > 0
+            && dims
+                .last()
+                .is_some_and(|d| d.dimension >= schedule.stop_at_dimension)
+        {
+            bar.suspend(|| {
+                println!(
+                    "  reached dimension {} at step {k}: stopping early",
+                    schedule.stop_at_dimension
+                )
+            });
             break;
         }
         if k % 200 == 0 {
@@ -200,21 +294,42 @@ pub fn run_with_trainer(config: &RunConfig, out: &Path, mode: RunMode, mut train
     }
     bar.finish_and_clear();
     let steps_done = trainer.step_count();
-    if trainer.last_checkpoint().is_none_or(|p| !p.to_string_lossy().contains(&cortex::checkpoint::checkpoint_name(steps_done))) {
+    if trainer.last_checkpoint().is_none_or(|p| {
+        !p.to_string_lossy()
+            .contains(&cortex::checkpoint::checkpoint_name(steps_done))
+    }) {
         trainer.save_checkpoint(&checkpoints, Some(&source))?;
     }
     crate::io::write_atomic(&out.join("metrics.csv"), metrics.as_bytes())?;
-    let mut loss_plot = LinePlot::new("Training loss (official §3.8 normalisation)", "step", "loss");
+    let mut loss_plot = LinePlot::new(
+        "Training loss (official §3.8 normalisation)",
+        "step",
+        "loss",
+    );
     loss_plot.log_y = true;
     loss_plot.push(Series::new("loss", losses.0, losses.1));
     loss_plot.save(out.join("loss.svg"))?;
     if !dims.is_empty() {
-        let mut p = LinePlot::new("Colour dimensionality over training (CMF-SIM)", "step", "dimension");
-        p.push(Series::new("dimension", dims.iter().map(|d| d.step as f64).collect(), dims.iter().map(|d| d.dimension as f64).collect()));
+        let mut p = LinePlot::new(
+            "Colour dimensionality over training (CMF-SIM)",
+            "step",
+            "dimension",
+        );
+        p.push(Series::new(
+            "dimension",
+            dims.iter().map(|d| d.step as f64).collect(),
+            dims.iter().map(|d| d.dimension as f64).collect(),
+        ));
         p.save(out.join("dimension.svg"))?;
     }
     let invariants = if mode.pictures {
-        Some(pictures::write_all(&out.join("pictures"), config, &source.retina, &mut heldout, &trainer)?)
+        Some(pictures::write_all(
+            &out.join("pictures"),
+            config,
+            &source.retina,
+            &mut heldout,
+            &trainer,
+        )?)
     } else {
         None
     };
@@ -236,7 +351,9 @@ pub fn run_with_trainer(config: &RunConfig, out: &Path, mode: RunMode, mut train
         dimension_over_steps: dims,
         first_step_at_dimension: first,
         heldout_prediction: last_eval,
-        verdict: last_cmf.as_ref().map_or_else(|| "not measured".to_string(), |r| r.verdict.clone()),
+        verdict: last_cmf
+            .as_ref()
+            .map_or_else(|| "not measured".to_string(), |r| r.verdict.clone()),
         invariants,
         config: config.clone(),
     };
@@ -245,13 +362,22 @@ pub fn run_with_trainer(config: &RunConfig, out: &Path, mode: RunMode, mut train
 }
 
 /// CMF-SIM of the current cortex behind `retina`.
-pub fn measure(config: &RunConfig, retina: &Retina, trainer: &Trainer) -> Result<CmfSimResult, RunError> {
+pub fn measure(
+    config: &RunConfig,
+    retina: &Retina,
+    trainer: &Trainer,
+) -> Result<CmfSimResult, RunError> {
     let observer = LearnedObserver::new(retina, &trainer.cortex, config.observer.clone());
     Ok(run_cmf_sim(&observer, &config.cmf_sim)?)
 }
 
 /// Held-out prediction error `[model MSE, next = current MSE, ratio]` over `batches` batches.
-pub fn heldout_error(trainer: &mut Trainer, heldout: &mut RetinaSource, bs: usize, batches: usize) -> Result<[f64; 3], RunError> {
+pub fn heldout_error(
+    trainer: &mut Trainer,
+    heldout: &mut RetinaSource,
+    bs: usize,
+    batches: usize,
+) -> Result<[f64; 3], RunError> {
     let (mut model, mut identity) = (0.0, 0.0);
     for _ in 0..batches.max(1) {
         let b = heldout.next_batch(bs);
@@ -266,14 +392,20 @@ pub fn heldout_error(trainer: &mut Trainer, heldout: &mut RetinaSource, bs: usiz
 pub fn print_outcome(out: &Path, summary: &Summary) {
     println!();
     println!("Run folder: {}", out.display());
-    println!("  summary.json      dimension = {} after {} steps ({:.0} s, {:.0} ms/step)", summary.dimension, summary.steps, summary.wall_seconds, summary.mean_step_ms);
+    println!(
+        "  summary.json      dimension = {} after {} steps ({:.0} s, {:.0} ms/step)",
+        summary.dimension, summary.steps, summary.wall_seconds, summary.mean_step_ms
+    );
     if let Some([m, i, r]) = summary.heldout_prediction {
         println!("  held-out prediction error {m:.4e} vs {i:.4e} for \"next frame = this frame\" ({r:.1}× better)");
     }
     for (d, s) in &summary.first_step_at_dimension {
         println!("  first measured {d}-D at step {s}");
     }
-    println!("  cmf_sim.json/svg  CMF-SIM errors per wavelength for 0..K primaries; {}", summary.verdict);
+    println!(
+        "  cmf_sim.json/svg  CMF-SIM errors per wavelength for 0..K primaries; {}",
+        summary.verdict
+    );
     println!("  dimension.svg     dimension over training;  loss.svg  training loss");
     println!("  pictures/         ONS, Neural-Scope percept beside the truth, learned C, P positions, W kernel");
     println!("  metrics.csv, checkpoints/, config.toml");

@@ -26,7 +26,13 @@ pub struct RetinaSource {
 impl RetinaSource {
     /// A source drawing batches from `retina` with `seed`; `oracle_motion` passes the true shift.
     pub fn new(retina: Retina, seed: u64, oracle_motion: bool) -> Self {
-        RetinaSource { retina, seed, batches: 0, oracle_motion, buffer: OnsBatch::default() }
+        RetinaSource {
+            retina,
+            seed,
+            batches: 0,
+            oracle_motion,
+            buffer: OnsBatch::default(),
+        }
     }
 
     /// Number of batches drawn so far.
@@ -47,7 +53,8 @@ impl RetinaSource {
     pub fn next_eye_batch(&mut self, batch_size: usize) -> &OnsBatch {
         let mut rng = self.rng_for(self.batches);
         self.batches += 1;
-        self.retina.batch_into(&mut rng, batch_size, &mut self.buffer);
+        self.retina
+            .batch_into(&mut rng, batch_size, &mut self.buffer);
         &self.buffer
     }
 
@@ -74,11 +81,23 @@ impl DataSource for RetinaSource {
     }
 
     fn load_state(&mut self, state: &serde_json::Value) -> Result<(), CortexError> {
-        let bad = |reason: &str| CortexError::InvalidConfig { field: "data_source".into(), reason: reason.into() };
-        let batches = state.get("batches").and_then(|v| v.as_u64()).ok_or_else(|| bad("missing `batches`"))?;
-        let seed = state.get("seed").and_then(|v| v.as_u64()).ok_or_else(|| bad("missing `seed`"))?;
+        let bad = |reason: &str| CortexError::InvalidConfig {
+            field: "data_source".into(),
+            reason: reason.into(),
+        };
+        let batches = state
+            .get("batches")
+            .and_then(|v| v.as_u64())
+            .ok_or_else(|| bad("missing `batches`"))?;
+        let seed = state
+            .get("seed")
+            .and_then(|v| v.as_u64())
+            .ok_or_else(|| bad("missing `seed`"))?;
         if seed != self.seed {
-            return Err(bad(&format!("checkpoint was drawn with seed {seed}, this source has {}", self.seed)));
+            return Err(bad(&format!(
+                "checkpoint was drawn with seed {seed}, this source has {}",
+                self.seed
+            )));
         }
         if batches < self.batches {
             return Err(bad("cannot rewind a retina source; build a fresh one"));

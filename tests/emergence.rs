@@ -11,12 +11,33 @@ use colorvision::run::{run, RunMode};
 
 fn emerged_dimension(cones: &str) -> (usize, String) {
     let config = RunConfig::preset("tiny", cones).expect("the tiny preset resolves");
-    let out = std::env::temp_dir().join(format!("colorvision_emergence_{cones}_{}", std::process::id()));
-    let summary = run(&config, &out, RunMode { cmf_sim: true, pictures: false, progress: false }).expect("the run completes");
-    let verdict = format!("{} after {} steps; held-out prediction {:?}", summary.verdict, summary.steps, summary.heldout_prediction);
-    let written: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).expect("summary.json written")).expect("valid JSON");
-    assert_eq!(written["dimension"].as_u64(), Some(summary.dimension as u64), "summary.json carries the dimension");
+    let out = std::env::temp_dir().join(format!(
+        "colorvision_emergence_{cones}_{}",
+        std::process::id()
+    ));
+    let summary = run(
+        &config,
+        &out,
+        RunMode {
+            cmf_sim: true,
+            pictures: false,
+            progress: false,
+        },
+    )
+    .expect("the run completes");
+    let verdict = format!(
+        "{} after {} steps; held-out prediction {:?}",
+        summary.verdict, summary.steps, summary.heldout_prediction
+    );
+    let written: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(out.join("summary.json")).expect("summary.json written"),
+    )
+    .expect("valid JSON");
+    assert_eq!(
+        written["dimension"].as_u64(),
+        Some(summary.dimension as u64),
+        "summary.json carries the dimension"
+    );
     std::fs::remove_dir_all(&out).ok();
     (summary.dimension, verdict)
 }

@@ -58,7 +58,7 @@ fn custom_op_with_saved_state_passes_the_gradient_check() {
             let s = t.apply(Sort::default(), &[v[0]]);
             t.square(s)
         },
-        &[x.clone()],
+        std::slice::from_ref(&x),
         &CheckConfig::default(),
     )
     .unwrap();
@@ -105,7 +105,7 @@ fn surrogate_spike_uses_its_declared_derivative() {
     // Finite differences see a step function: zero almost everywhere, so they disagree.
     assert!(check_gradients(
         |t, x| t.map(spike(), x[0]),
-        &[v.clone()],
+        std::slice::from_ref(&v),
         &CheckConfig::default()
     )
     .is_err());

@@ -70,7 +70,7 @@ impl RealNvpVars {
     #[track_caller]
     pub fn new(vars: Vec<Var>) -> Self {
         assert!(
-            vars.len() % PER_BLOCK == 0,
+            vars.len().is_multiple_of(PER_BLOCK),
             "RealNvpVars: {} vars is not 6 per block",
             vars.len()
         );
@@ -337,15 +337,23 @@ impl Mlp {
     fn eval(&self, v: f64, buf: &mut [f64; 2 * MAX_HIDDEN]) -> (f64, f64) {
         let h = self.h;
         let (a, b) = buf.split_at_mut(MAX_HIDDEN);
-        for j in 0..h {
-            a[j] = (v * self.w1[j] + self.b1[j]).max(0.0);
+        let (a, b) = (&mut a[..h], &mut b[..h]);
+        for ((a, &w), &bias) in a.iter_mut().zip(&self.w1).zip(&self.b1) {
+            *a = (v * w + bias).max(0.0);
         }
-        for j in 0..h {
-            let z: f64 = (0..h).map(|i| a[i] * self.w2[i * h + j]).sum::<f64>() + self.b2[j];
-            b[j] = z.max(0.0);
+        // b = relu(a @ w2 + b2), w2 being (in, out) row-major.
+        b.copy_from_slice(&self.b2);
+        for (&ai, w_row) in a.iter().zip(self.w2.chunks_exact(h)) {
+            for (bj, &wij) in b.iter_mut().zip(w_row) {
+                *bj += ai * wij;
+            }
         }
-        let t = (0..h).map(|i| b[i] * self.w3[2 * i]).sum::<f64>() + self.b3[0];
-        let s = (0..h).map(|i| b[i] * self.w3[2 * i + 1]).sum::<f64>() + self.b3[1];
+        let (mut t, mut s) = (self.b3[0], self.b3[1]);
+        for (&bi, w) in b.iter().zip(self.w3.chunks_exact(2)) {
+            let bi = bi.max(0.0);
+            t += bi * w[0];
+            s += bi * w[1];
+        }
         (t, s)
     }
 }
@@ -458,8 +466,8 @@ mod tests {
                         flow.forward_points(&store, &p)
                     };
                     let (plus, minus) = (shifted(h), shifted(-h));
-                    for r in 0..2 {
-                        jac[r][col] = (plus.data()[r] - minus.data()[r]) / (2.0 * h);
+                    for (r, row) in jac.iter_mut().enumerate() {
+                        row[col] = (plus.data()[r] - minus.data()[r]) / (2.0 * h);
                     }
                 }
                 let det = jac[0][0] * jac[1][1] - jac[0][1] * jac[1][0];

@@ -54,7 +54,11 @@ pub const OPS: &[&str] = &[
 
 /// Views interleaved `(re, im)` scalars as complex numbers.
 pub(crate) fn as_complex<T: Float>(x: &[T]) -> &[Complex<T>] {
-    assert!(x.len() % 2 == 0, "as_complex: odd length {}", x.len());
+    assert!(
+        x.len().is_multiple_of(2),
+        "as_complex: odd length {}",
+        x.len()
+    );
     // SAFETY: `Complex<T>` is `#[repr(C)] { re: T, im: T }`: two `T`s, alignment of `T`. The
     // slice holds `len / 2` such pairs, and the lifetime is tied to `x`.
     unsafe { std::slice::from_raw_parts(x.as_ptr().cast(), x.len() / 2) }
@@ -62,7 +66,11 @@ pub(crate) fn as_complex<T: Float>(x: &[T]) -> &[Complex<T>] {
 
 /// Mutable form of [`as_complex`].
 pub(crate) fn as_complex_mut<T: Float>(x: &mut [T]) -> &mut [Complex<T>] {
-    assert!(x.len() % 2 == 0, "as_complex_mut: odd length {}", x.len());
+    assert!(
+        x.len().is_multiple_of(2),
+        "as_complex_mut: odd length {}",
+        x.len()
+    );
     // SAFETY: as in `as_complex`; the exclusive borrow of `x` is moved into the result.
     unsafe { std::slice::from_raw_parts_mut(x.as_mut_ptr().cast(), x.len() / 2) }
 }
@@ -566,98 +574,5 @@ mod tests {
         let mut tape = Tape::<f32>::new();
         let x = tape.constant(Tensor::zeros([2, 3, 3]));
         tape.fft2(x);
-    }
-}
-#[cfg(test)]
-mod tmp_timing {
-    use super::*;
-    #[test]
-    #[ignore]
-    fn tmp_time_dft2() {
-        let (h, w) = (256, 256);
-        let x: Vec<f32> = (0..8 * 2 * h * w)
-            .map(|i| (i as f32 * 0.37).sin())
-            .collect();
-        let mut y = vec![0f32; x.len()];
-        for _ in 0..3 {
-            dft2(&x, &mut y, (h, w), false, 1.0, false);
-        }
-        let t = std::time::Instant::now();
-        for _ in 0..20 {
-            dft2(&x, &mut y, (h, w), false, 1.0, false);
-        }
-        eprintln!("dft2 8x256^2 par: {:?}", t.elapsed() / 20);
-        let one = &x[..2 * h * w];
-        let mut yo = vec![0f32; one.len()];
-        let t = std::time::Instant::now();
-        for _ in 0..50 {
-            dft2(one, &mut yo, (h, w), false, 1.0, false);
-        }
-        eprintln!("dft2 1x256^2: {:?}", t.elapsed() / 50);
-        let f = plan::<f32>(256, false);
-        let mut buf: Vec<Complex<f32>> = as_complex(one).to_vec();
-        let mut scratch = vec![Complex::new(0f32, 0.0); f.get_inplace_scratch_len()];
-        let t = std::time::Instant::now();
-        for _ in 0..50 {
-            f.process_with_scratch(&mut buf, &mut scratch);
-        }
-        eprintln!("256 row ffts in place: {:?}", t.elapsed() / 50);
-        let mut out = buf.clone();
-        let mut scratch = vec![Complex::new(0f32, 0.0); f.get_immutable_scratch_len()];
-        let t = std::time::Instant::now();
-        for _ in 0..50 {
-            f.process_immutable_with_scratch(&buf, &mut out, &mut scratch);
-        }
-        eprintln!("256 row ffts immutable: {:?}", t.elapsed() / 50);
-        let mut scratch = vec![Complex::new(0f32, 0.0); f.get_outofplace_scratch_len()];
-        let t = std::time::Instant::now();
-        for _ in 0..50 {
-            f.process_outofplace_with_scratch(&mut buf, &mut out, &mut scratch);
-        }
-        eprintln!("256 row ffts outofplace: {:?}", t.elapsed() / 50);
-        let mut block = vec![Complex::new(0f32, 0.0); 8 * h];
-        let t = std::time::Instant::now();
-        for _ in 0..50 {
-            for c0 in (0..w).step_by(8) {
-                gather_columns(&buf, &mut block, (h, w), c0, 8);
-            }
-        }
-        eprintln!("gather: {:?}", t.elapsed() / 50);
-        let t = std::time::Instant::now();
-        for _ in 0..50 {
-            for r0 in (0..h).step_by(8) {
-                transpose_rows(&buf, &mut out[r0 * w..][..8 * w], (w, h), r0, 1.0, false);
-            }
-        }
-        eprintln!("transpose_rows: {:?}", t.elapsed() / 50);
-        let t = std::time::Instant::now();
-        for _ in 0..50 {
-            for r0 in (0..h).step_by(8) {
-                transpose_rows(&buf, &mut out[r0 * w..][..8 * w], (w, h), r0, 1.0, true);
-            }
-        }
-        eprintln!("transpose_rows acc: {:?}", t.elapsed() / 50);
-        let xr: Vec<f32> = (0..h * w).map(|i| (i as f32 * 0.37).sin()).collect();
-        let mut spec = vec![0f32; 2 * h * w];
-        let t = std::time::Instant::now();
-        for _ in 0..50 {
-            real::r2c(&xr, &mut spec, (h, w), 1.0, false);
-        }
-        eprintln!("r2c 1x256^2: {:?}", t.elapsed() / 50);
-        let mut yr = vec![0f32; h * w];
-        let t = std::time::Instant::now();
-        for _ in 0..50 {
-            real::c2r(&spec, &mut yr, (h, w), 1.0, false);
-        }
-        eprintln!("c2r 1x256^2: {:?}", t.elapsed() / 50);
-
-        let mut scratch = vec![Complex::new(0f32, 0.0); f.get_inplace_scratch_len()];
-        let t = std::time::Instant::now();
-        for _ in 0..50 {
-            for _c0 in (0..w).step_by(8) {
-                f.process_with_scratch(&mut block, &mut scratch);
-            }
-        }
-        eprintln!("column ffts in blocks: {:?}", t.elapsed() / 50);
     }
 }

@@ -270,13 +270,15 @@ impl Geometry {
         }
     }
 
-    /// `gw[o, c, a, b] += dwf[t][o][c]`: the adjoint of [`Geometry::forward_weights`].
-    pub fn add_weight_grad<T: Float>(&self, co: usize, dwf: &[T], gw: &mut [T]) {
-        let (c, kk) = (self.c, self.k * self.k);
-        for (oc, taps) in gw.chunks_exact_mut(kk).enumerate() {
-            for (t, g) in taps.iter_mut().enumerate() {
-                *g += dwf[t * co * c + oc];
-            }
+    /// The column matrix of output rows `r0..r1`: row `c·k² + t` is row `c` of `X_t` (see
+    /// [`Geometry::x_view`]), `C·k² × (r1−r0)·rw` — rows ordered like the weight `(c, a, b)`.
+    pub fn im2col<T: Float>(&self, xp: &[T], r0: usize, r1: usize, col: &mut [T]) {
+        let (k, rw) = (self.k, self.rw());
+        let n = (r1 - r0) * rw;
+        for (row, ct) in col.chunks_exact_mut(n).zip(0..) {
+            let (c, a, b) = (ct / (k * k), (ct / k) % k, ct % k);
+            let at = c * self.plane() + (r0 + a) * rw + b;
+            row.copy_from_slice(&xp[at..at + n]);
         }
     }
 
@@ -290,19 +292,6 @@ impl Geometry {
             (r1 - r0) * wp,
             self.plane(),
             1,
-        )
-    }
-
-    /// `X_abᵀ` for output rows `r0..r1` (`(r1−r0)·Wp × C`).
-    pub fn xt_view<'a, T>(&self, xp: &'a [T], t: usize, r0: usize, r1: usize) -> MatView<'a, T> {
-        let (a, b, wp) = (t / self.k, t % self.k, self.rw());
-        MatView::new(
-            xp,
-            (r0 + a) * wp + b,
-            (r1 - r0) * wp,
-            self.c,
-            1,
-            self.plane(),
         )
     }
 
@@ -460,7 +449,7 @@ mod tests {
     }
 
     #[test]
-    fn fold_is_adjoint_to_pad_and_weight_maps_are_adjoint() {
+    fn fold_is_adjoint_to_pad_and_im2col_matches_views() {
         // <pad(x), z> == <x, fold(z)> with z laid out planar at row width Wz.
         let mut rnd = rng(7);
         for mode in [Padding::Zero, Padding::Reflect] {
@@ -493,13 +482,22 @@ mod tests {
                     xp[c * g.plane()..].iter().all(|&v| v == 0.0),
                     "slack is zero"
                 );
-                let co = 3;
-                let wt: Vec<f64> = (0..co * c * k * k).map(|_| rnd()).collect();
-                let mut wf = vec![0.0; wt.len()];
-                g.forward_weights(co, &wt, &mut wf);
-                let mut back = vec![0.0; wt.len()];
-                g.add_weight_grad(co, &wf, &mut back);
-                assert_eq!(back, wt, "add_weight_grad inverts forward_weights");
+                // im2col row c·k² + t is the strided view X_t row c.
+                let (r0, r1) = (h / 2, h);
+                let n = (r1 - r0) * g.rw();
+                let mut col = vec![0.0; c * k * k * n];
+                g.im2col(&xp, r0, r1, &mut col);
+                for t in 0..k * k {
+                    let v = g.x_view(&xp, t, r0, r1);
+                    let mut picked = vec![0.0; c * n];
+                    let eye: Vec<f64> = (0..c * c)
+                        .map(|i| f64::from(u8::from(i % (c + 1) == 0)))
+                        .collect();
+                    f64::gemm_view(&mut picked, false, MatView::row_major(&eye, c, c), v, 1.0);
+                    for ch in 0..c {
+                        assert_eq!(&col[(ch * k * k + t) * n..][..n], &picked[ch * n..][..n]);
+                    }
+                }
             }
         }
     }

@@ -293,7 +293,7 @@ fn conv2d_relu_matches_direct_loops() {
         let (xv, wv) = (t.leaf(x.clone()), t.leaf(w.clone()));
         let y = t.conv2d_relu(xv, wv, mode);
         let (want, gx, gw) = naive_conv_relu_grads(&x, &w, &r, mode);
-        assert!(want.data().iter().any(|&v| v == 0.0) && want.data().iter().any(|&v| v > 0.0));
+        assert!(want.data().contains(&0.0) && want.data().iter().any(|&v| v > 0.0));
         assert!(
             t.value(y).max_abs_diff(&want) < 1e-12,
             "{mode:?} k{k} value"
@@ -392,4 +392,42 @@ fn conv_gemm_layouts() {
         });
     }
     crate::gemm::set_gemm_threads(0);
+}
+
+/// Per-phase timing (`cargo test --release -p autodiff conv_phase_times -- --ignored --nocapture`).
+#[test]
+#[ignore]
+fn conv_phase_times() {
+    use std::time::Instant;
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .unwrap();
+    pool.install(|| {
+        for &(b, ci, h, co) in &[(8usize, 16usize, 64usize, 16usize), (8, 64, 16, 64), (4, 16, 256, 16)] {
+            let x: Tensor<f32> = lcg_tensor(&[b, ci, h, h], 1).cast();
+            let w: Tensor<f32> = lcg_tensor(&[co, ci, 3, 3], 2).cast();
+            let r: Tensor<f32> = lcg_tensor(&[b, co, h, h], 3).cast();
+            let mut t = Tape::<f32>::new();
+            for (gx, gw) in [(true, false), (false, true)] {
+            let (mut tf, mut tb) = (f64::MAX, f64::MAX);
+            for _ in 0..8 {
+                t.clear();
+                let xv = if gx { t.leaf(x.clone()) } else { t.constant(x.clone()) };
+                let wv = if gw { t.leaf(w.clone()) } else { t.constant(w.clone()) };
+                let t0 = Instant::now();
+                let y = t.conv2d(xv, wv, Padding::Reflect);
+                tf = tf.min(t0.elapsed().as_secs_f64());
+                let t0 = Instant::now();
+                t.backward_from(&[(y, r.clone())], &mut crate::NoHooks);
+                tb = tb.min(t0.elapsed().as_secs_f64());
+            }
+            let gf = 2.0 * (b * h * h * co * ci * 9) as f64 / 1e9;
+            eprintln!(
+                "1 thread ({b},{ci},{h},{h})->{co} dx {gx} dw {gw}: fwd {:.2} ms ({:.0} GFLOP/s), bwd {:.2} ms ({:.0} GFLOP/s)",
+                tf * 1e3, gf / tf, tb * 1e3, gf / tb
+            );
+            }
+        }
+    });
 }

@@ -58,7 +58,7 @@ fn broadcast_len(op: &str, a: Shape, b: Shape) -> usize {
         "{op}: expected a complex tensor (…, H, W, 2) as first input, got {a:?}"
     );
     assert!(
-        db.len() >= 1 && db.len() <= da.len() && da.ends_with(db),
+        !db.is_empty() && db.len() <= da.len() && da.ends_with(db),
         "{op}: the second input {b:?} must be a complex suffix of the first {a:?} (broadcast over its leading axes)"
     );
     b.numel() / 2
