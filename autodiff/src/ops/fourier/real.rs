@@ -10,7 +10,7 @@
 //! Backward (gradients of complex values as `(∂L/∂re, ∂L/∂im)`, see [`super`]):
 //! `fft2_real`: `g_x = Re(conj(F)·g_Y)`, the real part of the unnormalised inverse DFT;
 //! `ifft2_real`: `g_X = F·g_y / (H·W)`, the DFT of a real array. So the two ops' forward and
-//! backward passes share two kernels, [`r2c`] and [`c2r`].
+//! backward passes share two kernels, `r2c` and `c2r`.
 //!
 //! How the half cost comes about: two real rows `a, b` are transformed as one complex row
 //! `a + i·b` and separated by symmetry (`A[l] = (Z[l] + conj(Z[−l]))/2`,
