@@ -10,8 +10,8 @@
 //!   accumulate into the same gradient.
 //! - Shape mismatches are programming errors: panic naming the op and both shapes.
 
-use crate::{Float, Shape, Tensor};
 use crate::tape::BufferPool;
+use crate::{Float, Shape, Tensor};
 
 /// One differentiable operation: forward into an explicit destination, backward as a VJP.
 pub trait Op<T: Float>: 'static {
@@ -106,7 +106,11 @@ impl<T: Float> GradSlots<'_, T> {
     #[track_caller]
     pub fn add(&mut self, i: usize, g: &Tensor<T>) {
         if let Some(s) = self.slot(i) {
-            assert_eq!(s.shape(), g.shape(), "GradSlots::add: input {i} gradient shape");
+            assert_eq!(
+                s.shape(),
+                g.shape(),
+                "GradSlots::add: input {i} gradient shape"
+            );
             for (a, &b) in s.data_mut().iter_mut().zip(g.data()) {
                 *a += b;
             }
@@ -183,7 +187,10 @@ impl<T: Float> Op<T> for ClosureOp<T> {
         self.name
     }
     fn output_shape(&self, _inputs: &[&Tensor<T>]) -> Shape {
-        self.value.as_ref().expect("custom_vjp: value already taken").shape()
+        self.value
+            .as_ref()
+            .expect("custom_vjp: value already taken")
+            .shape()
     }
     fn forward(&mut self, _inputs: &[&Tensor<T>], out: &mut Tensor<T>) {
         let v = self.value.take().expect("custom_vjp: forward runs once");

@@ -73,7 +73,12 @@ impl<T: Float> BufferPool<T> {
     /// A tensor of `shape` holding a copy of `data`.
     #[track_caller]
     pub fn copy_of(&mut self, shape: Shape, data: &[T]) -> Tensor<T> {
-        assert_eq!(shape.numel(), data.len(), "BufferPool::copy_of: {shape:?} vs {} values", data.len());
+        assert_eq!(
+            shape.numel(),
+            data.len(),
+            "BufferPool::copy_of: {shape:?} vs {} values",
+            data.len()
+        );
         let n = data.len();
         match self.free.get_mut(&n).and_then(|v| v.pop()) {
             Some(mut buf) => {
@@ -151,7 +156,14 @@ impl<T: Float> NodeView<'_, T> {
         dx: &mut GradSlots<'_, T>,
     ) {
         if let Some(op) = self.op {
-            op.backward(&BackwardCx { inputs, output: self.value, dy }, dx);
+            op.backward(
+                &BackwardCx {
+                    inputs,
+                    output: self.value,
+                    dy,
+                },
+                dx,
+            );
         }
     }
 }
@@ -261,7 +273,13 @@ impl<T: Float> Tape<T> {
         v.index as usize
     }
 
-    fn push(&mut self, value: Tensor<T>, op: Option<Box<dyn Op<T>>>, inputs: &[u32], kind: NodeKind) -> Var {
+    fn push(
+        &mut self,
+        value: Tensor<T>,
+        op: Option<Box<dyn Op<T>>>,
+        inputs: &[u32],
+        kind: NodeKind,
+    ) -> Var {
         let requires_grad = match kind {
             NodeKind::Constant => false,
             NodeKind::Leaf | NodeKind::Param(_) => true,
@@ -279,7 +297,11 @@ impl<T: Float> Tape<T> {
         });
         self.values.push(value);
         self.grads.push(None);
-        Var { tape: self.id, generation: self.generation, index }
+        Var {
+            tape: self.id,
+            generation: self.generation,
+            index,
+        }
     }
 
     /// Records data that needs no gradient.
@@ -301,7 +323,11 @@ impl<T: Float> Tape<T> {
     /// Records a copy of parameter `id` (used by [`ParamStore::var`](crate::ParamStore::var)).
     pub fn param_leaf(&mut self, id: ParamId, value: &Tensor<T>, trainable: bool) -> Var {
         let t = self.pool.copy_of(value.shape(), value.data());
-        let kind = if trainable { NodeKind::Param(id) } else { NodeKind::Constant };
+        let kind = if trainable {
+            NodeKind::Param(id)
+        } else {
+            NodeKind::Constant
+        };
         self.push(t, None, &[], kind)
     }
 
@@ -320,7 +346,8 @@ impl<T: Float> Tape<T> {
             *slot = self.check(v) as u32;
         }
         let out = {
-            let input_values: Vec<&Tensor<T>> = ids.iter().map(|&i| &self.values[i as usize]).collect();
+            let input_values: Vec<&Tensor<T>> =
+                ids.iter().map(|&i| &self.values[i as usize]).collect();
             let shape = op.output_shape(&input_values);
             let mut out = if op.overwrites_output() {
                 self.pool.uninit(shape)
@@ -347,7 +374,14 @@ impl<T: Float> Tape<T> {
         value: Tensor<T>,
         vjp: impl Fn(&BackwardCx<'_, T>, &mut GradSlots<'_, T>) + 'static,
     ) -> Var {
-        self.apply(ClosureOp { name, value: Some(value), vjp: Box::new(vjp) }, inputs)
+        self.apply(
+            ClosureOp {
+                name,
+                value: Some(value),
+                vjp: Box::new(vjp),
+            },
+            inputs,
+        )
     }
 
     /// A copy of `x` through which no gradient flows.
@@ -394,10 +428,13 @@ impl<T: Float> Tape<T> {
 
     /// Parameter gradients of the last backward, `(id, ∂L/∂param)`, in recording order.
     pub fn param_grads(&self) -> impl Iterator<Item = (ParamId, &Tensor<T>)> {
-        self.nodes.iter().zip(&self.grads).filter_map(|(n, g)| match (n.kind, g) {
-            (NodeKind::Param(id), Some(g)) => Some((id, g)),
-            _ => None,
-        })
+        self.nodes
+            .iter()
+            .zip(&self.grads)
+            .filter_map(|(n, g)| match (n.kind, g) {
+                (NodeKind::Param(id), Some(g)) => Some((id, g)),
+                _ => None,
+            })
     }
 
     /// Reverse-mode sweep from the scalar `loss` (seed 1).
@@ -432,7 +469,11 @@ impl<T: Float> Tape<T> {
         let mut last = 0;
         for (v, seed) in seeds {
             let i = self.check(*v);
-            assert_eq!(self.values[i].shape(), seed.shape(), "backward_from: seed shape for node {i}");
+            assert_eq!(
+                self.values[i].shape(),
+                seed.shape(),
+                "backward_from: seed shape for node {i}"
+            );
             let pool = &mut self.pool;
             let g = self.grads[i].get_or_insert_with(|| pool.zeros(seed.shape()));
             for (a, &b) in g.data_mut().iter_mut().zip(seed.data()) {
@@ -444,7 +485,9 @@ impl<T: Float> Tape<T> {
         let mut input_vars: Vec<Var> = Vec::new();
         let mut input_kinds: Vec<NodeKind> = Vec::new();
         for i in (0..=last).rev() {
-            let Some(mut dy) = self.grads[i].take() else { continue };
+            let Some(mut dy) = self.grads[i].take() else {
+                continue;
+            };
             let node = &self.nodes[i];
             let range = node.inputs.start as usize..node.inputs.end as usize;
             let ids = &self.input_ids[range];
@@ -455,15 +498,24 @@ impl<T: Float> Tape<T> {
             for (k, &id) in ids.iter().enumerate() {
                 let n = &self.nodes[id as usize];
                 input_shapes.push(self.values[id as usize].shape());
-                input_vars.push(Var { tape: self.id, generation: self.generation, index: id });
+                input_vars.push(Var {
+                    tape: self.id,
+                    generation: self.generation,
+                    index: id,
+                });
                 input_kinds.push(n.kind);
                 if n.requires_grad && k < 64 {
                     wants |= 1 << k;
                 }
             }
-            let input_values: Vec<&Tensor<T>> = ids.iter().map(|&id| &self.values[id as usize]).collect();
+            let input_values: Vec<&Tensor<T>> =
+                ids.iter().map(|&id| &self.values[id as usize]).collect();
             let view = NodeView {
-                var: Var { tape: self.id, generation: self.generation, index: i as u32 },
+                var: Var {
+                    tape: self.id,
+                    generation: self.generation,
+                    index: i as u32,
+                },
                 name: match (node.kind, &node.op) {
                     (_, Some(op)) => op.name(),
                     (NodeKind::Param(_), None) => "param",
@@ -487,7 +539,11 @@ impl<T: Float> Tape<T> {
                     pool: &mut self.pool,
                 };
                 if !hooks.override_vjp(&view, &dy, &mut dx) {
-                    let cx = BackwardCx { inputs: &input_values, output: &self.values[i], dy: &dy };
+                    let cx = BackwardCx {
+                        inputs: &input_values,
+                        output: &self.values[i],
+                        dy: &dy,
+                    };
                     op.backward(&cx, &mut dx);
                 }
             }

@@ -21,10 +21,17 @@ impl Shape {
     /// A shape from its axis lengths. Panics when `dims.len() > MAX_RANK`.
     #[track_caller]
     pub fn new(dims: &[usize]) -> Self {
-        assert!(dims.len() <= MAX_RANK, "Shape: rank {} exceeds {MAX_RANK}", dims.len());
+        assert!(
+            dims.len() <= MAX_RANK,
+            "Shape: rank {} exceeds {MAX_RANK}",
+            dims.len()
+        );
         let mut d = [1; MAX_RANK];
         d[..dims.len()].copy_from_slice(dims);
-        Shape { dims: d, rank: dims.len() as u8 }
+        Shape {
+            dims: d,
+            rank: dims.len() as u8,
+        }
     }
 
     /// The rank-0 shape of a scalar.
@@ -50,14 +57,20 @@ impl Shape {
     /// Length of axis `axis`; panics with the shape when out of range.
     #[track_caller]
     pub fn dim(&self, axis: usize) -> usize {
-        assert!(axis < self.rank(), "Shape: axis {axis} out of range for {self:?}");
+        assert!(
+            axis < self.rank(),
+            "Shape: axis {axis} out of range for {self:?}"
+        );
         self.dims[axis]
     }
 
     /// `(b, c, h, w)` of a rank-4 image shape; panics naming `op` otherwise.
     #[track_caller]
     pub fn bchw(&self, op: &str) -> (usize, usize, usize, usize) {
-        assert!(self.rank() == 4, "{op}: expected a (B, C, H, W) tensor, got {self:?}");
+        assert!(
+            self.rank() == 4,
+            "{op}: expected a (B, C, H, W) tensor, got {self:?}"
+        );
         (self.dims[0], self.dims[1], self.dims[2], self.dims[3])
     }
 }
@@ -101,18 +114,27 @@ impl<T: Float> Tensor<T> {
     /// All zeros.
     pub fn zeros(shape: impl Into<Shape>) -> Self {
         let shape = shape.into();
-        Tensor { shape, data: vec![T::zero(); shape.numel()] }
+        Tensor {
+            shape,
+            data: vec![T::zero(); shape.numel()],
+        }
     }
 
     /// Every element equal to `value`.
     pub fn full(shape: impl Into<Shape>, value: T) -> Self {
         let shape = shape.into();
-        Tensor { shape, data: vec![value; shape.numel()] }
+        Tensor {
+            shape,
+            data: vec![value; shape.numel()],
+        }
     }
 
     /// A scalar (rank 0).
     pub fn scalar(value: T) -> Self {
-        Tensor { shape: Shape::scalar(), data: vec![value] }
+        Tensor {
+            shape: Shape::scalar(),
+            data: vec![value],
+        }
     }
 
     /// Wraps `data`; panics when its length does not match `shape`.
@@ -131,18 +153,29 @@ impl<T: Float> Tensor<T> {
     /// Element `i` (row-major flat index) is `f(i)`.
     pub fn from_fn(shape: impl Into<Shape>, f: impl FnMut(usize) -> T) -> Self {
         let shape = shape.into();
-        Tensor { shape, data: (0..shape.numel()).map(f).collect() }
+        Tensor {
+            shape,
+            data: (0..shape.numel()).map(f).collect(),
+        }
     }
 
     /// Converts element-wise to another float type (f32 ↔ f64).
     pub fn cast<U: Float>(&self) -> Tensor<U> {
-        Tensor { shape: self.shape, data: self.data.iter().map(|&x| U::of(x.as_f64())).collect() }
+        Tensor {
+            shape: self.shape,
+            data: self.data.iter().map(|&x| U::of(x.as_f64())).collect(),
+        }
     }
 
     /// The single value of a one-element tensor; panics otherwise.
     #[track_caller]
     pub fn item(&self) -> T {
-        assert_eq!(self.data.len(), 1, "Tensor::item: tensor of shape {:?}", self.shape);
+        assert_eq!(
+            self.data.len(),
+            1,
+            "Tensor::item: tensor of shape {:?}",
+            self.shape
+        );
         self.data[0]
     }
 

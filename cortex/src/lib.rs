@@ -38,6 +38,6 @@ pub mod trainer;
 pub use config::CortexConfig;
 pub use data::{DataSource, TrainingBatch};
 pub use error::CortexError;
-pub use model::Cortex;
 pub use eval::MotionError;
+pub use model::Cortex;
 pub use trainer::{PredictionError, StepStats, Trainer};

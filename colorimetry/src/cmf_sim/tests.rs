@@ -93,8 +93,15 @@ fn nonlinear_observer_is_solved_iteratively() {
     let o = NakaRushtonObserver::new(cones(&ConeClass::lms()), 0.5);
     let r = dimension_of(&o, 21);
     assert_eq!(r.dimension, 3, "{} {:?}", r.verdict, r.per_k);
-    let worst: Vec<String> = r.curves.iter().map(|c| format!("{:.2e}", c.worst_ratio)).collect();
-    eprintln!("Naka–Rushton: worst ratios per K {worst:?}, {} observer calls", r.observer_calls);
+    let worst: Vec<String> = r
+        .curves
+        .iter()
+        .map(|c| format!("{:.2e}", c.worst_ratio))
+        .collect();
+    eprintln!(
+        "Naka–Rushton: worst ratios per K {worst:?}, {} observer calls",
+        r.observer_calls
+    );
 }
 
 #[test]
