@@ -108,13 +108,15 @@ impl RunConfig {
             "tiny" => (300, 0, 8, 30, 2),
             "sandbox" => (3000, 1000, 20, 50, 4),
             "paper" => (100_000, 10_000, 100, 100, 8),
-            _ => (3000, 1000, 20, 50, 4),
+            // quick: CMF-SIM only at the end, on a reduced budget (a quick-scale CMF-SIM with
+            // 20 sets per K, 50 wavelengths and 4 pairs ran > 19 min on this machine).
+            _ => (3000, 0, 5, 30, 2),
         };
         let cmf_sim = CmfSimSettings {
             sets_per_k,
             n_test_wavelengths: wavelengths,
             location_pairs: pairs,
-            max_primaries: 5,
+            max_primaries: 4,
             ..CmfSimSettings::default()
         };
         Ok(RunConfig {
