@@ -249,7 +249,7 @@ mod tests {
 
     fn data_image(name: &str) -> std::path::PathBuf {
         std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("../../shared/data/images")
+            .join("data")
             .join(name)
     }
 
@@ -320,7 +320,15 @@ mod tests {
         assert!(img.linear.iter().all(|&v| (0.0..=1.0).contains(&v)));
         let mean: f32 = img.linear.iter().sum::<f32>() / img.linear.len() as f32;
         assert!(mean > 0.05 && mean < 0.6, "{mean}");
-        let e = RgbImage::read_png(data_image("retina.jpg")).unwrap_err();
-        assert!(e.to_string().contains("retina.jpg"), "{e}");
+        // A file that exists but is not a PNG (JPEG magic bytes) is an error naming the file.
+        let jpeg = std::env::temp_dir().join(format!("cv_not_png_{}.jpg", std::process::id()));
+        std::fs::write(
+            &jpeg,
+            [0xFF, 0xD8, 0xFF, 0xE0, 0, 16, b'J', b'F', b'I', b'F', 0],
+        )
+        .unwrap();
+        let e = RgbImage::read_png(&jpeg).unwrap_err();
+        std::fs::remove_file(&jpeg).ok();
+        assert!(e.to_string().contains("cv_not_png_"), "{e}");
     }
 }

@@ -30,11 +30,8 @@ fn normalise_spectra(img: &SpectralImage) -> Vec<f32> {
 }
 
 fn astronaut() -> RgbImage {
-    RgbImage::read_png(
-        std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("../../shared/data/images/astronaut.png"),
-    )
-    .unwrap()
+    RgbImage::read_png(std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("data/astronaut.png"))
+        .unwrap()
 }
 
 #[test]
@@ -138,8 +135,7 @@ fn pool_white_balance_and_reference_planes() {
     assert_eq!(ls.reference_lms, [0, 2, 1]);
     assert_eq!(ls.plane_classes[2].name, "ref_M");
     // PNG files through the matrix path: not white balanced, exact official matrix.
-    let png = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../shared/data/images/astronaut.png");
+    let png = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("data/astronaut.png");
     let files = ScenePoolConfig {
         files: vec![png],
         rgb_path: RgbPath::Matrix,
