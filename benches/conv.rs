@@ -13,39 +13,14 @@ use autodiff::learn::ParamGrads;
 use autodiff::nn::unet::{UNet, UNetConfig};
 use autodiff::ops::conv::Padding;
 use autodiff::optim::{Adam, Optimizer};
-use autodiff::{BackwardCx, GradSlots, Op, ParamStore, Shape, Tape, Tensor};
+use autodiff::{ParamStore, Tape};
 use criterion::{criterion_group, criterion_main, Criterion};
 use std::hint::black_box;
 use std::sync::Arc;
 use std::time::Duration;
 
-/// A scalar "loss" of value 0 whose backward adds a fixed cotangent `r` into its input.
-struct InjectGrad(Arc<Tensor<f32>>);
-
-impl Op<f32> for InjectGrad {
-    fn name(&self) -> &'static str {
-        "inject_grad_bench"
-    }
-    fn output_shape(&self, _inputs: &[&Tensor<f32>]) -> Shape {
-        Shape::scalar()
-    }
-    fn forward(&mut self, _inputs: &[&Tensor<f32>], _out: &mut Tensor<f32>) {}
-    fn backward(&self, _cx: &BackwardCx<'_, f32>, dx: &mut GradSlots<'_, f32>) {
-        if let Some(g) = dx.slot_data(0) {
-            g.copy_from_slice(self.0.data());
-        }
-    }
-}
-
-fn noise(shape: &[usize], seed: u64) -> Tensor<f32> {
-    let mut s = seed;
-    Tensor::from_fn(shape, |_| {
-        s = s
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        ((s >> 40) as f32 / (1u64 << 24) as f32) - 0.5
-    })
-}
+mod common;
+use common::{noise, InjectGrad};
 
 fn conv(c: &mut Criterion) {
     let mut group = c.benchmark_group("conv3x3_fwd_bwd");
