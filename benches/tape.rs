@@ -69,13 +69,20 @@ fn tape_overhead(c: &mut Criterion) {
     group.finish();
 }
 
-fn matmul(c: &mut Criterion) {
-    let mut group = c.benchmark_group("matmul_fwd_bwd");
+/// Forward + backward of `sum(a @ b)` for each `(m, k, n)`, in one criterion group.
+fn matmul_group(
+    c: &mut Criterion,
+    name: &str,
+    shapes: &[(usize, usize, usize)],
+    samples: usize,
+    seconds: u64,
+) {
+    let mut group = c.benchmark_group(name);
     group
-        .sample_size(30)
-        .measurement_time(Duration::from_secs(4))
+        .sample_size(samples)
+        .measurement_time(Duration::from_secs(seconds))
         .warm_up_time(Duration::from_secs(1));
-    for (m, k, n) in [(256, 256, 256), (32768, 16, 16), (512, 1024, 512)] {
+    for &(m, k, n) in shapes {
         let a0 = Tensor::from_fn([m, k], |i| ((i * 7919) % 1000) as f32 / 1000.0 - 0.5);
         let b0 = Tensor::from_fn([k, n], |i| ((i * 104729) % 1000) as f32 / 1000.0 - 0.5);
         let mut tape = Tape::<f32>::new();
@@ -95,30 +102,25 @@ fn matmul(c: &mut Criterion) {
     group.finish();
 }
 
+fn matmul(c: &mut Criterion) {
+    matmul_group(
+        c,
+        "matmul_fwd_bwd",
+        &[(256, 256, 256), (32768, 16, 16), (512, 1024, 512)],
+        30,
+        4,
+    );
+}
+
+/// Tall-skinny shapes of the RealNVP flow on point sets (quick and paper scale).
 fn matmul_tall(c: &mut Criterion) {
-    let mut group = c.benchmark_group("matmul_fwd_bwd_tall");
-    group
-        .sample_size(10)
-        .measurement_time(Duration::from_secs(3))
-        .warm_up_time(Duration::from_secs(1));
-    for (m, k, n) in [(32768, 16, 16), (524288, 16, 16), (524288, 1, 16)] {
-        let a0 = Tensor::from_fn([m, k], |i| ((i * 7919) % 1000) as f32 / 1000.0 - 0.5);
-        let b0 = Tensor::from_fn([k, n], |i| ((i * 104729) % 1000) as f32 / 1000.0 - 0.5);
-        let mut tape = Tape::<f32>::new();
-        group.throughput(Throughput::Elements(3 * (m * k * n) as u64));
-        group.bench_function(format!("{m}x{k}@{k}x{n}"), |bch| {
-            bch.iter(|| {
-                tape.clear();
-                let a = pooled_leaf(&mut tape, &a0);
-                let b = pooled_leaf(&mut tape, &b0);
-                let y = tape.matmul(a, b);
-                let loss = tape.sum(y);
-                tape.backward(loss);
-                black_box(tape.grad(b).unwrap().data()[0])
-            })
-        });
-    }
-    group.finish();
+    matmul_group(
+        c,
+        "matmul_fwd_bwd_tall",
+        &[(32768, 16, 16), (524288, 16, 16), (524288, 1, 16)],
+        10,
+        3,
+    );
 }
 
 fn relu(c: &mut Criterion) {
