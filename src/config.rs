@@ -210,10 +210,13 @@ impl RunConfig {
             return;
         }
         let s = self.seed;
-        self.retina.mosaic_seed = s.wrapping_mul(0x9E37_79B9_7F4A_7C15);
-        self.retina.layout_seed = s.wrapping_mul(0xC2B2_AE3D_27D4_EB4F);
-        self.retina.scene_seed = s.wrapping_mul(0x1656_67B1_9E37_79F9);
-        self.cortex.train.seed = s.wrapping_mul(0x27D4_EB2F_1656_67C5);
+        // Derived seeds keep 63 bits: TOML integers are signed 64-bit, and every seed is
+        // written to the run's config.toml.
+        let derive = |k: u64| s.wrapping_mul(k) >> 1;
+        self.retina.mosaic_seed = derive(0x9E37_79B9_7F4A_7C15);
+        self.retina.layout_seed = derive(0xC2B2_AE3D_27D4_EB4F);
+        self.retina.scene_seed = derive(0x1656_67B1_9E37_79F9);
+        self.cortex.train.seed = derive(0x27D4_EB2F_1656_67C5);
         self.cmf_sim.seed = s;
     }
 
@@ -252,6 +255,23 @@ impl RunConfig {
         }
         if self.steps == 0 {
             return Err(invalid("steps", "must be at least 1".into()));
+        }
+        // Every value is written to config.toml, whose integers are signed 64-bit.
+        for (field, v) in [
+            ("seed", self.seed),
+            ("steps", self.steps),
+            ("retina.mosaic_seed", self.retina.mosaic_seed),
+            ("retina.layout_seed", self.retina.layout_seed),
+            ("retina.scene_seed", self.retina.scene_seed),
+            ("cortex.train.seed", self.cortex.train.seed),
+            ("cmf_sim.seed", self.cmf_sim.seed),
+        ] {
+            if v > i64::MAX as u64 {
+                return Err(invalid(
+                    field,
+                    format!("{v} exceeds {} (TOML integers are signed 64-bit)", i64::MAX),
+                ));
+            }
         }
         Ok(())
     }
@@ -365,5 +385,21 @@ mod tests {
             .unwrap_err()
             .to_string()
             .contains("ons_size_px"));
+    }
+
+    #[test]
+    fn every_seed_resolves_to_a_config_that_serialises() {
+        for seed in [1, 2, 3, 12345, i64::MAX as u64] {
+            let mut o = options(None);
+            o.preset = Some("tiny".into());
+            o.seed = Some(seed);
+            let c = RunConfig::resolve(&o, "quick").unwrap();
+            let back: RunConfig = toml::from_str(&c.to_toml()).unwrap();
+            assert_eq!(back, c, "seed {seed}");
+        }
+        let mut o = options(None);
+        o.seed = Some(u64::MAX);
+        let e = RunConfig::resolve(&o, "quick").unwrap_err().to_string();
+        assert!(e.contains("seed"), "{e}");
     }
 }
