@@ -33,6 +33,11 @@ pub struct Invariants {
     pub p_spacing_correlation: f64,
     /// RMSE of the Neural Scope on held-out scenes (linear sRGB).
     pub scope_rmse: f64,
+    /// Hue axis (CIELAB a*b*) of the Neural-Scope colours of the held-out pixels (paper Fig. 5.2:
+    /// one axis for a dichromat).
+    pub scope_hue_axis: Option<colorimetry::HueAxis>,
+    /// The same for the true colours of those pixels (the scenes' own spread, for comparison).
+    pub truth_hue_axis: Option<colorimetry::HueAxis>,
 }
 
 const CLASS_RGB: [[f64; 3]; 4] = [
@@ -107,6 +112,10 @@ pub fn write_all(
     }
     let scope = acc.finish()?;
     let scope_rmse = scope.rmse(&rows.0, &rows.1);
+    let mut scope_rgb = vec![0.0; rows.1.len()];
+    scope.apply_batch(&rows.0, &mut scope_rgb);
+    let scope_hue_axis = colorimetry::hue_axis(&scope_rgb);
+    let truth_hue_axis = colorimetry::hue_axis(&rows.1);
     save_rgb(&dir.join("ons.png"), n, &signed_to_rgb(&last_ons))?;
     // Scope percept beside the truth, normalised by the truth's brightest channel.
     let peak = last_truth.iter().fold(1e-6f32, |m, &v| m.max(v)) as f64;
@@ -232,6 +241,8 @@ pub fn write_all(
         w_kernel_correlation: w_corr,
         p_spacing_correlation: if p_corr.is_finite() { p_corr } else { 0.0 },
         scope_rmse,
+        scope_hue_axis,
+        truth_hue_axis,
     })
 }
 

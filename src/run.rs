@@ -399,6 +399,20 @@ pub fn print_outcome(out: &Path, summary: &Summary) {
     if let Some([m, i, r]) = summary.heldout_prediction {
         println!("  held-out prediction error {m:.4e} vs {i:.4e} for \"next frame = this frame\" ({r:.1}× better)");
     }
+    if let Some(inv) = &summary.invariants {
+        let axis = |a: &Option<colorimetry::HueAxis>| match a {
+            Some(a) => format!("{:.0}° (minor/major {:.2})", a.angle_deg, a.minor_to_major),
+            None => "none".into(),
+        };
+        println!(
+            "  learned invariants: C vs true types ARI {}, W vs DoG r {}, P spacing r {:.2}; Neural-Scope hue axis {} (scenes: {})",
+            inv.c_adjusted_rand_index.map_or("-".into(), |v| format!("{v:.2}")),
+            inv.w_kernel_correlation.map_or("-".into(), |v| format!("{v:.3}")),
+            inv.p_spacing_correlation,
+            axis(&inv.scope_hue_axis),
+            axis(&inv.truth_hue_axis),
+        );
+    }
     for (d, s) in &summary.first_step_at_dimension {
         println!("  first measured {d}-D at step {s}");
     }

@@ -125,6 +125,23 @@ pub fn xyy_to_xyz(xyy: [f64; 3]) -> [f64; 3] {
     [x * big_y / y, big_y, (1.0 - x - y) * big_y / y]
 }
 
+/// CIE 1976 L\*a\*b\* of `xyz` relative to the reference white `white_xyz` (CIE 15:2004 §8.2.1):
+/// `L* = 116 f(Y/Yn) − 16`, `a* = 500 (f(X/Xn) − f(Y/Yn))`, `b* = 200 (f(Y/Yn) − f(Z/Zn))`,
+/// `f(t) = t^(1/3)` above `(6/29)³`, else `t / (3 (6/29)²) + 4/29`. Hue angle
+/// `h_ab = atan2(b*, a*)`: 0° reddish-pink, 90° yellow, 180° green-teal, 270° blue.
+pub fn xyz_to_lab(xyz: [f64; 3], white_xyz: [f64; 3]) -> [f64; 3] {
+    let delta: f64 = 6.0 / 29.0;
+    let f = |t: f64| {
+        if t > delta.powi(3) {
+            t.cbrt()
+        } else {
+            t / (3.0 * delta * delta) + 4.0 / 29.0
+        }
+    };
+    let [fx, fy, fz] = [0, 1, 2].map(|i| f(xyz[i] / white_xyz[i]));
+    [116.0 * fy - 16.0, 500.0 * (fx - fy), 200.0 * (fy - fz)]
+}
+
 /// The Bradford cone-response matrix (Lam 1985; ICC v4 Annex E, ISO 22028).
 pub const BRADFORD: [[f64; 3]; 3] = [
     [0.8951, 0.2664, -0.1614],
@@ -183,6 +200,33 @@ mod tests {
 
     fn grid_1nm_full() -> WavelengthGrid {
         WavelengthGrid::range(360.0, 830.0, 1.0).unwrap()
+    }
+
+    #[test]
+    fn lab_of_the_white_is_neutral_and_srgb_primaries_match_published_values() {
+        let white = [95.047, 100.0, 108.883];
+        let lab = xyz_to_lab(white, white);
+        assert!((lab[0] - 100.0).abs() < 1e-12 && lab[1].abs() < 1e-12 && lab[2].abs() < 1e-12);
+        // sRGB red and blue (IEC 61966-2-1 primaries, D65): L*a*b* 53.24/80.09/67.20 and
+        // 32.30/79.19/−107.86 (CIE 15 formula; values as tabulated by Lindbloom).
+        for (rgb, want) in [
+            ([1.0, 0.0, 0.0], [53.24, 80.09, 67.20]),
+            ([0.0, 0.0, 1.0], [32.30, 79.19, -107.86]),
+        ] {
+            let xyz = crate::srgb::linear_srgb_to_xyz(rgb).map(|v| v * 100.0);
+            let lab = xyz_to_lab(xyz, white);
+            for c in 0..3 {
+                assert!(
+                    (lab[c] - want[c]).abs() < 0.02,
+                    "{rgb:?}: {lab:?} vs {want:?}"
+                );
+            }
+        }
+        // Below the cube-root knee the linear segment is continuous with it.
+        let knee = (6.0f64 / 29.0).powi(3);
+        let lo = xyz_to_lab([knee * 0.999999; 3], [1.0; 3])[0];
+        let hi = xyz_to_lab([knee * 1.000001; 3], [1.0; 3])[0];
+        assert!((hi - lo).abs() < 1e-4, "{lo} vs {hi}");
     }
 
     #[test]
