@@ -27,8 +27,13 @@ use std::path::Path;
 pub struct Invariants {
     /// Adjusted Rand index of k-means clusters of the learned C against the true classes.
     pub c_adjusted_rand_index: Option<f64>,
-    /// Correlation of the learned W kernel (7×7) with the true DoG.
+    /// Correlation of the learned W kernel (7×7) with the true DoG. The initial W (identity, a
+    /// delta kernel) already correlates highly with a centre-dominated DoG, so read it together
+    /// with [`Invariants::w_surround_correlation`].
     pub w_kernel_correlation: Option<f64>,
+    /// The same correlation over the 48 surround taps only (centre excluded): 0 (undefined) for
+    /// the initial identity W, near 1 when the inhibitory surround's shape was learned.
+    pub w_surround_correlation: Option<f64>,
     /// Correlation of learned and true cone-spacing maps.
     pub p_spacing_correlation: f64,
     /// RMSE of the Neural Scope on held-out scenes (linear sRGB).
@@ -170,6 +175,7 @@ pub fn write_all(
     });
 
     // W kernel beside the DoG.
+    let mut w_surround = None;
     let w_corr = match (cortex.learned_w_kernel(7), retina.dog_kernel()) {
         (Some(learned), Some((dog, 7))) => {
             let l = learned.data().to_vec();
@@ -185,6 +191,18 @@ pub fn write_all(
                 7 * 16,
                 &upscale_rgb(14, 7, &rgb, 16),
             )?;
+            let ring = |k: &[f64]| -> Vec<f64> {
+                k.iter()
+                    .enumerate()
+                    .filter(|&(i, _)| i != 24)
+                    .map(|(_, &v)| v)
+                    .collect()
+            };
+            // A surround at rounding level (the identity W) has no shape to correlate.
+            let (lr, centre) = (ring(&l), l[24].abs());
+            let flat = lr.iter().all(|v| v.abs() <= 1e-6 * centre);
+            let r = correlation(&lr, &ring(dog));
+            w_surround = Some(if r.is_finite() && !flat { r } else { 0.0 });
             Some(correlation(&l, dog))
         }
         _ => None,
@@ -239,6 +257,7 @@ pub fn write_all(
     Ok(Invariants {
         c_adjusted_rand_index: c_ari,
         w_kernel_correlation: w_corr,
+        w_surround_correlation: w_surround,
         p_spacing_correlation: if p_corr.is_finite() { p_corr } else { 0.0 },
         scope_rmse,
         scope_hue_axis,

@@ -85,6 +85,9 @@ pub struct Summary {
     pub first_step_at_dimension: Vec<(usize, u64)>,
     /// Held-out prediction error at the end: `[model MSE, "next = current" MSE, ratio]`.
     pub heldout_prediction: Option<[f64; 3]>,
+    /// Mean distance of the estimated eye motion from the true one on held-out batches at the
+    /// end, ONS pixels (`None` with oracle motion).
+    pub heldout_motion_error_px: Option<f64>,
     /// CMF-SIM verdict at the end.
     pub verdict: String,
     /// Learned invariants against the truth (evaluation only).
@@ -179,11 +182,10 @@ pub fn run_with_trainer(
             .collect::<Vec<_>>()
     );
     let mut source = RetinaSource::new(retina, config.seed, config.oracle_motion);
-    let mut heldout = RetinaSource::new(
-        heldout_retina(config)?,
-        config.seed ^ 0xA5A5,
-        config.oracle_motion,
-    );
+    // Held-out batches carry the true motion for evaluation (the estimator's error); the
+    // cortex reads it only when the run itself uses the oracle.
+    let mut heldout = RetinaSource::new(heldout_retina(config)?, config.seed ^ 0xA5A5, true);
+    let estimates_motion = config.cortex.m.mode != cortex::config::MMode::Oracle;
     let bar = if mode.progress {
         ProgressBar::new(config.steps)
     } else {
@@ -194,7 +196,8 @@ pub fn run_with_trainer(
             .expect("a valid template")
             .progress_chars("=> "),
     );
-    let mut metrics = String::from("step,loss,main_loss,step_ms,heldout_model_mse,heldout_identity_mse,improvement,dimension\n");
+    let mut metrics = String::from("step,loss,main_loss,step_ms,heldout_model_mse,heldout_identity_mse,improvement,motion_error_px,dimension\n");
+    let mut last_motion_error = None;
     let mut dims: Vec<DimensionPoint> = Vec::new();
     let mut losses: (Vec<f64>, Vec<f64>) = (Vec::new(), Vec::new());
     let mut step_ms_total = 0.0;
@@ -224,8 +227,16 @@ pub fn run_with_trainer(
             let e = heldout_error(&mut trainer, &mut heldout, bs, schedule.eval_batches)?;
             last_eval = Some(e);
             let _ = write!(row, ",{},{},{}", e[0], e[1], e[2]);
+            if estimates_motion {
+                let m =
+                    heldout_motion_error(&mut trainer, &mut heldout, bs, schedule.eval_batches)?;
+                last_motion_error = Some(m);
+                let _ = write!(row, ",{m}");
+            } else {
+                row.push(',');
+            }
         } else {
-            row.push_str(",,,");
+            row.push_str(",,,,");
         }
         if mode.cmf_sim && due(schedule.cmf_every_steps) {
             bar.set_message(format!("loss {:.4} · CMF-SIM…", stats.loss));
@@ -351,6 +362,7 @@ pub fn run_with_trainer(
         dimension_over_steps: dims,
         first_step_at_dimension: first,
         heldout_prediction: last_eval,
+        heldout_motion_error_px: last_motion_error,
         verdict: last_cmf
             .as_ref()
             .map_or_else(|| "not measured".to_string(), |r| r.verdict.clone()),
@@ -388,6 +400,24 @@ pub fn heldout_error(
     Ok([model, identity, identity / model.max(1e-30)])
 }
 
+/// Mean distance (ONS pixels) of the cortex's motion estimate from the true motion over
+/// `batches` held-out batches (evaluation: the batches carry the oracle motion).
+pub fn heldout_motion_error(
+    trainer: &mut Trainer,
+    heldout: &mut RetinaSource,
+    bs: usize,
+    batches: usize,
+) -> Result<f64, RunError> {
+    let mut total = 0.0;
+    for _ in 0..batches.max(1) {
+        let b = heldout.next_batch(bs);
+        if let Some(e) = trainer.motion_error_ons_px(&b)? {
+            total += e.mean_px;
+        }
+    }
+    Ok(total / batches.max(1) as f64)
+}
+
 /// Prints what the run folder holds.
 pub fn print_outcome(out: &Path, summary: &Summary) {
     println!();
@@ -399,15 +429,19 @@ pub fn print_outcome(out: &Path, summary: &Summary) {
     if let Some([m, i, r]) = summary.heldout_prediction {
         println!("  held-out prediction error {m:.4e} vs {i:.4e} for \"next frame = this frame\" ({r:.1}× better)");
     }
+    if let Some(m) = summary.heldout_motion_error_px {
+        println!("  motion estimate vs true motion on held-out batches: mean error {m:.2} ONS px");
+    }
     if let Some(inv) = &summary.invariants {
         let axis = |a: &Option<colorimetry::HueAxis>| match a {
             Some(a) => format!("{:.0}° (minor/major {:.2})", a.angle_deg, a.minor_to_major),
             None => "none".into(),
         };
         println!(
-            "  learned invariants: C vs true types ARI {}, W vs DoG r {}, P spacing r {:.2}; Neural-Scope hue axis {} (scenes: {})",
+            "  learned invariants: C vs true types ARI {}, W vs DoG r {} (surround r {}), P spacing r {:.2}; Neural-Scope hue axis {} (scenes: {})",
             inv.c_adjusted_rand_index.map_or("-".into(), |v| format!("{v:.2}")),
             inv.w_kernel_correlation.map_or("-".into(), |v| format!("{v:.3}")),
+            inv.w_surround_correlation.map_or("-".into(), |v| format!("{v:.2}")),
             inv.p_spacing_correlation,
             axis(&inv.scope_hue_axis),
             axis(&inv.truth_hue_axis),
