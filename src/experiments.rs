@@ -8,7 +8,7 @@
 //! | `dichromats` | LM, LS, MS | Fig. 5.2 |
 //! | `trichromat` | LMS, dimension over training | Fig. 3.3 |
 //! | `tetrachromats` | LMS + pigeon Q (506) and LMS + human Q (545) | S-07, Fig. 10 |
-//! | `baselines` | Φ = identity; cone activations as ONS; no demosaicker (LMS) | S-05, Fig. 8 |
+//! | `baselines` | Φ = identity on the ONS; Φ = identity on cone activations; no demosaicker; (extra) a cortex trained on cone activations (LMS) | S-05, Fig. 8 |
 //! | `gene-therapy` | MS trained, then L replacing / co-expressing / mixing into 50 % of M | S-06, Fig. 6.1, 9 |
 //! | `boost` | LMS trained, then LMSQ, training continued | Fig. 6.2 |
 //! | `robustness` | L:M 1:1 and 1:2, three seeds | RS-08 |
@@ -98,34 +98,49 @@ fn cone_sweep(options: &CommonOptions, out: &Path, cones: &[&str]) -> Result<(),
     Ok(())
 }
 
+/// CMF-SIM on the untrained "percept = the eye's output" observer (Φ = identity, N = 1).
+fn identity_percept(config: &RunConfig, dir: &Path, name: &str) -> Result<usize, RunError> {
+    let retina = Retina::new(config.retina.clone())?;
+    let observer = LearnedObserver::ons_identity(&retina, config.observer.clone());
+    let r = run_cmf_sim(&observer, &config.cmf_sim)?;
+    r.save(dir)?;
+    println!("baseline {name}: dimension {} ({})", r.dimension, r.verdict);
+    Ok(r.dimension)
+}
+
+/// Paper S-05 (Fig. 8) on an LMS retina (or `--cones`):
+/// 1. `identity`: Φ = identity, the ONS itself is the percept (no learning);
+/// 2. `cone_activations`: Φ = identity on cone activations — no lateral inhibition and no
+///    foveation (identity layout, field = cone lattice), no learning;
+/// 3. `no_demosaicker`: the full cortex trained without D.
+///
+/// Beyond the paper, `trained_on_cone_activations` trains the full cortex on that eye.
 fn baselines(options: &CommonOptions, out: &Path) -> Result<(), RunError> {
-    for (name, baseline) in [
-        ("identity", Baseline::IdentityPercept),
-        ("cones_as_ons", Baseline::ConeActivationsAsOns),
-        ("no_demosaicker", Baseline::NoDemosaicker),
+    let options = with_cones(options, options.cones.as_deref().unwrap_or("LMS"));
+    let config = RunConfig::resolve(&options, "quick")?;
+    let mut cone_eye = config.clone();
+    cone_eye.retina.lateral_inhibition = None;
+    cone_eye.retina.layout = retina::foveation::LayoutConfig::Identity;
+    cone_eye.retina.field_px = cone_eye.retina.cones_per_side;
+    identity_percept(&config, &sub(out, "identity"), "identity (percept = ONS)")?;
+    identity_percept(
+        &cone_eye,
+        &sub(out, "cone_activations"),
+        "cone activations (percept = cones, no LI, no foveation)",
+    )?;
+    for (name, baseline, eye) in [
+        ("no_demosaicker", Baseline::NoDemosaicker, &config),
+        (
+            "trained_on_cone_activations",
+            Baseline::ConeActivationsAsOns,
+            &cone_eye,
+        ),
     ] {
-        let mut config = RunConfig::resolve(
-            &with_cones(options, options.cones.as_deref().unwrap_or("LMS")),
-            "quick",
-        )?;
-        config.cortex.baseline = baseline;
-        if baseline == Baseline::ConeActivationsAsOns {
-            // The eye delivers cone activations: no lateral inhibition.
-            config.retina.lateral_inhibition = None;
-        }
-        let dir = sub(out, name);
-        if baseline == Baseline::IdentityPercept {
-            // Φ = identity needs no training: CMF-SIM on the ONS itself (paper S-05 baseline 1).
-            let retina = Retina::new(config.retina.clone())?;
-            let observer = LearnedObserver::ons_identity(&retina, config.observer.clone());
-            let r = run_cmf_sim(&observer, &config.cmf_sim)?;
-            r.save(&dir)?;
-            println!("baseline {name}: dimension {} ({})", r.dimension, r.verdict);
-            continue;
-        }
+        let mut c = eye.clone();
+        c.cortex.baseline = baseline;
         let s = run::run(
-            &config,
-            &dir,
+            &c,
+            &sub(out, name),
             RunMode {
                 cmf_sim: true,
                 pictures: true,
