@@ -8,10 +8,15 @@
 //!
 //! Backward is seeded with a fixed random cotangent through [`InjectGrad`], a zero-cost op, so
 //! the conv timings hold only the conv's own forward and backward.
+//!
+//! Each workload runs with both conv2d implementations in the same process, `gemm` (the faer
+//! lowering) and `direct` (the AVX-512 micro-kernels, the default where available), so their
+//! medians compare under the same machine load. The U-Net step switches every conv2d through
+//! [`set_default_conv_kernel`]. Filter with e.g. `cargo bench --bench conv -- direct`.
 
 use autodiff::learn::ParamGrads;
 use autodiff::nn::unet::{UNet, UNetConfig};
-use autodiff::ops::conv::Padding;
+use autodiff::ops::conv::{set_default_conv_kernel, Conv2d, ConvKernel, Padding};
 use autodiff::optim::{Adam, Optimizer};
 use autodiff::{ParamStore, Tape};
 use criterion::{criterion_group, criterion_main, Criterion};
@@ -28,25 +33,37 @@ fn conv(c: &mut Criterion) {
         .sample_size(30)
         .measurement_time(Duration::from_secs(4))
         .warm_up_time(Duration::from_secs(1));
-    for &(b, ci, h, co) in &[(8, 16, 64, 16), (8, 64, 16, 64), (4, 16, 256, 16)] {
+    let kernels = [("gemm", ConvKernel::Gemm), ("direct", ConvKernel::Direct)];
+    let shapes = [
+        (8, 16, 64, 16, Padding::Reflect, false),
+        (8, 64, 16, 64, Padding::Reflect, false),
+        (4, 16, 256, 16, Padding::Reflect, false),
+        (8, 32, 32, 32, Padding::Zero, true),
+    ];
+    for &(b, ci, h, co, padding, relu) in &shapes {
         let x = noise(&[b, ci, h, h], 1);
         let w = noise(&[co, ci, 3, 3], 2);
         let r = Arc::new(noise(&[b, co, h, h], 3));
         let mut tape = Tape::<f32>::new();
         let gflop = 3.0 * 2.0 * (b * h * h * co * ci * 9) as f64 / 1e9;
-        eprintln!("conv ({b},{ci},{h},{h})→{co}: {gflop:.3} GFLOP per fwd+bwd");
-        group.bench_function(format!("({b},{ci},{h},{h})->{co}"), |bench| {
-            bench.iter(|| {
-                tape.clear();
-                let xt = tape.pool().copy_of(x.shape(), x.data());
-                let wt = tape.pool().copy_of(w.shape(), w.data());
-                let (xv, wv) = (tape.leaf(xt), tape.leaf(wt));
-                let y = tape.conv2d(xv, wv, Padding::Reflect);
-                let l = tape.apply(InjectGrad(r.clone()), &[y]);
-                tape.backward(l);
-                black_box(tape.grad(wv).unwrap().data()[0]);
-            })
-        });
+        let tag = format!("{padding:?}{}", if relu { "_relu" } else { "" }).to_lowercase();
+        eprintln!("conv ({b},{ci},{h},{h})→{co} {tag}: {gflop:.3} GFLOP per fwd+bwd");
+        for (name, kernel) in kernels {
+            let id = format!("({b},{ci},{h},{h})->{co}_{tag}/{name}");
+            group.bench_function(id, |bench| {
+                bench.iter(|| {
+                    tape.clear();
+                    let xt = tape.pool().copy_of(x.shape(), x.data());
+                    let wt = tape.pool().copy_of(w.shape(), w.data());
+                    let (xv, wv) = (tape.leaf(xt), tape.leaf(wt));
+                    let op = Conv2d::new(padding, relu).with_kernel(kernel);
+                    let y = tape.apply(op, &[xv, wv]);
+                    let l = tape.apply(InjectGrad(r.clone()), &[y]);
+                    tape.backward(l);
+                    black_box(tape.grad(wv).unwrap().data()[0]);
+                })
+            });
+        }
     }
     group.finish();
 }
@@ -64,18 +81,22 @@ fn unet(c: &mut Criterion) {
     let target = noise(&[8, 8, 64, 64], 5);
     let mut tape = Tape::<f32>::new();
     let mut grads = ParamGrads::new();
-    group.bench_function("quick_(8,8,64,64)_fwd_bwd_adam", |bench| {
-        bench.iter(|| {
-            tape.clear();
-            let xv = tape.constant_from(x.shape(), x.data());
-            let tv = tape.constant_from(target.shape(), target.data());
-            let y = net.forward(&mut tape, &ps, xv);
-            let l = tape.mse(y, tv);
-            tape.backward(l);
-            grads.fill_from_tape(&tape);
-            opt.step(&mut ps, &grads).unwrap();
-        })
-    });
+    for (name, kernel) in [("gemm", ConvKernel::Gemm), ("direct", ConvKernel::Auto)] {
+        set_default_conv_kernel(kernel);
+        group.bench_function(format!("quick_(8,8,64,64)_fwd_bwd_adam/{name}"), |bench| {
+            bench.iter(|| {
+                tape.clear();
+                let xv = tape.constant_from(x.shape(), x.data());
+                let tv = tape.constant_from(target.shape(), target.data());
+                let y = net.forward(&mut tape, &ps, xv);
+                let l = tape.mse(y, tv);
+                tape.backward(l);
+                grads.fill_from_tape(&tape);
+                opt.step(&mut ps, &grads).unwrap();
+            })
+        });
+    }
+    set_default_conv_kernel(ConvKernel::Auto);
     group.finish();
 }
 

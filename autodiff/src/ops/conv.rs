@@ -16,30 +16,70 @@
 //! building block): the ReLU is applied while the output is written, and its backward masks
 //! `dy` by `y > 0` while `dy` is being re-laid out anyway, so it costs no extra pass.
 //!
-//! Implementation (see [`lowering`]): each image is copied once into a padded buffer; the
-//! output is then `k²` accumulating faer GEMMs (inner size `Cin`) over shifted strided views of
-//! that buffer, per row tile so the working set stays in L2 — no column matrix.
-//! Backward computes `∂w` the same way against `dy` expanded to padded width, and `∂x` as a
-//! full correlation of a zero-padded copy of `dy` with the flipped kernel (again `k²`
-//! GEMMs per tile), folded back through the adjoint of the padding (reflect borders fold their
-//! gradient onto the interior). Images run in parallel on rayon with sequential GEMMs inside;
-//! a single image runs on the calling thread so faer may thread its GEMMs. Scratch comes from
-//! a reused stash, and the output is not zero-filled first ([`Op::overwrites_output`]).
+//! Implementation: two paths, with identical results up to rounding.
+//! - Direct ([`direct`], 3×3 kernels on x86-64 CPUs with AVX-512F, f32 and f64): each image is
+//!   padded once, then register-blocked micro-kernels ([`kernels`]) accumulate blocks of 8
+//!   output channels × 3 vectors of output pixels over input channels and taps, writing `y`
+//!   (with the ReLU) directly; `∂x` is the same kernel over the padded `dy` with the flipped
+//!   kernel (plus the reflect border), `∂w` a reduction over pixels vectorised over output
+//!   channels of a channels-last copy of `dy`.
+//! - GEMM lowering ([`gemm_path`], any odd `k`, any CPU): `k²` accumulating faer GEMMs over
+//!   shifted views of the padded image.
+//!
+//! [`ConvKernel`] picks the path per op (default: direct where available). Both run images in
+//! parallel on rayon, take scratch from a reused stash ([`lowering`]), and do not zero-fill the
+//! output first ([`Op::overwrites_output`]).
 
+#[cfg(target_arch = "x86_64")]
+mod kernels;
+
+mod direct;
+mod gemm_path;
 mod lowering;
 mod transpose;
 
 pub use lowering::Padding;
 pub use transpose::ConvTranspose2x2;
 
-use crate::gemm::MatView;
 use crate::{BackwardCx, Float, GradSlots, Op, Shape, Tape, Tensor, Var};
-use lowering::{tiles, Geometry, Scratch};
-use rayon::prelude::*;
+use lowering::{Geometry, Scratch};
 use std::any::Any;
+use std::sync::atomic::{AtomicU8, Ordering};
 
 /// Op names of this file (registry rule, see [`crate::ops`]).
 pub const OPS: &[&str] = &["conv2d", "conv2d_relu", "conv_transpose2x2"];
+
+/// Which implementation a [`Conv2d`] runs (results agree up to floating-point rounding).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum ConvKernel {
+    /// The process default ([`set_default_conv_kernel`]; initially the direct kernels where
+    /// available, else GEMM).
+    #[default]
+    Auto,
+    /// The GEMM lowering (any kernel size, any CPU).
+    Gemm,
+    /// The direct micro-kernels; falls back to GEMM when unavailable (kernel not 3×3, or a CPU
+    /// without AVX-512F — see [`direct_conv_available`]).
+    Direct,
+}
+
+/// The kernel [`ConvKernel::Auto`] ops use, as `ConvKernel as u8`.
+static DEFAULT_KERNEL: AtomicU8 = AtomicU8::new(ConvKernel::Direct as u8);
+
+/// Sets the kernel of every [`ConvKernel::Auto`] conv2d op created or run afterwards (a
+/// benchmarking knob; `Auto` restores the default, direct where available).
+pub fn set_default_conv_kernel(kernel: ConvKernel) {
+    let k = match kernel {
+        ConvKernel::Auto => ConvKernel::Direct,
+        k => k,
+    };
+    DEFAULT_KERNEL.store(k as u8, Ordering::Relaxed);
+}
+
+/// Whether the direct kernels run for scalar type `T` and kernel side `k` on this CPU.
+pub fn direct_conv_available<T: Float>(k: usize) -> bool {
+    direct::kernels::<T>(k).is_some()
+}
 
 /// Stride-1 "same" 2-D cross-correlation with an odd square kernel, optionally followed by
 /// ReLU (see the module docs). Forward keeps the padded input for backward.
@@ -48,24 +88,50 @@ pub struct Conv2d {
     pub padding: Padding,
     /// Apply `max(·, 0)` to the output (op name `"conv2d_relu"`).
     pub relu: bool,
+    /// Implementation to run.
+    pub kernel: ConvKernel,
     /// The padded input of the last forward (a `SavedPad<T>`), reused by backward.
     saved: Option<Box<dyn Any + Send + Sync>>,
 }
 
 /// Padded copies of every image of the input at `x_addr` (compared in backward, so a backward
-/// run with substituted inputs pads afresh).
+/// run with substituted inputs pads afresh), in the layout of the path that wrote them.
 struct SavedPad<T: Float> {
     x_addr: usize,
+    direct: bool,
     buf: Scratch<T>,
 }
 
 impl Conv2d {
-    /// The op; see [`Tape::conv2d`] and [`Tape::conv2d_relu`].
+    /// The op with [`ConvKernel::Auto`]; see [`Tape::conv2d`] and [`Tape::conv2d_relu`].
     pub fn new(padding: Padding, relu: bool) -> Self {
         Conv2d {
             padding,
             relu,
+            kernel: ConvKernel::Auto,
             saved: None,
+        }
+    }
+
+    /// The same op running `kernel`.
+    pub fn with_kernel(mut self, kernel: ConvKernel) -> Self {
+        self.kernel = kernel;
+        self
+    }
+
+    /// The direct kernels, when this op should and can use them.
+    fn direct<T: Float>(&self, k: usize) -> Option<&'static direct::Table<T>> {
+        let choice = match self.kernel {
+            ConvKernel::Auto
+                if DEFAULT_KERNEL.load(Ordering::Relaxed) == ConvKernel::Gemm as u8 =>
+            {
+                ConvKernel::Gemm
+            }
+            k => k,
+        };
+        match choice {
+            ConvKernel::Gemm => None,
+            ConvKernel::Auto | ConvKernel::Direct => direct::kernels::<T>(k),
         }
     }
 }
@@ -75,6 +141,7 @@ impl std::fmt::Debug for Conv2d {
         f.debug_struct("Conv2d")
             .field("padding", &self.padding)
             .field("relu", &self.relu)
+            .field("kernel", &self.kernel)
             .finish()
     }
 }
@@ -133,198 +200,63 @@ impl<T: Float> Op<T> for Conv2d {
     fn forward(&mut self, inputs: &[&Tensor<T>], out: &mut Tensor<T>) {
         let (x, w) = (inputs[0], inputs[1]);
         let (batch, co, g) = self.geometry(x, w);
-        let (hw, kk, cc) = (g.h * g.w, g.k * g.k, co * g.c);
-        let relu = self.relu;
-        let images = out
-            .data_mut()
-            .chunks_mut(co * hw)
-            .zip(x.data().chunks(g.c * hw));
-        if g.k == 1 {
-            // A 1×1 kernel needs no padding: y_b = W · x_b.
-            let ws = w.data();
-            for_each_image(
-                images,
-                || (),
-                |_, (y, x)| {
-                    T::gemm(y, false, ws, false, x, false, co, hw, g.c, T::one());
-                    if relu {
-                        y.iter_mut().for_each(|v| *v = v.max(T::zero()));
-                    }
-                },
-            );
-            return;
-        }
-        let mut wf = Scratch::<T>::take(cc * kk);
-        g.forward_weights(co, w.data(), &mut wf);
-        let wf = &*wf;
-        let tl = tiles(g.h, g.rw() * (co + g.c));
-        let max_n = tl
-            .iter()
-            .map(|&(r0, r1)| (r1 - r0) * g.rw())
-            .max()
-            .unwrap_or(0);
-        let mut saved = Scratch::<T>::take(batch * g.padded_len());
-        let images = images.zip(saved.chunks_mut(g.padded_len()));
-        let bufs = || Scratch::<T>::take(co * max_n);
-        for_each_image(images, bufs, |yt, ((y, x), xp)| {
-            g.pad(x, xp);
-            for &(r0, r1) in &tl {
-                let yt = &mut yt[..co * (r1 - r0) * g.rw()];
-                for t in 0..kk {
-                    let wt = MatView::row_major(&wf[t * cc..][..cc], co, g.c);
-                    T::gemm_view(yt, t > 0, wt, g.x_view(xp, t, r0, r1), T::one());
-                }
-                g.compact(yt, r0, r1, y, relu);
-            }
-        });
         let x_addr = x.data().as_ptr() as usize;
-        self.saved = Some(Box::new(SavedPad { x_addr, buf: saved }));
+        self.saved = None;
+        let buf = match self.direct::<T>(g.k) {
+            Some(table) => {
+                let mut xp = Scratch::<T>::take(batch * direct::xp_stride(&g));
+                (table.forward)(direct::FwdArgs {
+                    g,
+                    co,
+                    x: x.data(),
+                    w: w.data(),
+                    y: out.data_mut(),
+                    relu: self.relu,
+                    xp: &mut xp,
+                });
+                Some((xp, true))
+            }
+            None => gemm_path::forward(g, batch, co, x, w, out, self.relu).map(|b| (b, false)),
+        };
+        if let Some((buf, direct)) = buf {
+            self.saved = Some(Box::new(SavedPad {
+                x_addr,
+                direct,
+                buf,
+            }));
+        }
     }
 
     fn backward(&self, cx: &BackwardCx<'_, T>, dx: &mut GradSlots<'_, T>) {
-        let (x, w, dy) = (cx.inputs[0], cx.inputs[1], cx.dy);
+        let (x, w) = (cx.inputs[0], cx.inputs[1]);
         let (batch, co, g) = self.geometry(x, w);
-        let (hw, kk, cc) = (g.h * g.w, g.k * g.k, co * g.c);
+        let table = self.direct::<T>(g.k);
+        let saved = self
+            .saved
+            .as_ref()
+            .and_then(|b| b.downcast_ref::<SavedPad<T>>())
+            .filter(|s| s.x_addr == x.data().as_ptr() as usize && s.direct == table.is_some())
+            .map(|s| &*s.buf);
+        let Some(table) = table else {
+            gemm_path::backward(g, batch, co, self.relu, cx, dx, saved);
+            return;
+        };
         let want_w = dx.wants(1);
-        let masks: Vec<Option<&[T]>> = if self.relu {
-            cx.output.data().chunks(co * hw).map(Some).collect()
-        } else {
-            vec![None; batch]
-        };
-        let mut gx: Vec<Option<&mut [T]>> = match dx.slot_data(0) {
-            Some(s) => s.chunks_mut(g.c * hw).map(Some).collect(),
-            None => (0..batch).map(|_| None).collect(),
-        };
-        let want_x = gx.first().is_some_and(|g| g.is_some());
-        let images = gx
-            .iter_mut()
-            .zip(x.data().chunks(g.c * hw))
-            .zip(dy.data().chunks(co * hw))
-            .zip(masks);
-        let partials: Vec<Scratch<T>> = if g.k == 1 {
-            let ws = w.data();
-            let bufs = || {
-                let masked = if self.relu { co * hw } else { 0 };
-                (Scratch::<T>::zeroed(cc), Scratch::<T>::take(masked))
-            };
-            let parts = for_each_image_fold(images, bufs, |(dw, dym), (((gx, x), dy), mask)| {
-                let dy = match mask {
-                    Some(y) => {
-                        for ((d, &g), &y) in dym.iter_mut().zip(dy).zip(y) {
-                            *d = if y > T::zero() { g } else { T::zero() };
-                        }
-                        &dym[..]
-                    }
-                    None => dy,
-                };
-                if let Some(gx) = gx.as_deref_mut() {
-                    T::gemm(gx, true, ws, true, dy, false, g.c, hw, co, T::one());
-                }
-                if want_w {
-                    T::gemm(dw, true, dy, false, x, true, co, g.c, hw, T::one());
-                }
-            });
-            parts.into_iter().map(|(dw, _)| dw).collect()
-        } else {
-            let mut wb = Scratch::<T>::take(if want_x { cc * kk } else { 0 });
-            if want_x {
-                g.backward_weights(co, w.data(), &mut wb);
-            }
-            let wb = &*wb;
-            let wide = g.rw() == g.wz();
-            let tw = tiles(g.h, g.rw() * (co + g.c * kk));
-            let max_w = tw
-                .iter()
-                .map(|&(r0, r1)| (r1 - r0) * g.rw())
-                .max()
-                .unwrap_or(0);
-            let (u_lo, u_hi) = g.grad_rows();
-            let tx: Vec<(usize, usize)> = tiles(u_hi - u_lo, g.wz() * (co + g.c))
-                .into_iter()
-                .map(|(a, b)| (a + u_lo, b + u_lo))
-                .collect();
-            let max_x = tx
-                .iter()
-                .map(|&(u0, u1)| (u1 - u0) * g.wz())
-                .max()
-                .unwrap_or(0);
-            let saved = self
-                .saved
-                .as_ref()
-                .and_then(|b| b.downcast_ref::<SavedPad<T>>())
-                .filter(|s| s.x_addr == x.data().as_ptr() as usize);
-            let saved_xp: Vec<Option<&[T]>> = match saved {
-                Some(s) => s.buf.chunks(g.padded_len()).map(Some).collect(),
-                None => vec![None; batch],
-            };
-            let images = images.zip(saved_xp);
-            let bufs = || {
-                let (xw, xx) = (usize::from(want_w && saved.is_none()), usize::from(want_x));
-                (
-                    [
-                        Scratch::<T>::take(xw * g.padded_len()),
-                        Scratch::take(usize::from(want_w) * (g.c * kk + co) * max_w),
-                        Scratch::take(usize::from(want_x || wide) * g.dyz_len(co)),
-                        Scratch::take(xx * g.c * max_x),
-                    ],
-                    Scratch::<T>::zeroed(usize::from(want_w) * cc * kk),
-                )
-            };
-            let parts = for_each_image_fold(
-                images,
-                bufs,
-                |([xps, dyt, dyz, dxt], dwf), ((((gx, x), dy), mask), saved_xp)| {
-                    if wide || gx.is_some() {
-                        g.pad_dy(co, dy, mask, dyz);
-                    }
-                    if want_w {
-                        let xp: &[T] = match saved_xp {
-                            Some(xp) => xp,
-                            None => {
-                                g.pad(x, xps);
-                                xps
-                            }
-                        };
-                        for &(r0, r1) in &tw {
-                            let n = (r1 - r0) * g.rw();
-                            let (col, dyt) = dyt.split_at_mut(g.c * kk * n);
-                            let dyv = if wide {
-                                g.dy_view(co, dyz, r0, r1)
-                            } else {
-                                g.expand(co, dy, mask, r0, r1, &mut dyt[..co * n]);
-                                MatView::row_major(&dyt[..co * n], co, n)
-                            };
-                            // One GEMM with a `C·k²`-wide result (k² GEMMs of width C run
-                            // at half speed); ∂w comes out in the layout of w.
-                            g.im2col(xp, r0, r1, col);
-                            let colt = MatView::new(col, 0, n, g.c * kk, 1, n);
-                            T::gemm_view(dwf, true, dyv, colt, T::one());
-                        }
-                    }
-                    if let Some(gx) = gx.as_deref_mut() {
-                        for &(u0, u1) in &tx {
-                            let dxt = &mut dxt[..g.c * (u1 - u0) * g.wz()];
-                            for t in 0..kk {
-                                let wt = MatView::row_major(&wb[t * cc..][..cc], g.c, co);
-                                let z = g.z_view(co, dyz, t, u0, u1);
-                                T::gemm_view(dxt, t > 0, wt, z, T::one());
-                            }
-                            g.fold_rows_add(dxt, u0, u1, gx);
-                        }
-                    }
-                },
-            );
-            parts.into_iter().map(|(_, dw)| dw).collect()
-        };
-        drop(gx);
-        if let (true, Some(gw)) = (want_w, dx.slot_data(1)) {
-            let mut parts = partials.into_iter();
-            if let Some(mut total) = parts.next() {
-                for p in parts {
-                    total.iter_mut().zip(p.iter()).for_each(|(a, &b)| *a += b);
-                }
-                gw.iter_mut().zip(total.iter()).for_each(|(a, &b)| *a += b);
-            }
+        // ∂w into a zeroed scratch first: both slots borrow `dx`.
+        let mut gw = Scratch::<T>::zeroed(if want_w { w.data().len() } else { 0 });
+        (table.backward)(direct::BwdArgs {
+            g,
+            co,
+            x: x.data(),
+            w: w.data(),
+            dy: cx.dy.data(),
+            mask: self.relu.then(|| cx.output.data()),
+            xp: saved,
+            gx: dx.slot_data(0),
+            gw: want_w.then_some(&mut gw[..]),
+        });
+        if let (true, Some(slot)) = (want_w, dx.slot_data(1)) {
+            slot.iter_mut().zip(gw.iter()).for_each(|(a, &b)| *a += b);
         }
     }
 
@@ -335,48 +267,6 @@ impl<T: Float> Op<T> for Conv2d {
     fn weight_inputs(&self) -> &'static [usize] {
         &[1]
     }
-}
-
-/// Runs `f(state, image)` over images: on rayon (one `init()` state per worker split) when
-/// there are several, else on the calling thread so that faer may thread each GEMM itself.
-pub(crate) fn for_each_image<I, S>(
-    images: I,
-    init: impl Fn() -> S + Sync + Send,
-    f: impl Fn(&mut S, I::Item) + Sync + Send,
-) where
-    I: Iterator + Send,
-    I::Item: Send,
-    S: Send,
-{
-    for_each_image_fold(images, init, |s, item| f(s, item));
-}
-
-/// Like [`for_each_image`], returning every state used (to reduce per-worker partial sums).
-pub(crate) fn for_each_image_fold<I, S>(
-    images: I,
-    init: impl Fn() -> S + Sync + Send,
-    f: impl Fn(&mut S, I::Item) + Sync + Send,
-) -> Vec<S>
-where
-    I: Iterator + Send,
-    I::Item: Send,
-    S: Send,
-{
-    let items: Vec<I::Item> = images.collect();
-    if items.len() < 2 || rayon::current_num_threads() < 2 {
-        let mut s = init();
-        for item in items {
-            f(&mut s, item);
-        }
-        return vec![s];
-    }
-    items
-        .into_par_iter()
-        .fold(&init, |mut s, item| {
-            f(&mut s, item);
-            s
-        })
-        .collect()
 }
 
 impl<T: Float> Tape<T> {

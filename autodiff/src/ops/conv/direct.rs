@@ -1,0 +1,135 @@
+//! The direct 3×3 convolution: register-blocked AVX-512 micro-kernels ([`super::kernels`])
+//! instead of GEMMs, for the small channel counts of the U-Net (8–128), where a GEMM with inner
+//! size `Cin` spends most of its time packing and in call overhead.
+//!
+//! Buffers (same layouts as [`super::lowering`]; `p = 1`, `rw` = its row width):
+//! - `xp`: every image padded once (`Geometry::pad`), one per `xp_stride` elements
+//!   (`padded_len` + [`SLACK`] zeros, so that full-vector loads near the end stay inside).
+//! - `dyz`: `dy` (masked by `y > 0` for the fused ReLU) zero-padded by `2p` on every side at
+//!   row width `Wz = W + 4p`, one per `dyz_stride` elements.
+//!
+//! - `dyt`: `dy` (masked likewise) channels-last, `dyt[p·Co_L + o]`, `Co_L` = `Co` rounded up
+//!   to the lane count (zeros past `Co`).
+//!
+//! The three products, tap `t = a·3 + b`:
+//! - forward: `y[o, i, j] = Σ_{c,t} w[o,c,t] · xp[c, i + a, j + b]`, over positions = rows ×
+//!   vector-wide column blocks (row tails masked), written straight into `y` (ReLU on store).
+//! - `∂x`: the gradient of the padded image is `∂xp[c, u, v] = Σ_{o,t} w[o,c,8−t] ·
+//!   dyz[o, u + a, v + b]`. Its interior (one padded position per pixel) is accumulated
+//!   straight into `∂x` by the forward kernel; under reflect padding the border ring of `∂xp`
+//!   (padded rows 0 and `Hp − 1`, columns 0 and `Wp − 1`) is computed separately, vectorised
+//!   over channels, and folded onto the pixels it was read from (the adjoint of the padding).
+//! - `∂w`: `∂w[o,c,t] += Σ_{b,i,j} dy[o, i, j] · xp[c, i + a, j + b]` over all images at
+//!   once, vectorised over output channels (`dyt` vectors times broadcast input pixels, no
+//!   horizontal sums), in row tiles that stay in L2, in parallel over groups of input channels
+//!   (each task owns its rows of the `[c][t][o]` accumulator, so there are no partial sums).
+//!
+//! Parallelism: forward and `∂x` run one rayon task per image, split further into channel
+//! groups when there are fewer images than threads.
+//!
+//! Only `k = 3` on x86-64 CPUs with AVX-512F ([`kernels`] returns `None` otherwise and the op
+//! uses the GEMM lowering).
+
+use super::lowering::{tiles, Geometry, Scratch};
+use crate::Float;
+
+/// Zeros after each padded image / padded `dy` (at least the widest lane count, 16 × f32).
+pub(crate) const SLACK: usize = 16;
+
+/// Arguments of the forward pass (shapes as in [`super::Conv2d`]).
+pub(crate) struct FwdArgs<'a, T> {
+    pub g: Geometry,
+    pub co: usize,
+    /// `x (B, C, H, W)`.
+    pub x: &'a [T],
+    /// `w (Co, C, 3, 3)`.
+    pub w: &'a [T],
+    /// `y (B, Co, H, W)`, overwritten.
+    pub y: &'a mut [T],
+    pub relu: bool,
+    /// `B · xp_stride(g)` elements: receives the padded images (kept for backward).
+    pub xp: &'a mut [T],
+}
+
+/// Arguments of the backward pass.
+pub(crate) struct BwdArgs<'a, T> {
+    pub g: Geometry,
+    pub co: usize,
+    pub x: &'a [T],
+    pub w: &'a [T],
+    pub dy: &'a [T],
+    /// The op output `y` when the ReLU is fused (`dy` is used where `y > 0`).
+    pub mask: Option<&'a [T]>,
+    /// The padded images written by forward for this `x`, if still valid.
+    pub xp: Option<&'a [T]>,
+    /// `∂x` accumulator (added into), when wanted.
+    pub gx: Option<&'a mut [T]>,
+    /// `∂w` accumulator (added into), when wanted.
+    pub gw: Option<&'a mut [T]>,
+}
+
+/// The direct path for scalar type `T`.
+pub(crate) struct Table<T> {
+    pub forward: fn(FwdArgs<'_, T>),
+    pub backward: fn(BwdArgs<'_, T>),
+}
+
+/// Elements per padded image in `xp`.
+pub(crate) fn xp_stride(g: &Geometry) -> usize {
+    g.padded_len() + SLACK
+}
+
+/// The direct kernels for `T` and kernel side `k`, when this CPU and shape have them (the
+/// tables are found by type: `T` is `f32` or `f64`).
+pub(crate) fn kernels<T: Float>(k: usize) -> Option<&'static Table<T>> {
+    #[cfg(target_arch = "x86_64")]
+    if k == 3 && std::arch::is_x86_feature_detected!("avx512f") {
+        use std::any::Any;
+        let f32s: &dyn Any = &x86::F32;
+        let f64s: &dyn Any = &x86::F64;
+        return f32s.downcast_ref().or_else(|| f64s.downcast_ref());
+    }
+    let _ = k;
+    None
+}
+
+fn zero<T: Float>() -> T {
+    T::zero()
+}
+
+/// How many channel groups to split each image into so that all threads have work.
+fn groups(batch: usize, blocks: usize) -> usize {
+    let threads = rayon::current_num_threads();
+    if batch >= threads {
+        1
+    } else {
+        threads.div_ceil(batch.max(1)).min(blocks).max(1)
+    }
+}
+
+/// Repacks `w (Co, C, 3, 3)` into `⌈Co/MR⌉` blocks `[c][t][m]` (zero past `Co`): the forward
+/// weights. With `flip`, the `∂x` weights instead: blocks of `MR` input channels,
+/// `[o][t][m] = w[o, c, 8 − t]` (zero past `C`).
+fn pack<T: Float>(co: usize, c: usize, w: &[T], mr: usize, flip: bool, out: &mut [T]) {
+    let (rows, inner) = if flip { (c, co) } else { (co, c) };
+    debug_assert_eq!(out.len(), rows.div_ceil(mr) * inner * 9 * mr);
+    for (blk, dst) in out.chunks_exact_mut(inner * 9 * mr).enumerate() {
+        for (n, taps) in dst.chunks_exact_mut(9 * mr).enumerate() {
+            for (t, lanes) in taps.chunks_exact_mut(mr).enumerate() {
+                for (m, v) in lanes.iter_mut().enumerate() {
+                    let r = blk * mr + m;
+                    *v = match (r < rows, flip) {
+                        (false, _) => T::zero(),
+                        (true, false) => w[(r * c + n) * 9 + t],
+                        (true, true) => w[(n * c + r) * 9 + 8 - t],
+                    };
+                }
+            }
+        }
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+mod x86;
+#[cfg(target_arch = "x86_64")]
+mod x86_backward;

@@ -1,0 +1,388 @@
+//! Backward of the direct path (see [`super`]): `dy` re-laid out twice — zero-padded planes
+//! `dyz` for `∂x`, channels-last `dyt` for `∂w` — then `∂x` (interior by [`Corr`], reflect
+//! border ring by [`ring`]) and `∂w` ([`grad_w`]).
+
+use super::super::kernels::{channels_last, dw_block, Rows, Simd, Store};
+use super::x86::{avx512, Corr, MR};
+use super::*;
+use rayon::prelude::*;
+
+pub(super) fn backward<V: Simd>(a: BwdArgs<'_, V::S>) {
+    avx512();
+    let (g, co) = (a.g, a.co);
+    let (c, h, w) = (g.c, g.h, g.w);
+    let hw = h * w;
+    let batch = a.x.len() / (c * hw);
+    let mask = |b: usize| a.mask.map(|y| &y[b * co * hw..][..co * hw]);
+    if let Some(gx) = a.gx {
+        let zstride = g.dyz_len(co) + SLACK;
+        let mut dyz = Scratch::<V::S>::take(batch * zstride);
+        dyz.par_chunks_mut(zstride)
+            .zip(a.dy.par_chunks(co * hw))
+            .enumerate()
+            .for_each(|(b, (z, dy))| {
+                let (img, slack) = z.split_at_mut(g.dyz_len(co));
+                g.pad_dy(co, dy, mask(b), img);
+                slack.fill(zero());
+            });
+        grad_x::<V>(g, co, a.w, &dyz, zstride, gx);
+    }
+    if let Some(gw) = a.gw {
+        let co_l = co.div_ceil(V::L) * V::L;
+        let mut dyt = Scratch::<V::S>::take(batch * hw * co_l);
+        dyt.par_chunks_mut(hw * co_l)
+            .zip(a.dy.par_chunks(co * hw))
+            .enumerate()
+            .for_each(|(b, (t, dy))| to_channels_last::<V>(dy, mask(b), co, co_l, t));
+        let stride = xp_stride(&g);
+        let mut own = Scratch::<V::S>::take(if a.xp.is_some() { 0 } else { batch * stride });
+        let xp: &[V::S] = match a.xp {
+            Some(xp) => xp,
+            None => {
+                own.par_chunks_mut(stride)
+                    .zip(a.x.par_chunks(c * hw))
+                    .for_each(|(xp, x)| {
+                        let (img, slack) = xp.split_at_mut(g.padded_len());
+                        g.pad(x, img);
+                        slack.fill(zero());
+                    });
+                &own
+            }
+        };
+        grad_w::<V>(g, co, batch, xp, stride, &dyt, gw);
+    }
+}
+
+/// `dy` of one image channels-last (see [`channels_last`]).
+fn to_channels_last<V: Simd>(
+    dy: &[V::S],
+    mask: Option<&[V::S]>,
+    co: usize,
+    co_l: usize,
+    dyt: &mut [V::S],
+) {
+    let hw = dy.len() / co;
+    assert!(
+        dyt.len() == hw * co_l
+            && mask.is_none_or(|y| y.len() == dy.len())
+            && co_l.is_multiple_of(V::L)
+            && co_l >= co,
+        "conv2d direct: channels-last buffer sizes"
+    );
+    // SAFETY: AVX-512F was checked by `backward`; the asserts bound every index
+    // `channels_last` touches.
+    unsafe {
+        channels_last_unchecked::<V>(dy.as_ptr(), mask.map(|y| y.as_ptr()), co, hw, co_l, dyt)
+    }
+}
+
+#[target_feature(enable = "avx512f")]
+unsafe fn channels_last_unchecked<V: Simd>(
+    dy: *const V::S,
+    y: Option<*const V::S>,
+    co: usize,
+    hw: usize,
+    co_l: usize,
+    dyt: &mut [V::S],
+) {
+    channels_last::<V>(dy, y, co, hw, co_l, dyt.as_mut_ptr());
+}
+
+/// `∂x += fold(∂xp)`, `∂xp` = full correlation of `dyz` with the flipped kernel. The
+/// interior of `∂xp` (one padded position per pixel) is accumulated straight into `∂x`;
+/// under reflect padding the border ring is added by [`ring`].
+fn grad_x<V: Simd>(
+    g: Geometry,
+    co: usize,
+    w: &[V::S],
+    dyz: &[V::S],
+    zstride: usize,
+    gx: &mut [V::S],
+) {
+    let (c, h, wd, wz) = (g.c, g.h, g.w, g.wz());
+    let hw = h * wd;
+    let batch = gx.len() / (c * hw);
+    let mut wb = Scratch::<V::S>::take(c.div_ceil(MR) * co * 9 * MR);
+    pack(co, c, w, MR, true, &mut wb);
+    let reflect = g.mode == super::super::Padding::Reflect;
+    let cl = c + V::L;
+    let mut wr = Scratch::<V::S>::take(if reflect { 9 * co * cl } else { 0 });
+    if reflect {
+        pack_ring(co, c, w, cl, &mut wr);
+    }
+    let per_group = c.div_ceil(MR).div_ceil(groups(batch, c.div_ceil(MR))) * MR;
+    let nb = wd.div_ceil(V::L);
+    // Pixel (i, j) is padded position (i + p, j + p); its window starts at dyz row i + p,
+    // column j + p (`dyz` is padded by 2p).
+    let p = g.p();
+    let pos = |q: usize| {
+        let (i, j) = (q / nb, q % nb * V::L);
+        ((i + p) * wz + j + p, i * wd + j, (wd - j).min(V::L))
+    };
+    let (wb, wr) = (&*wb, &*wr);
+    gx.par_chunks_mut(c * hw)
+        .zip(dyz.par_chunks(zstride))
+        .for_each(|(gx, z)| {
+            gx.par_chunks_mut(per_group * hw)
+                .enumerate()
+                .for_each(|(gi, gxg)| {
+                    let channels = gxg.len() / hw;
+                    let job = Corr {
+                        inp: z,
+                        in_ch: g.plane_z(),
+                        cin: co,
+                        rw: wz,
+                        w: &wb[gi * per_group * co * 9..],
+                        out_ch: hw,
+                        store: Store::Add,
+                    };
+                    job.run::<V>(gxg, channels, h * nb, pos);
+                    if reflect {
+                        ring::<V>(g, co, z, wr, cl, gi * per_group, gxg);
+                    }
+                });
+        });
+}
+
+/// `wr[(t·Co + o)·cl + c] = w[o, c, 8 − t]`, zero for `c ≥ C` (`cl ≥ C + L`).
+fn pack_ring<S: Float>(co: usize, c: usize, w: &[S], cl: usize, wr: &mut [S]) {
+    for (k, row) in wr.chunks_exact_mut(cl).enumerate() {
+        let (t, o) = (k / co, k % co);
+        for (ci, v) in row.iter_mut().enumerate() {
+            *v = if ci < c {
+                w[(o * c + ci) * 9 + 8 - t]
+            } else {
+                S::zero()
+            };
+        }
+    }
+}
+
+/// Reflect padding: adds the folded gradient of the border ring of `∂xp` (padded rows 0
+/// and `Hp − 1`, padded columns 0 and `Wp − 1`) into `∂x` for input channels
+/// `c0..c0 + channels` (`gx` holds those channels of one image), vectorised over channels
+/// with the weights of [`pack_ring`]. Only the taps that read inside `dy` are summed.
+fn ring<V: Simd>(
+    g: Geometry,
+    co: usize,
+    z: &[V::S],
+    wr: &[V::S],
+    cl: usize,
+    c0: usize,
+    gx: &mut [V::S],
+) {
+    let hw = g.h * g.w;
+    let channels = gx.len() / hw;
+    assert!(
+        z.len() >= co * g.plane_z() && wr.len() >= 9 * co * cl && c0 + channels + V::L <= cl,
+        "conv2d direct: ring buffer sizes"
+    );
+    // SAFETY: AVX-512F was checked by `backward`; the reads of `z` stay inside the `co`
+    // planes of `dyz` (rows `u + a < Hp + 2`, columns `v + b < Wz`), those of `wr` end
+    // before `(t·Co + o)·cl + c0 + channels + L ≤ 9·Co·cl` (checked above), and the writes
+    // of `gx` are bounds-checked.
+    unsafe { ring_unchecked::<V>(g, co, z.as_ptr(), wr.as_ptr(), cl, c0, gx) }
+}
+
+#[target_feature(enable = "avx512f")]
+unsafe fn ring_unchecked<V: Simd>(
+    g: Geometry,
+    co: usize,
+    z: *const V::S,
+    wr: *const V::S,
+    cl: usize,
+    c0: usize,
+    gx: &mut [V::S],
+) {
+    let (h, p, hp, wp, wz) = (g.h, g.p(), g.hp(), g.wp(), g.wz());
+    // Straight segments of the ring: start (u, v), step, length, and the kernel rows `a`
+    // and columns `b` that can read inside `dy` (`dyz` row `u + a` and column `v + b`
+    // within `2p .. 2p + H` and `2p .. 2p + W`; the other taps read zeros).
+    let segments = [
+        ((0, 0), (0, 1), wp, 2 * p..3, 0..3),
+        ((hp - 1, 0), (0, 1), wp, 0..1, 0..3),
+        ((p, 0), (1, 0), h, 0..3, 2 * p..3),
+        ((p, wp - 1), (1, 0), h, 0..3, 0..1),
+    ];
+    for ((u0, v0), (du, dv), len, ta, tb) in segments {
+        let seg = Segment {
+            z,
+            dir: (du, dv),
+            co,
+            pz: g.plane_z(),
+            wz,
+            wr,
+            cl,
+            c0,
+            ta,
+            tb,
+        };
+        let mut k = 0;
+        while k < len {
+            let at = |k: usize| (u0 + k * du, v0 + k * dv);
+            if k + RING_BLOCK <= len {
+                seg.block::<V, RING_BLOCK>(g, at(k), gx);
+                k += RING_BLOCK;
+            } else {
+                seg.block::<V, 1>(g, at(k), gx);
+                k += 1;
+            }
+        }
+    }
+}
+
+/// Ring positions per block of [`Segment::block`].
+const RING_BLOCK: usize = 8;
+
+/// One straight segment of the border ring of `∂xp` (see [`ring_unchecked`]).
+struct Segment<S> {
+    z: *const S,
+    /// Padded `(Δu, Δv)` between consecutive positions.
+    dir: (usize, usize),
+    co: usize,
+    pz: usize,
+    wz: usize,
+    wr: *const S,
+    cl: usize,
+    c0: usize,
+    ta: std::ops::Range<usize>,
+    tb: std::ops::Range<usize>,
+}
+
+impl<S: Float> Segment<S> {
+    /// `K` consecutive positions from padded `(u, v)`: their `∂xp` for every channel
+    /// vector, folded into `gx`. Needs AVX-512F and the bounds of [`ring`].
+    #[inline(always)]
+    unsafe fn block<V: Simd<S = S>, const K: usize>(
+        &self,
+        g: Geometry,
+        (u, v): (usize, usize),
+        gx: &mut [S],
+    ) {
+        use super::super::lowering::source;
+        let (hw, p) = (g.h * g.w, g.p() as isize);
+        let channels = gx.len() / hw;
+        let base = self.z.add(u * self.wz + v);
+        let step = self.dir.0 * self.wz + self.dir.1;
+        let mut lanes = [zero::<S>(); 16];
+        for cv in (0..channels).step_by(V::L) {
+            let mut acc = [V::zero(); K];
+            for a in self.ta.clone() {
+                for b in self.tb.clone() {
+                    let t = a * 3 + b;
+                    let w = self.wr.add(t * self.co * self.cl + self.c0 + cv);
+                    let zt = base.add(a * self.wz + b);
+                    for o in 0..self.co {
+                        let wv = V::load(w.add(o * self.cl));
+                        let zo = zt.add(o * self.pz);
+                        for (k, acc) in acc.iter_mut().enumerate() {
+                            *acc = acc.fma(wv, V::splat(*zo.add(k * step)));
+                        }
+                    }
+                }
+            }
+            let n = (channels - cv).min(V::L);
+            for (k, acc) in acc.iter().enumerate() {
+                // Padded (u, v) of position k folds onto image pixel (i, j).
+                let (uk, vk) = (u + k * self.dir.0, v + k * self.dir.1);
+                let i = source(uk as isize - p, g.h, g.mode).unwrap_or(0);
+                let j = source(vk as isize - p, g.w, g.mode).unwrap_or(0);
+                acc.store_n(lanes.as_mut_ptr(), n);
+                for (m, &s) in lanes[..n].iter().enumerate() {
+                    gx[(cv + m) * hw + i * g.w + j] += s;
+                }
+            }
+        }
+    }
+}
+
+/// `∂w += Σ_images Σ_pixels dy ⊗ xp-windows`, vectorised over output channels (`dyt` is
+/// `dy` channels-last, `co_l` = `Co` rounded up to the lane count), in parallel over groups
+/// of input channels (each task owns its rows of the `[c][t][o]` accumulator).
+#[allow(clippy::too_many_arguments)]
+fn grad_w<V: Simd>(
+    g: Geometry,
+    co: usize,
+    batch: usize,
+    xp: &[V::S],
+    stride: usize,
+    dyt: &[V::S],
+    gw: &mut [V::S],
+) {
+    let (c, h, w, rw) = (g.c, g.h, g.w, g.rw());
+    let co_l = co.div_ceil(V::L) * V::L;
+    let x_rows: Vec<usize> = (0..batch * h)
+        .map(|r| r / h * stride + r % h * rw)
+        .collect();
+    let dy_rows: Vec<usize> = (0..batch * h).map(|r| r * w).collect();
+    let tl = tiles(batch * h, w * (c + co_l));
+    assert!(
+        xp.len() >= batch * stride && dyt.len() == batch * h * w * co_l && gw.len() == co * c * 9,
+        "conv2d direct: ∂w buffer sizes"
+    );
+    let mut dwt = Scratch::<V::S>::zeroed(c * 9 * co_l);
+    let per = c.div_ceil(rayon::current_num_threads().clamp(1, c));
+    dwt.par_chunks_mut(per * 9 * co_l)
+        .enumerate()
+        .for_each(|(gi, part)| {
+            let rows: Vec<Rows<'_>> = tl
+                .iter()
+                .map(|&(r0, r1)| Rows {
+                    x_rows: &x_rows[r0..r1],
+                    dy_rows: &dy_rows[r0..r1],
+                    width: w,
+                })
+                .collect();
+            // SAFETY: AVX-512F was checked by `backward`. Pixel `j` of row `i` of image `b`
+            // reads `xp` at `b·stride + c'·plane + i·rw + j + tap`, inside padded image `b`
+            // (the length of `xp` is checked above), and `dyt` at `(b·HW + i·W + j)·co_l +
+            // o` with `o < co_l`, inside `dyt`; the accumulator is written at
+            // `(c' − c0)·9·co_l + t·co_l + o < part.len()`.
+            unsafe { grad_w_group::<V>(xp, g.plane(), gi * per, dyt, co_l, &rows, part, rw) };
+        });
+    for (o, gw_o) in gw.chunks_exact_mut(c * 9).enumerate() {
+        for (k, v) in gw_o.iter_mut().enumerate() {
+            *v += dwt[k * co_l + o];
+        }
+    }
+}
+
+/// `∂w` of input channels `c0..` (as many as `part` holds) over all tiles of rows.
+#[target_feature(enable = "avx512f")]
+#[allow(clippy::too_many_arguments)]
+unsafe fn grad_w_group<V: Simd>(
+    xp: &[V::S],
+    plane: usize,
+    c0: usize,
+    dyt: &[V::S],
+    co_l: usize,
+    tiles: &[Rows<'_>],
+    part: &mut [V::S],
+    rw: usize,
+) {
+    let cn = part.len() / (9 * co_l);
+    let (x, d, out) = (xp.as_ptr().add(c0 * plane), dyt.as_ptr(), part.as_mut_ptr());
+    let nv = co_l / V::L;
+    for &rows in tiles {
+        // Blocks of up to 3 channel vectors × (3 / vectors) input channels: ≤ 27 registers.
+        let mut v0 = 0;
+        while v0 < nv {
+            let vn = (nv - v0).min(3);
+            let mut c = 0;
+            while c < cn {
+                let cb = (cn - c).min(3 / vn);
+                let (xc, dv) = (x.add(c * plane), d.add(v0 * V::L));
+                let o = out.add(c * 9 * co_l + v0 * V::L);
+                match (vn, cb) {
+                    (1, 1) => dw_block::<V, 1, 1>(xc, plane, rw, dv, co_l, rows, o),
+                    (1, 2) => dw_block::<V, 1, 2>(xc, plane, rw, dv, co_l, rows, o),
+                    (1, _) => dw_block::<V, 1, 3>(xc, plane, rw, dv, co_l, rows, o),
+                    (2, _) => dw_block::<V, 2, 1>(xc, plane, rw, dv, co_l, rows, o),
+                    _ => dw_block::<V, 3, 1>(xc, plane, rw, dv, co_l, rows, o),
+                }
+                c += cb;
+            }
+            v0 += vn;
+        }
+    }
+}
