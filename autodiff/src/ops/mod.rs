@@ -47,6 +47,7 @@ mod registry {
             "matmul" => super::matmul::OPS,
             "pool" => super::pool::OPS,
             "reduce" => super::reduce::OPS,
+            "coupling" => crate::nn::coupling::OPS,
             _ => return None,
         })
     }
@@ -213,6 +214,21 @@ mod registry {
                 entry.1.push_str(&src);
             } else {
                 let (lib, test) = src.split_at(src.find("#[cfg(test)]").unwrap_or(src.len()));
+                entry.0.push_str(lib);
+                entry.1.push_str(test);
+            }
+        }
+        // Ops defined beside their network blocks (src/nn) follow the same rule; files there
+        // that define no op are skipped.
+        let nn = Path::new(env!("CARGO_MANIFEST_DIR")).join("src/nn");
+        let mut nn_files = Vec::new();
+        sources(&nn, &mut nn_files);
+        for f in &nn_files {
+            let src = strip_comments(&std::fs::read_to_string(f).unwrap());
+            let (lib, test) = src.split_at(src.find("#[cfg(test)]").unwrap_or(src.len()));
+            if lib.contains("fn name(&self) -> &'static str") {
+                let family = f.file_stem().unwrap().to_string_lossy().to_string();
+                let entry = fam.entry(family).or_default();
                 entry.0.push_str(lib);
                 entry.1.push_str(test);
             }

@@ -1,0 +1,503 @@
+//! One RealNVP affine coupling (official §3.5) as a single fused tape op.
+//!
+//! Inputs, in order: points `x (P, 2)`, then the coupling MLP `w1 (1, H)`, `b1 (H,)`,
+//! `w2 (H, H)`, `b2 (H,)`, `w3 (H, 2)`, `b3 (2,)` (weights `(in, out)`, `x @ W` convention).
+//! Output `(P, 2)`. With `c` the kept (conditioning) column and `o = 1 − c`:
+//! - `(t, s) = MLP(x_c)`: `h1 = relu(x_c·w1 + b1)`, `h2 = relu(h1·w2 + b2)`,
+//!   `(t, s) = h2·w3 + b3` (last-layer column 0 is the shift, column 1 the log-scale);
+//! - forward: `y_c = x_c`, `y_o = x_o·exp(s) + t`;
+//! - inverse: `y_c = x_c`, `y_o = (x_o − t)·exp(−s)`, exact for the same parameters.
+//!
+//! Backward, with `g = ∂L/∂y`: forward `∂L/∂t = g_o`, `∂L/∂s = g_o·x_o·exp(s)`,
+//! `∂L/∂x_o = g_o·exp(s)`; inverse `∂L/∂t = −g_o·exp(−s)`, `∂L/∂s = −g_o·y_o`,
+//! `∂L/∂x_o = g_o·exp(−s)`; then through the MLP (ReLU derivative `[h > 0]`, 0 at the kink)
+//! to its parameters and to `x_c`: `∂L/∂x_c = g_c + ∂L/∂(MLP input)`.
+//!
+//! Evaluation (kernels in `coupling/`): points in chunks of [`CHUNK`], a chunk's hidden
+//! activations laid out `(H, CHUNK)` so every inner loop runs over points; blocks of [`BLOCK`]
+//! points are rayon tasks with scratch reused across their chunks. Backward recomputes the MLP
+//! per chunk (nothing is saved but a copy of the parameters, 338 at the official width).
+//! Parameter gradients are summed per block and the blocks' partial sums added in block order,
+//! so results do not depend on the thread count. The same code is compiled for AVX-512F, for
+//! AVX2 + FMA and for the baseline target, chosen at run time; in the first two, f32 `exp` is
+//! a vectorised polynomial (within 2 ulp) instead of libm's. Builds differ in rounding only.
+//!
+//! Feedback alignment: [`Op::weight_inputs`] is `[1, 3, 5]` (`w1, w2, w3`). Under a rule that
+//! substitutes feedback matrices `B` for them in backward, the coupling acts as one layer:
+//! its parameters get their exact gradient for the error `g` arriving at its output (the
+//! activations and the chain to the parameters use the forward weights saved by `forward`),
+//! and the error it sends back to its input points travels through the substituted weights,
+//! `∂L/∂x_c = g_c + (((∂L/∂(t, s))·B3ᵀ ⊙ [h2 > 0])·B2ᵀ ⊙ [h1 > 0])·B1ᵀ`. (Per-layer feedback
+//! inside the MLP would need `B` while the weight gradients are computed, which the rule's
+//! two-call protocol does not provide.)
+
+mod kernel;
+mod tiles;
+#[cfg(target_arch = "x86_64")]
+mod x86;
+
+pub use kernel::{BLOCK, CHUNK};
+
+use crate::op::{BackwardCx, GradSlots, Op};
+use crate::{Float, Shape, Tape, Tensor, Var};
+use kernel::{num_params, Block, Isa, Mlp, Scratch};
+use rayon::prelude::*;
+
+/// Names of the ops in this file (registry rule, see [`crate::ops`]).
+pub const OPS: &[&str] = &["affine_coupling"];
+
+/// The fused coupling `y = coupling(x; w1, b1, w2, b2, w3, b3)`; see the module docs.
+pub struct AffineCoupling<T> {
+    kept: usize,
+    inverse: bool,
+    /// The kernel build (the fastest this CPU runs).
+    isa: Isa,
+    /// The parameters `forward` saw (inputs 1..=6 concatenated), for backward.
+    params: Vec<T>,
+}
+
+impl<T: Float> AffineCoupling<T> {
+    /// The coupling that keeps column `kept` (0 or 1) and transforms the other one; `inverse`
+    /// selects `y_o = (x_o − t)·exp(−s)` instead of `x_o·exp(s) + t`.
+    #[track_caller]
+    pub fn new(kept: usize, inverse: bool) -> Self {
+        assert!(
+            kept < 2,
+            "affine_coupling: kept column {kept} is not 0 or 1"
+        );
+        AffineCoupling {
+            kept,
+            inverse,
+            isa: Isa::detect(),
+            params: Vec::new(),
+        }
+    }
+
+    /// The coupling run by a given kernel build (tests compare the builds).
+    #[cfg(test)]
+    fn with_isa(kept: usize, inverse: bool, isa: Isa) -> Self {
+        AffineCoupling {
+            isa,
+            ..Self::new(kept, inverse)
+        }
+    }
+}
+
+/// The hidden width `H`, after checking every input shape against it.
+#[track_caller]
+fn hidden<T: Float>(inputs: &[&Tensor<T>]) -> usize {
+    assert_eq!(
+        inputs.len(),
+        7,
+        "affine_coupling: takes points and 6 MLP parameters, got {} inputs",
+        inputs.len()
+    );
+    let x = inputs[0].shape();
+    assert!(
+        x.rank() == 2 && x.dim(1) == 2,
+        "affine_coupling: expected points (P, 2), got {x:?}"
+    );
+    let w1 = inputs[1].shape();
+    assert!(
+        w1.rank() == 2 && w1.dim(0) == 1,
+        "affine_coupling: w1 {w1:?} is not (1, H)"
+    );
+    let h = w1.dim(1);
+    let want: [&[usize]; 5] = [&[h], &[h, h], &[h], &[h, 2], &[2]];
+    for (i, (name, dims)) in ["b1", "w2", "b2", "w3", "b3"].iter().zip(want).enumerate() {
+        let got = inputs[i + 2].shape();
+        assert!(
+            got.dims() == dims,
+            "affine_coupling: {name} {got:?} does not match w1 {w1:?} (want {:?})",
+            Shape::new(dims)
+        );
+    }
+    h
+}
+
+impl<T: Float> Op<T> for AffineCoupling<T> {
+    fn name(&self) -> &'static str {
+        "affine_coupling"
+    }
+
+    fn output_shape(&self, inputs: &[&Tensor<T>]) -> Shape {
+        hidden(inputs);
+        inputs[0].shape()
+    }
+
+    fn overwrites_output(&self) -> bool {
+        true
+    }
+
+    fn weight_inputs(&self) -> &'static [usize] {
+        &[1, 3, 5]
+    }
+
+    fn forward(&mut self, inputs: &[&Tensor<T>], out: &mut Tensor<T>) {
+        let h = hidden(inputs);
+        self.params.clear();
+        for t in &inputs[1..] {
+            self.params.extend_from_slice(t.data());
+        }
+        let block = Block::forward_pass(Mlp::from_flat(&self.params, h), self.kept, self.inverse);
+        out.data_mut()
+            .par_chunks_mut(2 * BLOCK)
+            .zip(inputs[0].data().par_chunks(2 * BLOCK))
+            .for_each_init(
+                || Scratch::new(h),
+                |sc, (yb, xb)| block.forward(self.isa, xb, yb, sc),
+            );
+    }
+
+    fn backward(&self, cx: &BackwardCx<'_, T>, dx: &mut GradSlots<'_, T>) {
+        let h = hidden(cx.inputs);
+        let want_params = (1..7).any(|i| dx.wants(i));
+        if !want_params && !dx.wants(0) {
+            return;
+        }
+        let given = Mlp::from_parts(h, std::array::from_fn(|i| cx.inputs[i + 1].data()));
+        let fwd = Mlp::from_flat(&self.params, h);
+        let block = Block::backward_pass(fwd, given, self.kept, self.inverse, want_params);
+        let (x, dy) = (cx.inputs[0].data(), cx.dy.data());
+        let (nblocks, np) = ((x.len() / 2).div_ceil(BLOCK), num_params(h));
+        let mut partial = dx.scratch([nblocks, np]);
+        {
+            let gx: Vec<Option<&mut [T]>> = match dx.slot_data(0) {
+                Some(g) => g.chunks_mut(2 * BLOCK).map(Some).collect(),
+                None => (0..nblocks).map(|_| None).collect(),
+            };
+            partial
+                .data_mut()
+                .par_chunks_mut(np)
+                .zip(x.par_chunks(2 * BLOCK))
+                .zip(dy.par_chunks(2 * BLOCK))
+                .zip(gx)
+                .for_each_init(
+                    || Scratch::new(h),
+                    |sc, (((acc, xb), dyb), gxb)| block.backward(self.isa, xb, dyb, gxb, acc, sc),
+                );
+        }
+        // Parameter gradients: the blocks' partial sums, in block order.
+        let mut offset = 0;
+        for (i, t) in cx.inputs[1..].iter().enumerate() {
+            let len = t.numel();
+            if let Some(g) = dx.slot_data(i + 1) {
+                for part in partial.data().chunks_exact(np) {
+                    for (a, &b) in g.iter_mut().zip(&part[offset..offset + len]) {
+                        *a += b;
+                    }
+                }
+            }
+            offset += len;
+        }
+        dx.recycle(partial);
+    }
+}
+
+impl<T: Float> Tape<T> {
+    /// One affine coupling of the points `(P, 2)`, keeping column `kept` (0 or 1) and
+    /// transforming the other; `mlp = [w1, b1, w2, b2, w3, b3]`. See [`crate::nn::coupling`].
+    #[track_caller]
+    pub fn affine_coupling(&mut self, points: Var, mlp: &[Var], kept: usize, inverse: bool) -> Var {
+        assert_eq!(
+            mlp.len(),
+            6,
+            "affine_coupling: {} MLP parameters, want w1, b1, w2, b2, w3, b3",
+            mlp.len()
+        );
+        let mut inputs = [points; 7];
+        inputs[1..].copy_from_slice(mlp);
+        self.apply(AffineCoupling::new(kept, inverse), &inputs)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::check::{check_gradients, strategies as st, CheckConfig};
+    use crate::learn::{Backprop, FeedbackAlignment, LearningRule, ParamGrads};
+    use crate::{ParamId, ParamStore};
+    use proptest::prelude::*;
+    use rand::rngs::StdRng;
+    use rand::{Rng, SeedableRng};
+
+    /// Points `(n, 2)` in [−2, 2], then `w1, b1, w2, b2, w3, b3` for hidden width `h`, all
+    /// non-zero (last layer ±0.5/√h, so the scale `exp(s)` is not trivially 1). Conditioning
+    /// values (column `kept`) are redrawn until every ReLU input is at least 1e-3 from its
+    /// kink, far beyond the finite-difference steps of the checks.
+    fn inputs(seed: u64, n: usize, h: usize, kept: usize) -> Vec<Tensor<f64>> {
+        let mut rng = StdRng::seed_from_u64(seed);
+        let mut u = |shape: &[usize], bound: f64| {
+            Tensor::from_fn(shape, |_| rng.random_range(-bound..bound))
+        };
+        let r = 1.0 / (h as f64).sqrt();
+        let mut x = vec![
+            u(&[n, 2], 2.0),
+            u(&[1, h], 1.0),
+            u(&[h], 1.0),
+            u(&[h, h], r),
+            u(&[h], 0.5),
+            u(&[h, 2], 0.5 * r),
+            u(&[2], 0.5),
+        ];
+        let mut rng = StdRng::seed_from_u64(!seed);
+        for i in 0..n {
+            while {
+                let (a1, a2) = preacts(&x, x[0].data()[2 * i + kept]);
+                a1.iter().chain(&a2).any(|a| a.abs() < 1e-3)
+            } {
+                x[0].data_mut()[2 * i + kept] = rng.random_range(-2.0..2.0);
+            }
+        }
+        x
+    }
+
+    /// The ReLU inputs `(x_c·w1 + b1, h1·w2 + b2)` of the MLP in `p[1..7]` at `v = x_c`.
+    fn preacts(p: &[Tensor<f64>], v: f64) -> (Vec<f64>, Vec<f64>) {
+        let h = p[2].numel();
+        let [w1, b1, w2, b2] = std::array::from_fn(|i| p[i + 1].data());
+        let a1: Vec<f64> = (0..h).map(|j| v * w1[j] + b1[j]).collect();
+        let a2 = (0..h)
+            .map(|k| b2[k] + (0..h).map(|j| a1[j].max(0.0) * w2[j * h + k]).sum::<f64>())
+            .collect();
+        (a1, a2)
+    }
+
+    fn check(x: &[Tensor<f64>], kept: usize, inverse: bool) -> Result<(), TestCaseError> {
+        let f = |t: &mut Tape<f64>, v: &[Var]| t.affine_coupling(v[0], &v[1..], kept, inverse);
+        check_gradients(f, x, &CheckConfig::default())
+            .map(|_| ())
+            .map_err(|e| TestCaseError::fail(format!("kept {kept}, inverse {inverse}: {e}")))
+    }
+
+    proptest! {
+        #![proptest_config(st::config())]
+
+        /// affine_coupling: gradients to the points and all six parameters, point counts
+        /// across the chunk boundary (64), both columns, both directions.
+        #[test]
+        fn affine_coupling_gradients(
+            n in 1usize..=70, h in 1usize..=5, kept in 0usize..2, inverse in any::<bool>(),
+            seed in any::<u64>(),
+        ) {
+            check(&inputs(seed, n, h, kept), kept, inverse)?;
+        }
+    }
+
+    /// The official width (16) and more points than one parallel block, so the per-block
+    /// partial sums of the parameter gradients are exercised.
+    #[test]
+    fn affine_coupling_gradients_across_blocks() {
+        for (kept, inverse) in [(0, false), (1, true)] {
+            check(&inputs(11, BLOCK + CHUNK + 5, 16, kept), kept, inverse).unwrap();
+        }
+    }
+
+    #[test]
+    fn inverse_undoes_forward() {
+        let x = inputs(5, 300, 16, 0);
+        let mut tape = Tape::<f64>::new();
+        let v: Vec<Var> = x.iter().map(|t| tape.constant(t.clone())).collect();
+        for kept in [0, 1] {
+            let y = tape.affine_coupling(v[0], &v[1..], kept, false);
+            assert!(
+                tape.value(y).max_abs_diff(&x[0]) > 1e-2,
+                "the coupling moves points"
+            );
+            let back = tape.affine_coupling(y, &v[1..], kept, true);
+            assert!(tape.value(back).max_abs_diff(&x[0]) < 1e-12);
+        }
+    }
+
+    /// `∂L/∂x` of `L = Σ r ⊙ coupling(x)` point by point in plain f64, with the MLP's forward
+    /// weights `p` for the activations and `b = (B1, B2, B3)` for the error sent to `x_c`.
+    fn point_grad_reference(
+        p: &[Tensor<f64>],
+        b: &[Tensor<f64>],
+        r: &Tensor<f64>,
+        kept: usize,
+        inverse: bool,
+    ) -> Tensor<f64> {
+        let (x, h, o) = (p[0].data(), p[2].numel(), 1 - kept);
+        let (w3, b3) = (p[5].data(), p[6].data());
+        let mut out = Tensor::zeros(p[0].shape());
+        for (i, g) in out.data_mut().chunks_mut(2).enumerate() {
+            let (v, xo) = (x[2 * i + kept], x[2 * i + o]);
+            let (a1, a2) = preacts(p, v);
+            let ts = |c: usize| b3[c] + (0..h).map(|k| a2[k].max(0.0) * w3[2 * k + c]).sum::<f64>();
+            let (t, s) = (ts(0), ts(1));
+            let go = r.data()[2 * i + o];
+            let (gt, gs, gxo) = if inverse {
+                let e = (-s).exp();
+                (-go * e, -go * (xo - t) * e, go * e)
+            } else {
+                (go, go * xo * s.exp(), go * s.exp())
+            };
+            let [b1m, b2m, b3m] = [b[0].data(), b[1].data(), b[2].data()];
+            let gh2: Vec<f64> = (0..h)
+                .map(|k| {
+                    if a2[k] > 0.0 {
+                        b3m[2 * k] * gt + b3m[2 * k + 1] * gs
+                    } else {
+                        0.0
+                    }
+                })
+                .collect();
+            let dv: f64 = (0..h)
+                .filter(|&j| a1[j] > 0.0)
+                .map(|j| b1m[j] * (0..h).map(|k| b2m[j * h + k] * gh2[k]).sum::<f64>())
+                .sum();
+            g[kept] = r.data()[2 * i + kept] + dv;
+            g[o] = gxo;
+        }
+        out
+    }
+
+    /// Under feedback alignment the coupling's parameters get their exact gradient and the
+    /// points' error goes through the feedback matrices; with `B = W` it is backprop.
+    #[test]
+    fn feedback_alignment_sends_the_point_error_through_b() {
+        let (h, n) = (5, 70);
+        let x = inputs(21, n, h, 0);
+        let mut rng = StdRng::seed_from_u64(22);
+        let r = Tensor::from_fn([n, 2], |_| rng.random_range(-1.0..1.0));
+        let b: Vec<Tensor<f64>> = [1, 3, 5]
+            .iter()
+            .map(|&i| Tensor::from_fn(x[i].shape(), |_| rng.random_range(-1.0..1.0)))
+            .collect();
+        let mut store = ParamStore::<f64>::new();
+        let ids: Vec<ParamId> = (1..7)
+            .map(|i| store.add(format!("p{i}"), x[i].clone()))
+            .collect();
+        for (kept, inverse) in [(0, false), (1, true)] {
+            let run = |rule: &mut dyn LearningRule<f64>| -> (ParamGrads<f64>, Tensor<f64>) {
+                let mut tape = Tape::new();
+                let xv = tape.leaf(x[0].clone());
+                let vars: Vec<Var> = ids.iter().map(|&id| store.var(&mut tape, id)).collect();
+                let y = tape.affine_coupling(xv, &vars, kept, inverse);
+                let rv = tape.constant(r.clone());
+                let l = tape.mul(y, rv);
+                let l = tape.sum(l);
+                let g = rule.assign_credit(&mut tape, l, &store);
+                (g, tape.grad(xv).unwrap().clone())
+            };
+            let (bp, bp_x) = run(&mut Backprop);
+            let w: Vec<Tensor<f64>> = [1, 3, 5].iter().map(|&i| x[i].clone()).collect();
+            let bp_ref = point_grad_reference(&x, &w, &r, kept, inverse);
+            assert!(
+                bp_x.max_abs_diff(&bp_ref) < 1e-12,
+                "backprop point gradient"
+            );
+
+            let mut fa = FeedbackAlignment::new(1);
+            for (k, &i) in [0, 2, 4].iter().enumerate() {
+                fa.set_feedback(ids[i], b[k].clone());
+            }
+            let (g, gx) = run(&mut fa);
+            for &id in &ids {
+                assert!(g.get(id).unwrap().max_abs_diff(bp.get(id).unwrap()) < 1e-12);
+            }
+            let want = point_grad_reference(&x, &b, &r, kept, inverse);
+            assert!(gx.max_abs_diff(&want) < 1e-12, "feedback point gradient");
+            assert!(
+                gx.max_abs_diff(&bp_x) > 1e-2,
+                "feedback must change the point error"
+            );
+
+            let mut same = FeedbackAlignment::new(1);
+            for &i in &[0, 2, 4] {
+                same.set_feedback(ids[i], x[i + 1].clone());
+            }
+            assert!(run(&mut same).1.max_abs_diff(&bp_x) < 1e-12);
+        }
+    }
+
+    /// Output and gradients (points, then the six parameters) of `Σ r ⊙ coupling(x)` with
+    /// kernel build `isa`, in the scalar type `T`.
+    fn run_build<T: Float>(
+        x: &[Tensor<f64>],
+        r: &Tensor<f64>,
+        kept: usize,
+        inverse: bool,
+        isa: Isa,
+    ) -> Vec<Tensor<f64>> {
+        let mut tape = Tape::<T>::new();
+        let v: Vec<Var> = x.iter().map(|t| tape.leaf(t.cast())).collect();
+        let y = tape.apply(AffineCoupling::with_isa(kept, inverse, isa), &v);
+        tape.backward_from(&[(y, r.cast())], &mut crate::NoHooks);
+        let mut out = vec![tape.value(y).cast()];
+        out.extend(v.iter().map(|&v| tape.grad(v).unwrap().cast()));
+        out
+    }
+
+    /// Every kernel build this CPU runs (AVX-512, AVX2 + FMA, portable), in f32 and f64,
+    /// against the portable f64 build: f64 to 1e-12, f32 to 1e-4 of each tensor's largest
+    /// entry. Covers the f32-only paths (vector `exp`, the intrinsic outer products).
+    #[test]
+    fn kernel_builds_agree() {
+        let n = BLOCK + CHUNK + 6;
+        let mut rng = StdRng::seed_from_u64(31);
+        let r = Tensor::from_fn([n, 2], |_| rng.random_range(-1.0..1.0));
+        for (kept, inverse) in [(0, false), (1, true)] {
+            let x = inputs(32, n, 16, kept);
+            let reference = run_build::<f64>(&x, &r, kept, inverse, Isa::Portable);
+            for isa in Isa::available() {
+                let builds = [
+                    ("f64", run_build::<f64>(&x, &r, kept, inverse, isa), 1e-12),
+                    ("f32", run_build::<f32>(&x, &r, kept, inverse, isa), 1e-4),
+                ];
+                for (ty, got, tol) in builds {
+                    for (i, (a, b)) in got.iter().zip(&reference).enumerate() {
+                        let scale = b.data().iter().fold(0.0f64, |m, v| m.max(v.abs()));
+                        assert!(
+                            a.max_abs_diff(b) <= tol * scale,
+                            "{isa:?} {ty}, inverse {inverse}, output {i}: {} vs scale {scale}",
+                            a.max_abs_diff(b)
+                        );
+                    }
+                }
+            }
+        }
+    }
+
+    /// The vectorisable f32 `exp` of the SIMD builds against f64 `exp`: within 2 units in the
+    /// last place (2·2⁻²³ relative) for normal results, within one denormal step below, and
+    /// the IEEE special cases.
+    #[test]
+    fn exp_f32_matches_f64_exp() {
+        let steps = 400_000;
+        for i in 0..=steps {
+            let x = -104.0 + (88.72f64 + 104.0) * i as f64 / steps as f64;
+            let x = x as f32;
+            let (got, want) = (tiles::exp_f32(x) as f64, (x as f64).exp());
+            if want >= f32::MIN_POSITIVE as f64 {
+                let rel = (got - want).abs() / want;
+                assert!(
+                    rel <= 2.0 * f32::EPSILON as f64,
+                    "exp({x}) = {got}, want {want}"
+                );
+            } else {
+                assert!(
+                    (got - want).abs() <= 2f64.powi(-149),
+                    "exp({x}) = {got}, want {want}"
+                );
+            }
+        }
+        assert_eq!(tiles::exp_f32(0.0), 1.0);
+        assert_eq!(tiles::exp_f32(88.8), f32::INFINITY);
+        assert_eq!(tiles::exp_f32(f32::INFINITY), f32::INFINITY);
+        assert_eq!(tiles::exp_f32(-120.0), 0.0);
+        assert_eq!(tiles::exp_f32(f32::NEG_INFINITY), 0.0);
+        assert!(tiles::exp_f32(f32::NAN).is_nan());
+    }
+
+    #[test]
+    #[should_panic(expected = "affine_coupling: w2 (3, 4) does not match w1 (1, 4) (want (4, 4))")]
+    fn mismatched_hidden_width_panics() {
+        let mut x = inputs(0, 3, 4, 0);
+        x[3] = Tensor::zeros([3, 4]);
+        let mut tape = Tape::<f64>::new();
+        let v: Vec<Var> = x.into_iter().map(|t| tape.constant(t)).collect();
+        tape.affine_coupling(v[0], &v[1..], 0, false);
+    }
+}

@@ -1,0 +1,445 @@
+//! The fused affine coupling on blocks of points (see [`super`] for the maths): the chunked
+//! MLP forward, its backward, the parameter-gradient sums, and the choice of SIMD build.
+//!
+//! Layout: a chunk of [`CHUNK`] points; activations and errors are row blocks `(rows, CHUNK)`,
+//! so every inner loop runs over points and vectorises. Each layer is one [`rows`] product
+//! with its weights stored `(in, out)` row-major (backward uses transposed copies,
+//! [`Transposed`]). Parameter gradients are [`outer`] products of row blocks, kept as `LANES`
+//! independent partial sums per parameter (vector registers, no reassociation needed) and
+//! reduced once per block, in a fixed order. A trailing row of ones in the input blocks makes
+//! each bias gradient the last row of its weight gradient, which is exactly the parameter
+//! layout `w, b`.
+//!
+//! Builds ([`Isa`]): the same generic code compiled for AVX-512F, for AVX2 + FMA (both x86-64,
+//! chosen at run time) and for the compilation target without fused multiply-adds; tile sizes
+//! follow the vector registers. They differ in rounding only (test `kernel_builds_agree`).
+
+use super::tiles::{exp_chunk, madd, mask, outer, relu, rows};
+use crate::Float;
+
+/// Points per chunk: the length of every row (a multiple of every build's `TILE`, `LANES`).
+pub const CHUNK: usize = 64;
+/// Points per parallel task and per partial sum of the parameter gradients.
+pub const BLOCK: usize = 1024;
+/// Most partial sums per parameter gradient (`LANES` of a build).
+const MAX_LANES: usize = 16;
+
+/// One MLP's parameters as flat slices, in input order (`w1, b1, w2, b2, w3, b3`), weights
+/// `(in, out)` row-major.
+#[derive(Clone, Copy)]
+pub(super) struct Mlp<'a, T> {
+    pub h: usize,
+    pub w1: &'a [T],
+    pub b1: &'a [T],
+    pub w2: &'a [T],
+    pub b2: &'a [T],
+    pub w3: &'a [T],
+    pub b3: &'a [T],
+}
+
+/// Number of parameters of an MLP of hidden width `h`: `h² + 5h + 2`.
+pub(super) fn num_params(h: usize) -> usize {
+    h * h + 5 * h + 2
+}
+
+/// Offsets of `w1, b1, w2, b2, w3, b3` in a buffer laid out like the parameters, and its end.
+fn offsets(h: usize) -> [usize; 7] {
+    let len = [h, h, h * h, h, 2 * h, 2];
+    let mut o = [0; 7];
+    for i in 0..6 {
+        o[i + 1] = o[i] + len[i];
+    }
+    o
+}
+
+impl<'a, T: Float> Mlp<'a, T> {
+    /// The MLP of hidden width `h` stored contiguously in `buf` (`num_params(h)` values).
+    pub fn from_flat(buf: &'a [T], h: usize) -> Self {
+        let o = offsets(h);
+        let p = |i: usize| &buf[o[i]..o[i + 1]];
+        Mlp::from_parts(h, [p(0), p(1), p(2), p(3), p(4), p(5)])
+    }
+
+    /// The MLP from its six parameter slices.
+    pub fn from_parts(h: usize, p: [&'a [T]; 6]) -> Self {
+        let [w1, b1, w2, b2, w3, b3] = p;
+        Mlp {
+            h,
+            w1,
+            b1,
+            w2,
+            b2,
+            w3,
+            b3,
+        }
+    }
+
+    /// `h1, h2` (after ReLU) and `ts = [t; s]` from the conditioning values in row 0 of `v1`.
+    #[inline(always)]
+    fn forward<const FMA: bool, const TILE: usize>(&self, sc: &mut Scratch<T>) {
+        let hh = self.h * CHUNK;
+        rows::<T, FMA, TILE>(self.w1, Some(self.b1), &sc.v1[..CHUNK], &mut sc.h1[..hh]);
+        relu(&mut sc.h1[..hh]);
+        rows::<T, FMA, TILE>(self.w2, Some(self.b2), &sc.h1[..hh], &mut sc.h2[..hh]);
+        relu(&mut sc.h2[..hh]);
+        rows::<T, FMA, TILE>(self.w3, Some(self.b3), &sc.h2[..hh], &mut sc.ts);
+    }
+}
+
+/// The weights errors flow back through: `w3ᵀ (2, H)`, `w2ᵀ (H, H)` and `w1` (as stored,
+/// `(1, H)`, is `w1ᵀ (H, 1)` read row-major).
+pub(super) struct Transposed<'a, T> {
+    w1: &'a [T],
+    w2t: Vec<T>,
+    w3t: Vec<T>,
+}
+
+impl<'a, T: Float> Transposed<'a, T> {
+    pub fn new(m: &Mlp<'a, T>) -> Self {
+        let h = m.h;
+        Transposed {
+            w1: m.w1,
+            w2t: (0..h * h).map(|i| m.w2[(i % h) * h + i / h]).collect(),
+            w3t: (0..2 * h).map(|i| m.w3[(i % h) * 2 + i / h]).collect(),
+        }
+    }
+
+    /// From `g3 = [∂L/∂t; ∂L/∂s]`: the hidden errors `gh2, gh1` (masked by the ReLUs of
+    /// `h2, h1`) and the error at the MLP input, `dv`.
+    #[inline(always)]
+    fn backward<const FMA: bool, const TILE: usize>(&self, sc: &mut Scratch<T>) {
+        let hh = self.w1.len() * CHUNK;
+        rows::<T, FMA, TILE>(&self.w3t, None, &sc.g3, &mut sc.gh2);
+        mask(&mut sc.gh2, &sc.h2[..hh]);
+        rows::<T, FMA, TILE>(&self.w2t, None, &sc.gh2, &mut sc.gh1);
+        mask(&mut sc.gh1, &sc.h1[..hh]);
+        rows::<T, FMA, TILE>(self.w1, None, &sc.gh1, &mut sc.dv);
+    }
+}
+
+/// Per-task buffers, reused across the chunks and blocks of one rayon job.
+pub(super) struct Scratch<T> {
+    /// `[v; 1]`: the conditioning values.
+    v1: Vec<T>,
+    /// `[h1; 1]`, `[h2; 1]`: the hidden activations after ReLU, `(H + 1, CHUNK)`.
+    h1: Vec<T>,
+    h2: Vec<T>,
+    /// `[t; s]`.
+    ts: Vec<T>,
+    /// `[∂L/∂t; ∂L/∂s]`.
+    g3: Vec<T>,
+    /// The errors at the pre-activations of `h1, h2`, `(H, CHUNK)`.
+    gh1: Vec<T>,
+    gh2: Vec<T>,
+    /// `∂L/∂v` through the MLP.
+    dv: Vec<T>,
+    /// `LANES` partial sums per parameter gradient, laid out like the parameters.
+    lanes: Vec<T>,
+}
+
+impl<T: Float> Scratch<T> {
+    pub fn new(h: usize) -> Self {
+        let rows = |n: usize| vec![T::zero(); n * CHUNK];
+        let with_ones = |n: usize| {
+            let mut b = rows(n + 1);
+            b[n * CHUNK..].fill(T::one());
+            b
+        };
+        Scratch {
+            v1: with_ones(1),
+            h1: with_ones(h),
+            h2: with_ones(h),
+            ts: rows(2),
+            g3: rows(2),
+            gh1: rows(h),
+            gh2: rows(h),
+            dv: rows(1),
+            lanes: vec![T::zero(); num_params(h) * MAX_LANES],
+        }
+    }
+
+    /// Row 0 of `v1` ← column `c` of the `(n, 2)` points `xc` (zero past `n`).
+    #[inline(always)]
+    fn load(&mut self, xc: &[T], c: usize) {
+        let v = &mut self.v1[..CHUNK];
+        v.fill(T::zero());
+        for (v, x) in v.iter_mut().zip(xc.chunks_exact(2)) {
+            *v = x[c];
+        }
+    }
+
+    /// Adds this chunk's parameter gradients into the lane sums: `[w1; b1] += [v; 1]·gh1ᵀ`,
+    /// `[w2; b2] += [h1; 1]·gh2ᵀ`, `[w3; b3] += [h2; 1]·[∂L/∂t; ∂L/∂s]ᵀ`.
+    #[inline(always)]
+    fn accumulate<const FMA: bool, const LANES: usize>(&mut self, h: usize) {
+        let o = offsets(h).map(|i| i * LANES);
+        outer::<T, FMA, LANES>(&mut self.lanes[o[0]..o[2]], &self.v1, &self.gh1);
+        outer::<T, FMA, LANES>(&mut self.lanes[o[2]..o[4]], &self.h1, &self.gh2);
+        outer::<T, FMA, LANES>(&mut self.lanes[o[4]..o[6]], &self.h2, &self.g3);
+    }
+}
+
+/// One coupling's work on blocks of points: forward, or backward to points and parameters.
+pub(super) struct Block<'a, T> {
+    /// The forward weights (activations, and the chain to the parameters).
+    fwd: Mlp<'a, T>,
+    /// Backward: `fwd` transposed.
+    back: Option<Transposed<'a, T>>,
+    /// Backward: the substituted feedback weights the points' error travels through, when a
+    /// learning rule replaced the forward ones.
+    feedback: Option<Transposed<'a, T>>,
+    kept: usize,
+    inverse: bool,
+    want_params: bool,
+}
+
+impl<'a, T: Float> Block<'a, T> {
+    /// The forward pass of the coupling keeping column `kept`.
+    pub fn forward_pass(fwd: Mlp<'a, T>, kept: usize, inverse: bool) -> Self {
+        Block {
+            fwd,
+            back: None,
+            feedback: None,
+            kept,
+            inverse,
+            want_params: false,
+        }
+    }
+
+    /// The backward pass: activations from `fwd`, the points' error through `given` (the
+    /// weights the backward call received, `fwd`'s values unless substituted).
+    pub fn backward_pass(
+        fwd: Mlp<'a, T>,
+        given: Mlp<'a, T>,
+        kept: usize,
+        inverse: bool,
+        want_params: bool,
+    ) -> Self {
+        let same = given.w1 == fwd.w1 && given.w2 == fwd.w2 && given.w3 == fwd.w3;
+        Block {
+            fwd,
+            back: Some(Transposed::new(&fwd)),
+            feedback: (!same).then(|| Transposed::new(&given)),
+            kept,
+            inverse,
+            want_params,
+        }
+    }
+
+    /// `y = coupling(x)` on a block `xb, yb` of `(n, 2)` points, with the build `isa`.
+    pub fn forward(&self, isa: Isa, xb: &[T], yb: &mut [T], sc: &mut Scratch<T>) {
+        // SAFETY (both): an `Isa` other than `Portable` exists only when the CPU has its
+        // features (`Isa::detect`, `Isa::available`).
+        match isa {
+            #[cfg(target_arch = "x86_64")]
+            Isa::Avx512 => unsafe { self.forward_avx512(xb, yb, sc) },
+            #[cfg(target_arch = "x86_64")]
+            Isa::Avx2 => unsafe { self.forward_avx2(xb, yb, sc) },
+            Isa::Portable => self.forward_impl::<false, 16>(xb, yb, sc),
+        }
+    }
+
+    /// Adds `∂L/∂x` of the block into `gx` (if given) and writes its parameter gradients into
+    /// `acc` (laid out like the parameters, if wanted), from `dy = ∂L/∂y`.
+    pub fn backward(
+        &self,
+        isa: Isa,
+        xb: &[T],
+        dyb: &[T],
+        gx: Option<&mut [T]>,
+        acc: &mut [T],
+        sc: &mut Scratch<T>,
+    ) {
+        // SAFETY (both): as in `forward`.
+        match isa {
+            #[cfg(target_arch = "x86_64")]
+            Isa::Avx512 => unsafe { self.backward_avx512(xb, dyb, gx, acc, sc) },
+            #[cfg(target_arch = "x86_64")]
+            Isa::Avx2 => unsafe { self.backward_avx2(xb, dyb, gx, acc, sc) },
+            Isa::Portable => self.backward_impl::<false, 16, 8>(xb, dyb, gx, acc, sc),
+        }
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn forward_avx2(&self, xb: &[T], yb: &mut [T], sc: &mut Scratch<T>) {
+        self.forward_impl::<true, 16>(xb, yb, sc)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn backward_avx2(
+        &self,
+        xb: &[T],
+        dyb: &[T],
+        gx: Option<&mut [T]>,
+        acc: &mut [T],
+        sc: &mut Scratch<T>,
+    ) {
+        self.backward_impl::<true, 16, 8>(xb, dyb, gx, acc, sc)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f,avx2,fma")]
+    unsafe fn forward_avx512(&self, xb: &[T], yb: &mut [T], sc: &mut Scratch<T>) {
+        self.forward_impl::<true, 64>(xb, yb, sc)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f,avx2,fma")]
+    unsafe fn backward_avx512(
+        &self,
+        xb: &[T],
+        dyb: &[T],
+        gx: Option<&mut [T]>,
+        acc: &mut [T],
+        sc: &mut Scratch<T>,
+    ) {
+        self.backward_impl::<true, 64, 16>(xb, dyb, gx, acc, sc)
+    }
+
+    /// `∂y_o/∂x_o` of the chunk: `exp(s)`, or `exp(−s)` for the inverse.
+    #[inline(always)]
+    fn scale<const FMA: bool>(&self, sc: &Scratch<T>) -> [T; CHUNK] {
+        let mut e: [T; CHUNK] = sc.ts[CHUNK..].try_into().unwrap();
+        if self.inverse {
+            e.iter_mut().for_each(|v| *v = -*v);
+        }
+        exp_chunk::<T, FMA>(&mut e);
+        e
+    }
+
+    #[inline(always)]
+    pub(super) fn forward_impl<const FMA: bool, const TILE: usize>(
+        &self,
+        xb: &[T],
+        yb: &mut [T],
+        sc: &mut Scratch<T>,
+    ) {
+        let (c, o) = (self.kept, 1 - self.kept);
+        for (yc, xc) in yb.chunks_mut(2 * CHUNK).zip(xb.chunks(2 * CHUNK)) {
+            sc.load(xc, c);
+            self.fwd.forward::<FMA, TILE>(sc);
+            let e = self.scale::<FMA>(sc);
+            let t = &sc.ts[..CHUNK];
+            for (p, (y, x)) in yc.chunks_exact_mut(2).zip(xc.chunks_exact(2)).enumerate() {
+                y[c] = x[c];
+                y[o] = if self.inverse {
+                    (x[o] - t[p]) * e[p]
+                } else {
+                    madd::<T, FMA>(x[o], e[p], t[p])
+                };
+            }
+        }
+    }
+
+    #[inline(always)]
+    pub(super) fn backward_impl<const FMA: bool, const TILE: usize, const LANES: usize>(
+        &self,
+        xb: &[T],
+        dyb: &[T],
+        mut gx: Option<&mut [T]>,
+        acc: &mut [T],
+        sc: &mut Scratch<T>,
+    ) {
+        let (c, o, zero) = (self.kept, 1 - self.kept, T::zero());
+        let back = self
+            .back
+            .as_ref()
+            .expect("coupling: backward of a forward block");
+        if self.want_params {
+            sc.lanes[..acc.len() * LANES].fill(zero);
+        }
+        let chunks = xb.chunks(2 * CHUNK).zip(dyb.chunks(2 * CHUNK));
+        for (ci, (xc, dyc)) in chunks.enumerate() {
+            let (mut xo, mut go) = ([zero; CHUNK], [zero; CHUNK]);
+            for (p, (x, d)) in xc.chunks_exact(2).zip(dyc.chunks_exact(2)).enumerate() {
+                (xo[p], go[p]) = (x[o], d[o]);
+            }
+            sc.load(xc, c);
+            self.fwd.forward::<FMA, TILE>(sc);
+            // e = ∂y_o/∂x_o; padding points have go = 0 and contribute nothing.
+            let e = self.scale::<FMA>(sc);
+            let t = &sc.ts[..CHUNK];
+            let (gt, gs) = sc.g3.split_at_mut(CHUNK);
+            for p in 0..CHUNK {
+                let ge = go[p] * e[p];
+                if self.inverse {
+                    gt[p] = -ge;
+                    gs[p] = -ge * (xo[p] - t[p]);
+                } else {
+                    gt[p] = go[p];
+                    gs[p] = ge * xo[p];
+                }
+            }
+            if self.want_params || self.feedback.is_none() {
+                back.backward::<FMA, TILE>(sc);
+                if self.want_params {
+                    sc.accumulate::<FMA, LANES>(self.fwd.h);
+                }
+            }
+            if let Some(g) = gx.as_deref_mut() {
+                if let Some(fb) = &self.feedback {
+                    fb.backward::<FMA, TILE>(sc);
+                }
+                let g = &mut g[ci * 2 * CHUNK..];
+                for (p, (g, d)) in g.chunks_exact_mut(2).zip(dyc.chunks_exact(2)).enumerate() {
+                    g[c] += d[c] + sc.dv[p];
+                    g[o] = madd::<T, FMA>(go[p], e[p], g[o]);
+                }
+            }
+        }
+        if self.want_params {
+            let lanes = &sc.lanes[..acc.len() * LANES];
+            for (a, l) in acc.iter_mut().zip(lanes.chunks_exact(LANES)) {
+                *a = l.iter().fold(zero, |s, &v| s + v);
+            }
+        }
+    }
+}
+
+/// The instruction set a build of the kernels is compiled for: register tiles of 4 rows ×
+/// `TILE` points and `LANES` partial sums are sized to its vector registers (16 × 512 bit
+/// or 16 × 256 bit for f32).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum Isa {
+    /// AVX-512F (+ FMA): `TILE = 64`, `LANES = 16`.
+    #[cfg(target_arch = "x86_64")]
+    Avx512,
+    /// AVX2 + FMA: `TILE = 16`, `LANES = 8`.
+    #[cfg(target_arch = "x86_64")]
+    Avx2,
+    /// Whatever the compilation target provides, no fused multiply-add.
+    Portable,
+}
+
+impl Isa {
+    /// The fastest build this CPU runs.
+    pub fn detect() -> Isa {
+        #[cfg(target_arch = "x86_64")]
+        {
+            let avx2 = is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma");
+            if avx2 && is_x86_feature_detected!("avx512f") {
+                return Isa::Avx512;
+            }
+            if avx2 {
+                return Isa::Avx2;
+            }
+        }
+        Isa::Portable
+    }
+
+    /// Every build this CPU runs, fastest first.
+    #[cfg(test)]
+    pub fn available() -> Vec<Isa> {
+        let all = [
+            #[cfg(target_arch = "x86_64")]
+            Isa::Avx512,
+            #[cfg(target_arch = "x86_64")]
+            Isa::Avx2,
+            Isa::Portable,
+        ];
+        let fastest = all.iter().position(|&i| i == Isa::detect()).unwrap();
+        all[fastest..].to_vec()
+    }
+}
