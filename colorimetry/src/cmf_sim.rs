@@ -9,8 +9,18 @@
 //!    range, one uniform draw per band, sets with two primaries within
 //!    `min_primary_separation_nm` redrawn without counting), solve α per λ
 //!    ([`crate::matching`]), and pass the set when for every λ
-//!    `error(λ) < pass_ratio · max(base(λ), floor)`.
+//!    `error(λ) < pass_ratio · max(base(λ), floor)`. With `early_rejection` (default) a set is
+//!    rejected at the first wavelength whose converged error reaches its threshold, visiting the
+//!    wavelengths where earlier sets failed first ([`sets`]); the verdicts are those of full
+//!    evaluation.
 //! 3. The dimension is the first K with a passing set.
+//!
+//! With `reuse_base_pairs` the matches use the base step's locations and noise seeds, so the
+//! percepts at α = 0 (test light at a, black at b) are the base step's and are not shown again,
+//! and — for observers with a linear front end — the first step of every set comes from a model
+//! measured once per location pair ([`FrontEndJacobians`]).
+//!
+//! Files: `base` (step 1), [`sets`] (evaluating one set), `types` (settings and results).
 //!
 //! The floor `base_error_floor_rel · max_λ energy(λ)` exists for noise-free observers whose base
 //! error is exactly 0 (every analytic observer here): an exact match then has an error at
@@ -19,155 +29,29 @@
 //! error is far above the floor and the floor plays no role.
 //!
 //! Output: [`CmfSimResult`], serialised to `cmf_sim.json` (top-level integer `dimension`) with
-//! per-wavelength errors for 0..K primaries (the best set tried at each K), their areas, the sets
-//! tried per K and the verdict; [`CmfSimResult::error_plot`] draws the paper's Fig. 4/8 curves.
+//! per-wavelength errors for 0..K primaries, their areas, the sets tried per K (each with the
+//! number of wavelengths solved) and the verdict; [`CmfSimResult::error_plot`] draws the paper's
+//! Fig. 4/8 curves. Every reported curve is solved at every wavelength to convergence
+//! (`fully_evaluated`): at the passing K the first passing set, at a failed K the rejected set
+//! with the lowest worst ratio over the wavelengths it was tested on.
 
 use std::time::Instant;
 
 use rand::{Rng, RngCore, SeedableRng};
-use serde::{Deserialize, Serialize};
 
 use crate::error::{ColorimetryError, Result};
 use crate::grid::WavelengthGrid;
-use crate::matching::{show_seed, solve_matches, MatchProblem, SolverSettings};
-use crate::observer::{Observer, Show, Stimulus};
+use crate::matching::{FrontEndJacobians, KnownAtZero, MatchOptions, MatchProblem, TestPercepts};
+use crate::observer::Observer;
 
-/// CMF-SIM settings; defaults from the paper (S-04) and official §4.2.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(default)]
-pub struct CmfSimSettings {
-    /// Number of test wavelengths (paper: 100).
-    pub n_test_wavelengths: usize,
-    /// Test range, nm (paper: 400–700).
-    pub test_range_nm: (f64, f64),
-    /// Primary range split into K bands, nm.
-    pub primary_range_nm: (f64, f64),
-    /// Largest K tried.
-    pub max_primaries: usize,
-    /// Primary sets drawn per K before K is declared failed (paper: 500).
-    pub sets_per_k: usize,
-    /// Location pairs averaged per error evaluation (official §4.2: about 8).
-    pub location_pairs: usize,
-    /// Judge every match at the location pairs its base error was measured at (common random
-    /// numbers: the pass test `error < 1.5 × base` then compares like with like). `false`
-    /// draws fresh pairs for every primary set, as the paper's pseudocode does; with few pairs
-    /// that makes the ratio noisy for observers whose percept depends on location.
-    pub reuse_base_pairs: bool,
-    /// A set passes when every error < pass_ratio × base (paper Fig. 8: 150 %).
-    pub pass_ratio: f64,
-    /// Floor on the base error, as a fraction of the largest percept energy.
-    pub base_error_floor_rel: f64,
-    /// Minimum spacing of two primaries, nm (official §4.2: 5).
-    pub min_primary_separation_nm: f64,
-    /// Test intensity; `None` = [`Observer::stimulus_intensity`].
-    pub intensity: Option<f64>,
-    /// α solver.
-    pub solver: SolverSettings,
-    /// RNG seed (locations, primaries, noise seeds).
-    pub seed: u64,
-}
+mod base;
+pub mod sets;
+mod types;
 
-impl Default for CmfSimSettings {
-    fn default() -> Self {
-        CmfSimSettings {
-            n_test_wavelengths: 100,
-            test_range_nm: (400.0, 700.0),
-            primary_range_nm: (400.0, 700.0),
-            max_primaries: 6,
-            sets_per_k: 500,
-            location_pairs: 8,
-            reuse_base_pairs: true,
-            pass_ratio: 1.5,
-            base_error_floor_rel: 1e-8,
-            min_primary_separation_nm: 5.0,
-            intensity: None,
-            solver: SolverSettings::default(),
-            seed: 0,
-        }
-    }
-}
+pub use types::{CmfSimProgress, CmfSimResult, CmfSimSettings, ErrorCurve, KSummary, SetRecord};
 
-/// The error curve of one primary set.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct ErrorCurve {
-    /// K.
-    pub n_primaries: usize,
-    /// The primaries, nm.
-    pub primaries_nm: Vec<f64>,
-    /// α per test wavelength.
-    pub alphas: Vec<Vec<f64>>,
-    /// Matching error per test wavelength.
-    pub errors: Vec<f64>,
-    /// ∫ error dλ (trapezoid, nm).
-    pub area: f64,
-    /// `max_λ error / threshold` (< 1 means the set passes).
-    pub worst_ratio: f64,
-    /// Whether every wavelength passed.
-    pub passed: bool,
-}
-
-/// What happened at one K.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct KSummary {
-    /// K.
-    pub n_primaries: usize,
-    /// Sets tried (stops at the first passing set).
-    pub sets_tried: usize,
-    /// Whether a set passed.
-    pub passed: bool,
-    /// Wall time, s.
-    pub seconds: f64,
-}
-
-/// The result of CMF-SIM.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct CmfSimResult {
-    /// Colour dimensionality; 0 when undefined (no colour constancy) or no K ≤ max passed.
-    pub dimension: usize,
-    /// Human-readable verdict.
-    pub verdict: String,
-    /// True when the base errors exceed the percept energy (paper S-05 baseline 1).
-    pub no_colour_constancy: bool,
-    /// Observer description.
-    pub observer: String,
-    /// The settings used.
-    pub settings: CmfSimSettings,
-    /// Test intensity used.
-    pub intensity: f64,
-    /// Test wavelengths, nm.
-    pub test_wavelengths_nm: Vec<f64>,
-    /// Base error per wavelength.
-    pub base_error: Vec<f64>,
-    /// Percept energy per wavelength (the 0-primary error).
-    pub energy: Vec<f64>,
-    /// The absolute base-error floor used.
-    pub base_error_floor: f64,
-    /// Pass threshold per wavelength.
-    pub threshold: Vec<f64>,
-    /// Best curve per K = 0, 1, … (K = 0 is the energy).
-    pub curves: Vec<ErrorCurve>,
-    /// Per-K summary.
-    pub per_k: Vec<KSummary>,
-    /// Observer calls and single shows evaluated.
-    pub observer_calls: usize,
-    /// Shows evaluated.
-    pub shows: usize,
-    /// Wall time, s.
-    pub seconds: f64,
-}
-
-/// Progress report passed to the callback after each primary set.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct CmfSimProgress {
-    /// Current K.
-    pub n_primaries: usize,
-    /// Sets tried so far at this K.
-    pub sets_tried: usize,
-    /// The budget per K.
-    pub sets_per_k: usize,
-    /// Best worst-ratio so far at this K.
-    pub best_worst_ratio: f64,
-}
+use base::base_errors;
+use sets::{evaluate_early, evaluate_fully, FrontEnd, SetOutcome, WavelengthOrder};
 
 /// Trapezoid ∫ y dx.
 pub fn trapezoid(xs: &[f64], ys: &[f64]) -> f64 {
@@ -209,9 +93,13 @@ fn check(settings: &CmfSimSettings, grid: &WavelengthGrid) -> Result<()> {
             format!("{} (need ≥ 2)", s.n_test_wavelengths),
         );
     }
-    if s.location_pairs == 0 || s.sets_per_k == 0 || s.max_primaries == 0 {
+    if s.location_pairs == 0
+        || s.sets_per_k == 0
+        || s.max_primaries == 0
+        || s.first_round_wavelengths == 0
+    {
         return bad(
-            "location_pairs / sets_per_k / max_primaries",
+            "location_pairs / sets_per_k / max_primaries / first_round_wavelengths",
             "must be ≥ 1".into(),
         );
     }
@@ -258,7 +146,6 @@ pub fn run_cmf_sim_with_progress(
         WavelengthGrid::linspace(s.test_range_nm.0, s.test_range_nm.1, s.n_test_wavelengths)?;
     let tests = tests.as_slice().to_vec();
     let nw = tests.len();
-    let n = observer.percept_dim();
     let intensity = s.intensity.unwrap_or_else(|| observer.stimulus_intensity());
     let draw_pairs = |rng: &mut rand::rngs::StdRng| -> Vec<Vec<[[f64; 2]; 2]>> {
         (0..nw)
@@ -270,133 +157,182 @@ pub fn run_cmf_sim_with_progress(
             .collect()
     };
 
-    // 1. Base error and energy, one batched call: per (λ, pair) t@a, t@b, black@b.
+    // 1. Base error and energy.
     let base_pairs = draw_pairs(&mut rng);
     let base_seed: u64 = rng.random();
-    let mut shows = Vec::with_capacity(nw * s.location_pairs * 3);
-    for (w, &lambda) in tests.iter().enumerate() {
-        for (p, &[a, b]) in base_pairs[w].iter().enumerate() {
-            let t = Stimulus::monochromatic(lambda, intensity);
-            shows.push(Show {
-                stimulus: t.clone(),
-                location: a,
-                noise_seed: show_seed(base_seed, w, p, 1),
-            });
-            shows.push(Show {
-                stimulus: t,
-                location: b,
-                noise_seed: show_seed(base_seed, w, p, 2),
-            });
-            shows.push(Show {
-                stimulus: Stimulus::black(),
-                location: b,
-                noise_seed: show_seed(base_seed, w, p, 3),
-            });
-        }
-    }
-    let mut out = vec![0.0; shows.len() * n];
-    observer.percepts(&shows, &mut out);
-    let (mut calls, mut n_shows) = (1usize, shows.len());
-    let dist = |i: usize, j: usize| -> f64 {
-        (0..n)
-            .map(|d| (out[i * n + d] - out[j * n + d]).powi(2))
-            .sum()
-    };
-    let mut base_error = vec![0.0; nw];
-    let mut energy = vec![0.0; nw];
-    for w in 0..nw {
-        for p in 0..s.location_pairs {
-            let i = (w * s.location_pairs + p) * 3;
-            base_error[w] += dist(i, i + 1) / s.location_pairs as f64;
-            energy[w] += dist(i, i + 2) / s.location_pairs as f64;
-        }
-    }
-    let max_energy = energy.iter().copied().fold(0.0, f64::max);
+    let base = base_errors(observer, &tests, intensity, base_pairs, base_seed);
+    let (mut calls, mut n_shows) = (1usize, nw * s.location_pairs * 3);
+    let max_energy = base.energy.iter().copied().fold(0.0, f64::max);
     let floor = s.base_error_floor_rel * max_energy;
-    let threshold: Vec<f64> = base_error
+    let threshold: Vec<f64> = base
+        .error
         .iter()
         .map(|&b| s.pass_ratio * b.max(floor))
         .collect();
-    let no_cc = base_error.iter().sum::<f64>() >= energy.iter().sum::<f64>();
+    let no_cc = base.error.iter().sum::<f64>() >= base.energy.iter().sum::<f64>();
     let energy_curve = ErrorCurve {
         n_primaries: 0,
         primaries_nm: vec![],
         alphas: vec![vec![]; nw],
-        area: trapezoid(&tests, &energy),
-        worst_ratio: ratio(&energy, &threshold),
-        passed: energy.iter().zip(&threshold).all(|(e, t)| e < t),
-        errors: energy.clone(),
+        area: trapezoid(&tests, &base.energy),
+        worst_ratio: ratio(&base.energy, &threshold),
+        passed: base.energy.iter().zip(&threshold).all(|(e, t)| e < t),
+        errors: base.energy.clone(),
+        set_index: 0,
+        fully_evaluated: true,
     };
     let mut curves = vec![energy_curve];
     let mut per_k = Vec::new();
     let mut dimension = 0;
+    let mut order = WavelengthOrder::by_energy_ratio(&base.energy, &threshold);
+    let known = KnownAtZero {
+        side_a: &base.at_a,
+        side_b: &base.black_b,
+    };
+    let mut front = if s.reuse_base_pairs && s.front_end_jacobians {
+        FrontEndJacobians::new(observer, nw, intensity, s.solver.fd_step).map(|jacobians| {
+            FrontEnd {
+                jacobians,
+                test: TestPercepts {
+                    at_a: &base.at_a,
+                    at_b: &base.test_b,
+                },
+            }
+        })
+    } else {
+        None
+    };
     if !no_cc {
-        'k: for k in 1..=s.max_primaries {
+        for k in 1..=s.max_primaries {
             let t0 = Instant::now();
-            let mut best: Option<ErrorCurve> = None;
-            let mut tried = 0;
-            for _ in 0..s.sets_per_k {
+            let mut summary = KSummary {
+                n_primaries: k,
+                sets_tried: 0,
+                passed: false,
+                sets_rejected_early: 0,
+                wavelength_solves: 0,
+                observer_calls: 0,
+                shows: 0,
+                reported_curve_shows: 0,
+                seconds: 0.0,
+                sets: Vec::new(),
+            };
+            // (worst ratio solved, set index, primaries, pairs, seed, outcome) of the best set
+            type Best = (
+                f64,
+                usize,
+                Vec<f64>,
+                Option<Vec<Vec<[[f64; 2]; 2]>>>,
+                u64,
+                SetOutcome,
+            );
+            let mut best: Option<Best> = None;
+            let mut reported: Option<ErrorCurve> = None;
+            for set in 1..=s.sets_per_k {
                 let prim = stratified_primaries(
                     k,
                     s.primary_range_nm,
                     s.min_primary_separation_nm,
                     &mut rng,
                 )?;
-                let fresh;
-                let pairs = if s.reuse_base_pairs {
-                    &base_pairs
+                let fresh = (!s.reuse_base_pairs).then(|| draw_pairs(&mut rng));
+                let fresh_seed: u64 = rng.random();
+                let seed = if s.reuse_base_pairs {
+                    base.seed
                 } else {
-                    fresh = draw_pairs(&mut rng);
-                    &fresh
+                    fresh_seed
                 };
                 let pb = MatchProblem {
                     observer,
                     test_wavelengths_nm: &tests,
                     primaries_nm: &prim,
                     intensity,
-                    pairs,
-                    seed: rng.random(),
+                    pairs: fresh.as_ref().unwrap_or(&base.pairs),
+                    seed,
                 };
-                let sol = solve_matches(&pb, &s.solver);
-                calls += sol.observer_calls;
-                n_shows += sol.shows;
-                tried += 1;
-                let worst = ratio(&sol.errors, &threshold);
-                let passed = sol.errors.iter().zip(&threshold).all(|(e, t)| e < t);
-                if best.as_ref().is_none_or(|b| worst < b.worst_ratio) {
-                    best = Some(ErrorCurve {
-                        n_primaries: k,
-                        area: trapezoid(&tests, &sol.errors),
-                        primaries_nm: prim,
-                        alphas: sol.alphas,
-                        errors: sol.errors,
-                        worst_ratio: worst,
-                        passed,
-                    });
+                let options = MatchOptions {
+                    stop_below: None,
+                    known_at_zero: s.reuse_base_pairs.then_some(known),
+                    resume: None,
+                    front_end: None,
+                };
+                let out = if s.early_rejection {
+                    evaluate_early(
+                        &pb,
+                        &s.solver,
+                        &threshold,
+                        &options,
+                        &order,
+                        s.first_round_wavelengths,
+                        front.as_mut(),
+                    )
+                } else {
+                    evaluate_fully(&pb, &s.solver, &threshold, &options, front.as_mut())
+                };
+                account(&mut summary, &out);
+                let worst = out.worst_ratio(&threshold);
+                let (passed, solved) = (out.passed, out.matches.len());
+                summary.sets_tried = set;
+                if solved < nw {
+                    summary.sets_rejected_early += 1;
                 }
-                let best_ratio = best.as_ref().map_or(f64::INFINITY, |b| b.worst_ratio);
+                summary.sets.push(SetRecord {
+                    primaries_nm: prim.clone(),
+                    wavelengths_solved: solved,
+                    worst_ratio_solved: worst,
+                    passed,
+                });
+                order.move_to_front(&out.failed);
+                if best.as_ref().is_none_or(|b| worst < b.0) {
+                    if out.fully_evaluated {
+                        reported = Some(curve(k, set, &prim, &tests, &threshold, &out));
+                    }
+                    best = Some((worst, set, prim, fresh, seed, out));
+                }
                 progress(&CmfSimProgress {
                     n_primaries: k,
-                    sets_tried: tried,
+                    sets_tried: set,
                     sets_per_k: s.sets_per_k,
-                    best_worst_ratio: best_ratio,
+                    best_worst_ratio: best.as_ref().map_or(f64::INFINITY, |b| b.0),
+                    wavelengths_solved: solved,
                 });
                 if passed {
+                    summary.passed = true;
                     break;
                 }
             }
-            let best = best.expect("at least one set per K");
-            let passed = best.passed;
-            curves.push(best);
-            per_k.push(KSummary {
-                n_primaries: k,
-                sets_tried: tried,
-                passed,
-                seconds: t0.elapsed().as_secs_f64(),
-            });
+            // The reported curve: solved at every wavelength to convergence (continuing the
+            // wavelengths solved so far).
+            let (_, set, prim, fresh, seed, early) = best.expect("at least one set per K");
+            if reported.as_ref().is_none_or(|c| c.set_index != set) {
+                let pb = MatchProblem {
+                    observer,
+                    test_wavelengths_nm: &tests,
+                    primaries_nm: &prim,
+                    intensity,
+                    pairs: fresh.as_ref().unwrap_or(&base.pairs),
+                    seed,
+                };
+                let options = MatchOptions {
+                    stop_below: None,
+                    known_at_zero: s.reuse_base_pairs.then_some(known),
+                    resume: Some(&early.matches),
+                    front_end: None,
+                };
+                let out = evaluate_fully(&pb, &s.solver, &threshold, &options, front.as_mut());
+                summary.reported_curve_shows = out.shows;
+                account(&mut summary, &out);
+                reported = Some(curve(k, set, &prim, &tests, &threshold, &out));
+            }
+            calls += summary.observer_calls;
+            n_shows += summary.shows;
+            curves.push(reported.expect("set above"));
+            summary.seconds = t0.elapsed().as_secs_f64();
+            let passed = summary.passed;
+            per_k.push(summary);
             if passed {
                 dimension = k;
-                break 'k;
+                break;
             }
         }
     }
@@ -419,8 +355,8 @@ pub fn run_cmf_sim_with_progress(
         settings: s.clone(),
         intensity,
         test_wavelengths_nm: tests,
-        base_error,
-        energy,
+        base_error: base.error,
+        energy: base.energy,
         base_error_floor: floor,
         threshold,
         curves,
@@ -429,6 +365,35 @@ pub fn run_cmf_sim_with_progress(
         shows: n_shows,
         seconds: start.elapsed().as_secs_f64(),
     })
+}
+
+fn account(summary: &mut KSummary, out: &SetOutcome) {
+    summary.wavelength_solves += out.matches.len();
+    summary.observer_calls += out.observer_calls;
+    summary.shows += out.shows;
+}
+
+/// The error curve of a fully evaluated set.
+fn curve(
+    k: usize,
+    set: usize,
+    prim: &[f64],
+    tests: &[f64],
+    threshold: &[f64],
+    out: &SetOutcome,
+) -> ErrorCurve {
+    let errors: Vec<f64> = out.matches.iter().map(|m| m.error).collect();
+    ErrorCurve {
+        n_primaries: k,
+        primaries_nm: prim.to_vec(),
+        alphas: out.matches.iter().map(|m| m.alpha.clone()).collect(),
+        area: trapezoid(tests, &errors),
+        worst_ratio: ratio(&errors, threshold),
+        passed: errors.iter().zip(threshold).all(|(e, t)| e < t),
+        errors,
+        set_index: set,
+        fully_evaluated: out.fully_evaluated,
+    }
 }
 
 fn ratio(errors: &[f64], threshold: &[f64]) -> f64 {

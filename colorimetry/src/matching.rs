@@ -11,25 +11,58 @@
 //! fixed list of location pairs, each side with a fixed noise seed (common random numbers, so
 //! `E` is a deterministic function of α and finite differences work on noisy observers).
 //!
-//! α is found by Levenberg–Marquardt from α = 0 (official §4.2's "cheaper alternative"): a
-//! finite-difference Jacobian (one extra show per primary and pair, on the side the primary is
-//! on; both sides, averaged, while α_i = 0), a pure Gauss–Newton step first (μ = 0, exact in one
-//! step for a linear, location-independent observer), and on a failed step a damped step
-//! `(JᵀJ + μ·diag JᵀJ) δ = −Jᵀr` with μ growing tenfold, which moves towards gradient descent —
-//! the fallback for nonlinear observers. All test wavelengths advance in lockstep so that each
-//! iteration is one batched [`Observer::percepts`] call.
+//! α is found by Levenberg–Marquardt from α = 0 (official §4.2's "cheaper alternative"):
+//!
+//! - **Jacobian.** Finite differences, one extra show per primary and pair on the side the
+//!   primary is on: `J⁺_i = ∂Φ(B)/∂α_i` for α_i > 0, `J⁻_i = −∂Φ(A)/∂α_i` for α_i < 0, and both
+//!   while α_i = 0. It is measured only after an accepted step (a rejected step reuses it).
+//!   With [`MatchOptions::front_end`] the first step instead comes from a model measured once
+//!   per location pair ([`FrontEndJacobians`]); if that step fails, differences at α = 0 take
+//!   over, and convergence is only ever declared on a differenced Jacobian.
+//! - **Kinks.** `r` is piecewise smooth with a kink at every α_i = 0 (the primary changes side,
+//!   and the two sides are different locations). The step model uses the column of the side each
+//!   α_i is on and never crosses a kink in one step: an α_i ≠ 0 keeps its side or stops at 0, an
+//!   α_i = 0 stays or moves to either side ([`kink_step`]: ≤ 3^K small least-squares problems,
+//!   the best sign-consistent one wins).
+//! - **Step.** Gauss–Newton first (μ = 0, exact in one step for a linear, location-independent
+//!   observer); after a failed step `(JᵀJ + μ·diag JᵀJ) δ = −Jᵀr`, with μ set by Nielsen's rule
+//!   (grow ×2, ×4, … on failures; shrink by up to 3× when the model predicted the gain well),
+//!   which moves towards gradient descent for nonlinear observers.
+//! - **Stop** when an accepted step improves E by ≤ `rel_tolerance` of E, when E ≤
+//!   `exact_match_rel · E(0)`, after `max_iterations` evaluations, or — if the caller passes a
+//!   threshold ([`MatchOptions::stop_below`]) — as soon as E is below it (CMF-SIM only needs to
+//!   know that a match below the threshold exists). Such a solve can be continued later
+//!   ([`MatchOptions::resume`]) along exactly the path an uninterrupted solve takes.
+//! - **Known percepts.** [`MatchOptions::known_at_zero`] supplies Φ(A), Φ(B) at α = 0 (CMF-SIM's
+//!   base step showed them already).
+//!
+//! All wavelengths being solved advance in lockstep, so each iteration is two batched
+//! [`Observer::percepts`] calls (Jacobian shows, then trial shows).
+
+use serde::{Deserialize, Serialize};
 
 use crate::linalg::{lstsq, DEFAULT_RCOND};
 use crate::observer::{Observer, Show, Stimulus};
 
+mod front_end;
+mod state;
+#[cfg(test)]
+pub(crate) mod tests;
+
+pub use front_end::{FrontEndJacobians, TestPercepts};
+use state::State;
+pub use state::{kink_step, ModelStep};
+
 /// Solver settings.
-#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
 pub struct SolverSettings {
-    /// Maximum LM iterations per wavelength (each one batched observer call).
+    /// Maximum LM iterations (trial evaluations) per wavelength.
     pub max_iterations: usize,
     /// Finite-difference step, in units of the test intensity.
     pub fd_step: f64,
-    /// Stop when an accepted step improves E by less than this fraction.
+    /// Stop when an accepted step improves E by less than this fraction (official §4.2 stops
+    /// Adam at a relative improvement of 1e-3 over 20 iterations; one LM step does more).
     pub rel_tolerance: f64,
     /// Stop when E falls below this fraction of E(0) (an exact match).
     pub exact_match_rel: f64,
@@ -40,13 +73,13 @@ impl Default for SolverSettings {
         SolverSettings {
             max_iterations: 12,
             fd_step: 1e-3,
-            rel_tolerance: 1e-6,
+            rel_tolerance: 1e-4,
             exact_match_rel: 1e-14,
         }
     }
 }
 
-/// One matching problem: all test wavelengths against one primary set.
+/// One matching problem: test wavelengths against one primary set.
 pub struct MatchProblem<'a> {
     /// The observer.
     pub observer: &'a dyn Observer,
@@ -58,11 +91,82 @@ pub struct MatchProblem<'a> {
     pub intensity: f64,
     /// Per test wavelength, the location pairs `[a, b]`.
     pub pairs: &'a [Vec<[[f64; 2]; 2]>],
-    /// Base of the per-show noise seeds.
+    /// Base of the per-show noise seeds: side A of (wavelength w, pair p) uses
+    /// `show_seed(seed, w, p, 1)`, side B `show_seed(seed, w, p, 2)`.
     pub seed: u64,
 }
 
-/// The solution for every test wavelength.
+/// Percepts already measured at α = 0 with the problem's locations and seeds, row-major
+/// `(wavelengths × pairs × N)`: side A is the test light at `a`, side B is black at `b`.
+#[derive(Debug, Clone, Copy)]
+pub struct KnownAtZero<'a> {
+    /// Φ(test light at a).
+    pub side_a: &'a [f64],
+    /// Φ(black at b).
+    pub side_b: &'a [f64],
+}
+
+/// Optional inputs of [`solve_wavelengths`].
+#[derive(Debug, Clone, Copy, Default)]
+pub struct MatchOptions<'a> {
+    /// Per test wavelength (indexed like `test_wavelengths_nm`): stop as soon as E is below this
+    /// value. The α and E returned are then the first iterate below it, not the optimum.
+    pub stop_below: Option<&'a [f64]>,
+    /// Percepts at α = 0 that need not be shown again.
+    pub known_at_zero: Option<KnownAtZero<'a>>,
+    /// The first step's model through the observer's linear front end (for the wavelengths it
+    /// holds; the others start from α-space differences at α = 0).
+    pub front_end: Option<&'a FrontEndJacobians>,
+    /// Earlier solves of (some of) the same wavelengths of the same problem and settings: those
+    /// that stopped below a threshold continue where they stopped, the others are final (the
+    /// result equals an uninterrupted solve).
+    pub resume: Option<&'a [WavelengthMatch]>,
+}
+
+/// The solution for one test wavelength.
+#[derive(Debug, Clone, PartialEq)]
+pub struct WavelengthMatch {
+    /// Index of the test wavelength.
+    pub wavelength: usize,
+    /// α (K values).
+    pub alpha: Vec<f64>,
+    /// E(α).
+    pub error: f64,
+    /// E(0): the percept energy of the test light against black.
+    pub error_at_zero: f64,
+    /// Trial evaluations made.
+    pub iterations: usize,
+    /// True when the solve stopped because E fell below [`MatchOptions::stop_below`].
+    pub stopped_below: bool,
+    /// What [`MatchOptions::resume`] needs to continue a solve that stopped below a threshold.
+    pub resume: Option<Resume>,
+}
+
+/// The solver state of a wavelength that stopped below its threshold.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Resume {
+    /// LM damping μ and Nielsen's growth factor ν.
+    pub mu: f64,
+    /// ν.
+    pub nu: f64,
+    /// Φ(A), Φ(B) at α, `(pairs × N)`.
+    pub side_a: Vec<f64>,
+    /// Φ(B).
+    pub side_b: Vec<f64>,
+}
+
+/// What [`solve_wavelengths`] returns.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MatchReport {
+    /// One entry per requested wavelength, in the order requested.
+    pub matches: Vec<WavelengthMatch>,
+    /// Batched observer calls made.
+    pub observer_calls: usize,
+    /// Single shows evaluated.
+    pub shows: usize,
+}
+
+/// The solution for every test wavelength ([`solve_matches`]).
 #[derive(Debug, Clone, PartialEq)]
 pub struct MatchSolution {
     /// α per test wavelength (K values each).
@@ -86,315 +190,287 @@ pub fn show_seed(base: u64, wavelength: usize, pair: usize, side: u64) -> u64 {
     z ^ (z >> 31)
 }
 
+/// Side A: the test light plus `−α_i` of every primary with α_i < 0, plus `h` of primary
+/// `extra` (a finite-difference show).
 fn side_a(
     test_nm: f64,
     prim: &[f64],
     alpha: &[f64],
-    intensity: f64,
+    i0: f64,
     extra: Option<usize>,
     h: f64,
 ) -> Stimulus {
-    let mut lines = vec![(test_nm, intensity)];
+    let mut lines = vec![(test_nm, i0)];
     for (i, (&p, &a)) in prim.iter().zip(alpha).enumerate() {
         let amount = (-a).max(0.0) + if extra == Some(i) { h } else { 0.0 };
         if amount > 0.0 {
-            lines.push((p, amount * intensity));
+            lines.push((p, amount * i0));
         }
     }
     Stimulus::Lines(lines)
 }
 
-fn side_b(prim: &[f64], alpha: &[f64], intensity: f64, extra: Option<usize>, h: f64) -> Stimulus {
+/// Side B: `α_i` of every primary with α_i > 0, plus `h` of primary `extra`.
+fn side_b(prim: &[f64], alpha: &[f64], i0: f64, extra: Option<usize>, h: f64) -> Stimulus {
     let mut lines = Vec::with_capacity(prim.len());
     for (i, (&p, &a)) in prim.iter().zip(alpha).enumerate() {
         let amount = a.max(0.0) + if extra == Some(i) { h } else { 0.0 };
         if amount > 0.0 {
-            lines.push((p, amount * intensity));
+            lines.push((p, amount * i0));
         }
     }
     Stimulus::Lines(lines)
 }
 
-/// Residuals (pairs × N), Jacobian (pairs × N × K, row-major) and E at one α.
-struct Linearisation {
-    err: f64,
-    r: Vec<f64>,
-    j: Vec<f64>,
-}
-
-/// Where the shows of one (wavelength, pair) sit in the batch.
-struct PairLayout {
-    a: usize,
-    b: usize,
-    /// (primary, show index, show is side B)
-    fd: Vec<(usize, usize, bool)>,
-}
-
-/// Evaluate E, r and J at `alphas[w]` for every wavelength in `active` with one observer call.
-fn linearise(
-    pb: &MatchProblem<'_>,
-    active: &[usize],
-    alphas: &[Vec<f64>],
+/// The shows of one batched call and the running call/show counts.
+struct Batch<'p, 'a> {
+    pb: &'p MatchProblem<'a>,
+    /// Finite-difference step (units of I).
     h: f64,
-    shows: &mut Vec<Show>,
-    out: &mut Vec<f64>,
-) -> Vec<Linearisation> {
-    let n = pb.observer.percept_dim();
-    let k = pb.primaries_nm.len();
-    let (prim, intensity) = (pb.primaries_nm, pb.intensity);
-    shows.clear();
-    let mut layout: Vec<Vec<PairLayout>> = Vec::with_capacity(active.len());
-    for &w in active {
-        let alpha = &alphas[w];
-        let test = pb.test_wavelengths_nm[w];
-        let mut per_pair = Vec::with_capacity(pb.pairs[w].len());
-        for (p, &[loc_a, loc_b]) in pb.pairs[w].iter().enumerate() {
-            let (seed_a, seed_b) = (show_seed(pb.seed, w, p, 1), show_seed(pb.seed, w, p, 2));
-            let show_a = |extra| Show {
-                stimulus: side_a(test, prim, alpha, intensity, extra, h),
-                location: loc_a,
-                noise_seed: seed_a,
-            };
-            let show_b = |extra| Show {
-                stimulus: side_b(prim, alpha, intensity, extra, h),
-                location: loc_b,
-                noise_seed: seed_b,
-            };
-            let a = shows.len();
-            shows.push(show_a(None));
-            shows.push(show_b(None));
-            let mut fd = Vec::with_capacity(2 * k);
-            for (i, &ai) in alpha.iter().enumerate() {
-                if ai >= 0.0 {
-                    fd.push((i, shows.len(), true));
-                    shows.push(show_b(Some(i)));
-                }
-                if ai <= 0.0 {
-                    fd.push((i, shows.len(), false));
-                    shows.push(show_a(Some(i)));
-                }
-            }
-            per_pair.push(PairLayout { a, b: a + 1, fd });
-        }
-        layout.push(per_pair);
-    }
-    out.clear();
-    out.resize(shows.len() * n, 0.0);
-    pb.observer.percepts(shows, out);
-    let pct = |s: usize| &out[s * n..(s + 1) * n];
-    layout
-        .iter()
-        .map(|per_pair| {
-            let np = per_pair.len();
-            let mut r = vec![0.0; np * n];
-            let mut j = vec![0.0; np * n * k];
-            let mut count = vec![0.0f64; k];
-            let mut err = 0.0;
-            for (p, pl) in per_pair.iter().enumerate() {
-                let (pa, pbv) = (pct(pl.a), pct(pl.b));
-                for d in 0..n {
-                    r[p * n + d] = pbv[d] - pa[d];
-                    err += r[p * n + d].powi(2);
-                }
-                count.fill(0.0);
-                for &(i, s, on_b) in &pl.fd {
-                    // dr/dα_i: on B, more of p_i raises Φ(B); on A, more of p_i means lower α_i,
-                    // so (Φ(A') − Φ(A))/h is again dr/dα_i.
-                    let base = if on_b { pbv } else { pa };
-                    let pert = pct(s);
-                    for d in 0..n {
-                        j[(p * n + d) * k + i] += (pert[d] - base[d]) / h;
-                    }
-                    count[i] += 1.0;
-                }
-                for d in 0..n {
-                    for i in 0..k {
-                        j[(p * n + d) * k + i] /= count[i].max(1.0);
-                    }
-                }
-            }
-            Linearisation {
-                err: err / np as f64,
-                r,
-                j,
-            }
-        })
-        .collect()
+    shows: Vec<Show>,
+    out: Vec<f64>,
+    calls: usize,
+    total: usize,
 }
 
-/// The damped Gauss–Newton step for one wavelength.
-fn lm_step(lin: &Linearisation, k: usize, mu: f64) -> Vec<f64> {
-    let rows = lin.r.len();
-    let mut diag = vec![0.0; k];
-    for row in 0..rows {
-        for i in 0..k {
-            diag[i] += lin.j[row * k + i].powi(2);
+impl<'p, 'a> Batch<'p, 'a> {
+    fn new(pb: &'p MatchProblem<'a>, h: f64) -> Self {
+        Batch {
+            pb,
+            h,
+            shows: Vec::new(),
+            out: Vec::new(),
+            calls: 0,
+            total: 0,
         }
     }
-    let extra = if mu > 0.0 { k } else { 0 };
-    let mut a = Vec::with_capacity((rows + extra) * k);
-    a.extend_from_slice(&lin.j);
-    let mut b: Vec<f64> = lin.r.iter().map(|v| -v).collect();
-    if mu > 0.0 {
-        for i in 0..k {
-            for c in 0..k {
-                a.push(if c == i {
-                    (mu * diag[i].max(1e-300)).sqrt()
-                } else {
-                    0.0
-                });
-            }
-            b.push(0.0);
-        }
+
+    /// Queue side A (`on_b = false`) or B of wavelength `w`, pair `p` at `alpha` (+ `h` of
+    /// primary `extra`); returns the show's index.
+    fn push(
+        &mut self,
+        w: usize,
+        p: usize,
+        on_b: bool,
+        alpha: &[f64],
+        extra: Option<usize>,
+    ) -> usize {
+        let pb = self.pb;
+        let h = self.h;
+        let [loc_a, loc_b] = pb.pairs[w][p];
+        let (stimulus, location, side) = if on_b {
+            (
+                side_b(pb.primaries_nm, alpha, pb.intensity, extra, h),
+                loc_b,
+                2,
+            )
+        } else {
+            let t = pb.test_wavelengths_nm[w];
+            (
+                side_a(t, pb.primaries_nm, alpha, pb.intensity, extra, h),
+                loc_a,
+                1,
+            )
+        };
+        self.shows.push(Show {
+            stimulus,
+            location,
+            noise_seed: show_seed(pb.seed, w, p, side),
+        });
+        self.shows.len() - 1
     }
-    lstsq(&a, rows + extra, k, &b, 1, DEFAULT_RCOND).x
+
+    /// Evaluate the queued shows (if any).
+    fn run(&mut self) {
+        if self.shows.is_empty() {
+            return;
+        }
+        let n = self.pb.observer.percept_dim();
+        self.out.clear();
+        self.out.resize(self.shows.len() * n, 0.0);
+        self.pb.observer.percepts(&self.shows, &mut self.out);
+        self.calls += 1;
+        self.total += self.shows.len();
+    }
+
+    fn percept(&self, s: usize) -> &[f64] {
+        let n = self.pb.observer.percept_dim();
+        &self.out[s * n..(s + 1) * n]
+    }
+
+    fn clear(&mut self) {
+        self.shows.clear();
+    }
 }
 
-/// Solve every test wavelength of `pb`.
-pub fn solve_matches(pb: &MatchProblem<'_>, settings: &SolverSettings) -> MatchSolution {
+/// Solve the wavelengths `which` (indices into `pb.test_wavelengths_nm`) of `pb`.
+///
+/// # Panics
+/// If `pb.pairs` does not have one list per test wavelength, an index is out of range, or the
+/// known percepts do not have `(wavelengths × pairs × N)` values.
+pub fn solve_wavelengths(
+    pb: &MatchProblem<'_>,
+    settings: &SolverSettings,
+    which: &[usize],
+    options: &MatchOptions<'_>,
+) -> MatchReport {
     let nw = pb.test_wavelengths_nm.len();
-    let k = pb.primaries_nm.len();
     assert_eq!(
         pb.pairs.len(),
         nw,
-        "solve_matches: {} pair lists for {nw} wavelengths",
+        "solve_wavelengths: {} pair lists for {nw} wavelengths",
         pb.pairs.len()
     );
-    let h = settings.fd_step;
-    let mut shows = Vec::new();
-    let mut out = Vec::new();
-    let mut alphas = vec![vec![0.0; k]; nw];
-    let all: Vec<usize> = (0..nw).collect();
-    let mut cur = linearise(pb, &all, &alphas, h, &mut shows, &mut out);
-    let mut calls = 1;
-    let mut n_shows = shows.len();
-    let errors_at_zero: Vec<f64> = cur.iter().map(|l| l.err).collect();
-    let mut mu = vec![0.0f64; nw];
-    let mut active: Vec<usize> = (0..nw)
-        .filter(|&w| k > 0 && errors_at_zero[w] > 0.0)
+    let n = pb.observer.percept_dim();
+    let mut batch = Batch::new(pb, settings.fd_step);
+    let mut states: Vec<State> = which
+        .iter()
+        .map(|&w| {
+            assert!(w < nw, "solve_wavelengths: wavelength {w} of {nw}");
+            State::new(w, pb.primaries_nm.len(), pb.pairs[w].len(), n)
+        })
         .collect();
-    let mut trial = alphas.clone();
-    for _ in 0..settings.max_iterations {
-        if active.is_empty() {
-            break;
+
+    // E(0): known percepts or one call.
+    let mut pending: Vec<(usize, usize, usize, usize)> = Vec::new(); // (state, pair, show A, show B)
+    for (si, s) in states.iter_mut().enumerate() {
+        let np = pb.pairs[s.w].len();
+        let earlier = options
+            .resume
+            .and_then(|r| r.iter().find(|m| m.wavelength == s.w && m.resume.is_some()));
+        if let Some(m) = earlier {
+            s.resume(m);
+            continue;
         }
-        for &w in &active {
-            let step = lm_step(&cur[w], k, mu[w]);
-            for i in 0..k {
-                trial[w][i] = alphas[w][i] + step[i];
+        match options.known_at_zero {
+            Some(known) => {
+                let start = known_offset(pb, s.w) * n;
+                let len = np * n;
+                assert!(
+                    known.side_a.len() >= start + len && known.side_b.len() >= start + len,
+                    "solve_wavelengths: known percepts hold {} / {} values, need {}",
+                    known.side_a.len(),
+                    known.side_b.len(),
+                    start + len
+                );
+                s.pa.copy_from_slice(&known.side_a[start..start + len]);
+                s.pb.copy_from_slice(&known.side_b[start..start + len]);
+            }
+            None => {
+                for p in 0..np {
+                    let zero = vec![0.0; pb.primaries_nm.len()];
+                    let a = batch.push(s.w, p, false, &zero, None);
+                    let b = batch.push(s.w, p, true, &zero, None);
+                    pending.push((si, p, a, b));
+                }
             }
         }
-        let lins = linearise(pb, &active, &trial, h, &mut shows, &mut out);
-        calls += 1;
-        n_shows += shows.len();
-        let mut still = Vec::with_capacity(active.len());
-        for (lin, &w) in lins.into_iter().zip(&active) {
-            let old = cur[w].err;
-            if lin.err < old {
-                alphas[w].clone_from(&trial[w]);
-                let done = old - lin.err <= settings.rel_tolerance * old
-                    || lin.err <= settings.exact_match_rel * errors_at_zero[w];
-                cur[w] = lin;
-                mu[w] = if mu[w] < 1e-9 { 0.0 } else { mu[w] / 10.0 };
-                if !done {
-                    still.push(w);
-                }
-            } else if lin.err <= old * (1.0 + settings.rel_tolerance) {
-                // No meaningful change either way: α is at the (local) optimum.
-            } else {
-                mu[w] = if mu[w] == 0.0 { 1e-3 } else { mu[w] * 10.0 };
-                if mu[w] < 1e8 {
-                    still.push(w);
-                }
-            }
-        }
-        active = still;
     }
-    MatchSolution {
-        errors: cur.iter().map(|l| l.err).collect(),
-        alphas,
-        errors_at_zero,
-        observer_calls: calls,
-        shows: n_shows,
+    batch.run();
+    for &(si, p, a, b) in &pending {
+        let s = &mut states[si];
+        s.pa[p * n..(p + 1) * n].copy_from_slice(batch.percept(a));
+        s.pb[p * n..(p + 1) * n].copy_from_slice(batch.percept(b));
+    }
+    batch.clear();
+    let classes: Option<Vec<Vec<f64>>> = options.front_end.map(|f| {
+        pb.primaries_nm
+            .iter()
+            .map(|&p| {
+                let c = f.class_vector(pb.observer.grid(), p);
+                c.into_iter().map(|v| v * pb.intensity).collect()
+            })
+            .collect()
+    });
+    for s in states.iter_mut().filter(|s| !s.resumed) {
+        s.start(options.stop_below.map(|t| t[s.w]), settings.max_iterations);
+        if let (Some(f), Some(c)) = (options.front_end, &classes) {
+            if s.active {
+                s.j_valid = s.model_from(f, c);
+            }
+        }
+    }
+
+    // Every active state makes one trial per pass and stops at max_iterations.
+    while states.iter().any(|s| s.active) {
+        // Jacobians where the last step was accepted.
+        let mut fd = Vec::new();
+        for (si, s) in states
+            .iter()
+            .enumerate()
+            .filter(|(_, s)| s.active && !s.j_valid)
+        {
+            for p in 0..pb.pairs[s.w].len() {
+                for (i, &ai) in s.alpha.iter().enumerate() {
+                    if ai >= 0.0 {
+                        fd.push((si, p, i, true, batch.push(s.w, p, true, &s.alpha, Some(i))));
+                    }
+                    if ai <= 0.0 {
+                        fd.push((
+                            si,
+                            p,
+                            i,
+                            false,
+                            batch.push(s.w, p, false, &s.alpha, Some(i)),
+                        ));
+                    }
+                }
+            }
+        }
+        batch.run();
+        for &(si, p, i, on_b, show) in &fd {
+            states[si].set_column(p, i, on_b, batch.percept(show), settings.fd_step);
+        }
+        for &(si, ..) in &fd {
+            states[si].mark_measured();
+        }
+        batch.clear();
+
+        // Trial steps.
+        let mut trial_shows = Vec::new();
+        for (si, s) in states.iter_mut().enumerate().filter(|(_, s)| s.active) {
+            let (change_a, change_b) = s.propose();
+            for p in 0..pb.pairs[s.w].len() {
+                let a = change_a.then(|| batch.push(s.w, p, false, &s.trial, None));
+                let b = change_b.then(|| batch.push(s.w, p, true, &s.trial, None));
+                trial_shows.push((si, p, a, b));
+            }
+        }
+        batch.run();
+        for &(si, p, a, b) in &trial_shows {
+            states[si].take_trial(p, a.map(|s| batch.percept(s)), b.map(|s| batch.percept(s)));
+        }
+        batch.clear();
+        for s in states.iter_mut().filter(|s| s.active) {
+            s.judge(settings, options.stop_below.map(|t| t[s.w]));
+        }
+    }
+    MatchReport {
+        matches: states.into_iter().map(State::finish).collect(),
+        observer_calls: batch.calls,
+        shows: batch.total,
     }
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::analytic::ConeObserver;
-    use crate::cones::{ConeClass, ConeTemplate};
-    use crate::grid::WavelengthGrid;
+/// Offset (in shows) of wavelength `w`'s first pair in a `(wavelengths × pairs)` layout.
+fn known_offset(pb: &MatchProblem<'_>, w: usize) -> usize {
+    pb.pairs[..w].iter().map(Vec::len).sum()
+}
 
-    fn lms() -> ConeObserver {
-        ConeObserver::new(
-            &ConeClass::lms(),
-            &ConeTemplate::default(),
-            &WavelengthGrid::default(),
-        )
-        .unwrap()
+/// Solve every test wavelength of `pb` to convergence.
+pub fn solve_matches(pb: &MatchProblem<'_>, settings: &SolverSettings) -> MatchSolution {
+    let all: Vec<usize> = (0..pb.test_wavelengths_nm.len()).collect();
+    let r = solve_wavelengths(pb, settings, &all, &MatchOptions::default());
+    MatchSolution {
+        errors: r.matches.iter().map(|m| m.error).collect(),
+        errors_at_zero: r.matches.iter().map(|m| m.error_at_zero).collect(),
+        alphas: r.matches.into_iter().map(|m| m.alpha).collect(),
+        observer_calls: r.observer_calls,
+        shows: r.shows,
     }
+}
 
-    #[test]
-    fn primary_matches_itself_with_alpha_one() {
-        let o = lms();
-        let prim = [450.0, 540.0, 610.0];
-        let tests = [450.0, 540.0, 610.0, 500.0];
-        let pairs = vec![vec![[[-0.5, 0.0], [0.5, 0.0]]]; 4];
-        let pb = MatchProblem {
-            observer: &o,
-            test_wavelengths_nm: &tests,
-            primaries_nm: &prim,
-            intensity: 1.0,
-            pairs: &pairs,
-            seed: 1,
-        };
-        let s = solve_matches(&pb, &SolverSettings::default());
-        for (w, a) in s.alphas.iter().take(3).enumerate() {
-            for (i, &v) in a.iter().enumerate() {
-                let want = if i == w { 1.0 } else { 0.0 };
-                assert!((v - want).abs() < 1e-9, "test {w}: α {a:?}");
-            }
-        }
-        // 500 nm needs a negative red (r̄ < 0 between the blue and green primaries)
-        assert!(s.alphas[3][2] < 0.0, "{:?}", s.alphas[3]);
-        for (e, e0) in s.errors.iter().zip(&s.errors_at_zero) {
-            assert!(*e <= 1e-14 * e0, "{e} vs {e0}");
-        }
-    }
-
-    #[test]
-    fn too_few_primaries_leave_a_residual_and_match_least_squares() {
-        let o = lms();
-        let prim = [450.0, 600.0];
-        let tests = [520.0];
-        let pairs = vec![vec![[[-0.5, 0.0], [0.5, 0.0]]]];
-        let pb = MatchProblem {
-            observer: &o,
-            test_wavelengths_nm: &tests,
-            primaries_nm: &prim,
-            intensity: 1.0,
-            pairs: &pairs,
-            seed: 1,
-        };
-        let s = solve_matches(&pb, &SolverSettings::default());
-        assert!(s.errors[0] > 1e-6 * s.errors_at_zero[0]);
-        // compare with the unconstrained linear least-squares optimum
-        let col = |w: f64| {
-            let mut e = vec![0.0; 3];
-            o.excitations_into(&Stimulus::monochromatic(w, 1.0), &mut e);
-            e
-        };
-        let (p0, p1, t) = (col(450.0), col(600.0), col(520.0));
-        let a: Vec<f64> = (0..3).flat_map(|d| [p0[d], p1[d]]).collect();
-        let best = lstsq(&a, 3, 2, &t, 1, DEFAULT_RCOND).x;
-        let res: f64 = (0..3)
-            .map(|d| (p0[d] * best[0] + p1[d] * best[1] - t[d]).powi(2))
-            .sum();
-        assert!(
-            (s.errors[0] - res).abs() <= 1e-9 * res,
-            "{} vs {res}",
-            s.errors[0]
-        );
-    }
+/// Least-squares helper shared with [`state`]: minimum-norm `x` of `A·x ≈ b`.
+fn solve_small(a: &[f64], rows: usize, cols: usize, b: &[f64]) -> Vec<f64> {
+    lstsq(a, rows, cols, b, 1, DEFAULT_RCOND).x
 }

@@ -138,6 +138,16 @@ pub trait Observer: Sync {
         1.0
     }
 
+    /// The observer's linear front end, if it has one: rows `M_j` (each on [`Observer::grid`])
+    /// such that the percept of any stimulus at a location depends on its spectrum `s` only
+    /// through `v = M·s` (e.g. the cone-class excitations of a noise-free eye). CMF-SIM then
+    /// measures Jacobians in `v` once per location pair and reuses them for every primary set
+    /// ([`crate::matching::FrontEndJacobians`]); it shows spectra `M⁺·e_j`, which may be
+    /// negative. Default: none.
+    fn linear_front_end(&self) -> Option<Vec<Vec<f64>>> {
+        None
+    }
+
     /// Draw two distinct random patch locations (the two sides of a matching trial). Default:
     /// uniform in `[−1 + m, 1 − m]²` with `m =` [`DEFAULT_BORDER_MARGIN`], at least
     /// [`DEFAULT_MIN_PAIR_DISTANCE`] apart.

@@ -6,6 +6,7 @@
 use super::*;
 use crate::analytic::{ConeObserver, LocationDependentObserver, NakaRushtonObserver};
 use crate::cones::{ConeClass, ConeTemplate};
+use crate::matching::tests::WithFrontEnd;
 
 fn fast(seed: u64) -> CmfSimSettings {
     CmfSimSettings {
@@ -161,4 +162,139 @@ fn stratified_primaries_respect_bands_and_spacing() {
         }
     }
     assert!(stratified_primaries(100, (400.0, 700.0), 5.0, &mut rng).is_err());
+}
+
+/// Observers for the early-rejection and front-end comparisons (two location pairs, so that
+/// matches are judged over more than one pair).
+fn comparison_observers() -> Vec<(Box<dyn Observer>, usize)> {
+    let (l, m, s) = (ConeClass::l(), ConeClass::m(), ConeClass::s());
+    let tetra = vec![l.clone(), m.clone(), s.clone(), ConeClass::pigeon_q()];
+    let rank_deficient =
+        ConeObserver::rank_deficient_lms(&ConeTemplate::default(), &WavelengthGrid::default())
+            .unwrap();
+    vec![
+        (Box::new(cones(&[l.clone(), s])), 2),
+        (Box::new(cones(&ConeClass::lms())), 3),
+        (Box::new(cones(&tetra)), 4),
+        (Box::new(rank_deficient), 3),
+        (
+            Box::new(NakaRushtonObserver::new(cones(&ConeClass::lms()), 0.5)),
+            3,
+        ),
+        (Box::new(cones(&[m])), 1),
+    ]
+}
+
+#[test]
+fn early_rejection_gives_the_verdicts_of_full_evaluation() {
+    for (i, (o, k)) in comparison_observers().iter().enumerate() {
+        let settings = CmfSimSettings {
+            location_pairs: 2,
+            front_end_jacobians: false,
+            ..fast(31 + i as u64)
+        };
+        let early = run_cmf_sim(o.as_ref(), &settings).unwrap();
+        let full = run_cmf_sim(
+            o.as_ref(),
+            &CmfSimSettings {
+                early_rejection: false,
+                ..settings.clone()
+            },
+        )
+        .unwrap();
+        assert_eq!((early.dimension, full.dimension), (*k, *k), "{}", o.name());
+        assert_eq!(early.per_k.len(), full.per_k.len());
+        for (e, f) in early.per_k.iter().zip(&full.per_k) {
+            // the same sets, the same verdict for every one of them
+            assert_eq!(
+                (e.sets_tried, e.passed),
+                (f.sets_tried, f.passed),
+                "{}",
+                o.name()
+            );
+            for (se, sf) in e.sets.iter().zip(&f.sets) {
+                assert_eq!(se.primaries_nm, sf.primaries_nm);
+                assert_eq!(se.passed, sf.passed, "{}: {se:?} vs {sf:?}", o.name());
+                assert!(se.wavelengths_solved <= sf.wavelengths_solved);
+            }
+        }
+        // the passing set is reported fully evaluated, identical in both modes
+        let (ce, cf) = (&early.curves[*k], &full.curves[*k]);
+        assert!(ce.fully_evaluated && cf.fully_evaluated && ce.passed);
+        assert_eq!(ce.set_index, cf.set_index);
+        for (a, b) in ce.errors.iter().zip(&cf.errors) {
+            assert!((a - b).abs() <= 1e-12 * b.abs().max(1e-300), "{a} vs {b}");
+        }
+        // every reported curve covers every wavelength
+        assert!(early
+            .curves
+            .iter()
+            .all(|c| c.errors.len() == early.test_wavelengths_nm.len()));
+        // early rejection solved far fewer wavelengths for the failing K
+        let solves = |r: &CmfSimResult| r.per_k.iter().map(|s| s.wavelength_solves).sum::<usize>();
+        if *k > 1 {
+            assert!(solves(&early) * 2 < solves(&full), "{}", o.name());
+            assert!(early.shows < full.shows);
+        }
+    }
+}
+
+#[test]
+fn front_end_model_keeps_the_dimension_exact() {
+    let lms = cones(&ConeClass::lms());
+    let tetra_classes = vec![
+        ConeClass::l(),
+        ConeClass::m(),
+        ConeClass::s(),
+        ConeClass::pigeon_q(),
+    ];
+    let tetra = cones(&tetra_classes);
+    let rank_deficient =
+        ConeObserver::rank_deficient_lms(&ConeTemplate::default(), &WavelengthGrid::default())
+            .unwrap();
+    let cases: Vec<(Box<dyn Observer>, usize)> = vec![
+        (
+            Box::new(WithFrontEnd::new(cones(&ConeClass::lms()), &lms)),
+            3,
+        ),
+        (
+            Box::new(WithFrontEnd::new(cones(&tetra_classes), &tetra)),
+            4,
+        ),
+        (
+            Box::new(WithFrontEnd::new(rank_deficient.clone(), &rank_deficient)),
+            3,
+        ),
+        (
+            Box::new(WithFrontEnd::new(
+                NakaRushtonObserver::new(cones(&ConeClass::lms()), 0.5),
+                &lms,
+            )),
+            3,
+        ),
+    ];
+    for (i, (o, k)) in cases.iter().enumerate() {
+        let settings = CmfSimSettings {
+            location_pairs: 2,
+            ..fast(41 + i as u64)
+        };
+        let with = run_cmf_sim(o.as_ref(), &settings).unwrap();
+        assert_eq!(with.dimension, *k, "{}: {}", o.name(), with.verdict);
+        let without = run_cmf_sim(
+            o.as_ref(),
+            &CmfSimSettings {
+                front_end_jacobians: false,
+                ..settings.clone()
+            },
+        )
+        .unwrap();
+        assert_eq!(without.dimension, *k);
+        assert!(with.curves[*k].worst_ratio < 1.0);
+        eprintln!(
+            "{}: {} shows with the front-end model, {} without",
+            o.name(),
+            with.shows,
+            without.shows
+        );
+    }
 }

@@ -1,0 +1,183 @@
+//! Evaluating one primary set in CMF-SIM: fully (every test wavelength solved to convergence) or
+//! with early rejection.
+//!
+//! **Early rejection.** A set fails as soon as one test wavelength's converged error reaches its
+//! threshold, so the wavelengths are solved in rounds of 1, 2, 4, … (in [`WavelengthOrder`]) and
+//! the set is rejected after the first round with a failure. Inside a round a wavelength stops as
+//! soon as its error is below its threshold ([`MatchOptions::stop_below`]): the pass test only
+//! needs a match below it to exist. Both shortcuts leave every verdict unchanged — the solver's
+//! path for a wavelength does not depend on which other wavelengths share its batch, and an
+//! accepted LM step never raises the error — so the set passes or fails exactly as under full
+//! evaluation (tested on the analytic observers). Only the reported curves (the passing set, and
+//! the best rejected set per failed K) are then solved fully at every wavelength.
+//!
+//! **Order.** Wavelengths start in decreasing order of `energy / threshold` (hardest to match
+//! with nothing) and every rejecting wavelength moves to the front (move-to-front), so later sets
+//! are tested first where earlier sets failed.
+
+use crate::matching::{
+    solve_wavelengths, FrontEndJacobians, MatchOptions, MatchProblem, SolverSettings, TestPercepts,
+    WavelengthMatch,
+};
+
+/// The front-end model ([`FrontEndJacobians`]) and the base percepts it is measured against.
+pub struct FrontEnd<'a> {
+    /// Models measured so far.
+    pub jacobians: FrontEndJacobians,
+    /// The base step's test-light percepts.
+    pub test: TestPercepts<'a>,
+}
+
+/// The order in which early rejection visits the test wavelengths.
+#[derive(Debug, Clone, PartialEq)]
+pub struct WavelengthOrder {
+    order: Vec<usize>,
+}
+
+impl WavelengthOrder {
+    /// Decreasing `energy / threshold`.
+    pub fn by_energy_ratio(energy: &[f64], threshold: &[f64]) -> Self {
+        let mut order: Vec<usize> = (0..energy.len()).collect();
+        let ratio = |w: usize| energy[w] / threshold[w];
+        order.sort_by(|&a, &b| ratio(b).total_cmp(&ratio(a)).then(a.cmp(&b)));
+        WavelengthOrder { order }
+    }
+
+    /// The wavelength indices in order.
+    pub fn as_slice(&self) -> &[usize] {
+        &self.order
+    }
+
+    /// Move `failed` (in the given order) to the front.
+    pub fn move_to_front(&mut self, failed: &[usize]) {
+        self.order.retain(|w| !failed.contains(w));
+        let mut front = failed.to_vec();
+        front.extend_from_slice(&self.order);
+        self.order = front;
+    }
+}
+
+/// The outcome of one set.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SetOutcome {
+    /// Whether every wavelength matched below its threshold.
+    pub passed: bool,
+    /// The matches that were solved (all wavelengths, or up to the rejecting round), by
+    /// wavelength index order of solving.
+    pub matches: Vec<WavelengthMatch>,
+    /// Whether every wavelength was solved to convergence (no early stop of any kind).
+    pub fully_evaluated: bool,
+    /// Wavelengths whose error reached the threshold, worst ratio first.
+    pub failed: Vec<usize>,
+    /// Observer calls and shows spent.
+    pub observer_calls: usize,
+    /// Shows evaluated.
+    pub shows: usize,
+}
+
+impl SetOutcome {
+    /// `max error / threshold` over the solved wavelengths.
+    pub fn worst_ratio(&self, threshold: &[f64]) -> f64 {
+        self.matches
+            .iter()
+            .map(|m| m.error / threshold[m.wavelength])
+            .fold(0.0, f64::max)
+    }
+}
+
+fn outcome(
+    matches: Vec<WavelengthMatch>,
+    threshold: &[f64],
+    fully: bool,
+    calls: usize,
+    shows: usize,
+) -> SetOutcome {
+    let mut failed: Vec<(usize, f64)> = matches
+        .iter()
+        .filter(|m| !(m.error < threshold[m.wavelength]))
+        .map(|m| (m.wavelength, m.error / threshold[m.wavelength]))
+        .collect();
+    failed.sort_by(|a, b| b.1.total_cmp(&a.1));
+    SetOutcome {
+        passed: failed.is_empty(),
+        failed: failed.into_iter().map(|f| f.0).collect(),
+        matches,
+        fully_evaluated: fully,
+        observer_calls: calls,
+        shows,
+    }
+}
+
+/// Solve `which` with `options`, measuring the front-end Jacobians they lack first.
+fn solve(
+    pb: &MatchProblem<'_>,
+    solver: &SolverSettings,
+    which: &[usize],
+    options: &MatchOptions<'_>,
+    front: &mut Option<&mut FrontEnd<'_>>,
+) -> (Vec<WavelengthMatch>, usize, usize) {
+    let (mut calls, mut shows) = (0, 0);
+    if let Some(f) = front.as_deref_mut() {
+        let n = f.jacobians.measure(pb, which, f.test);
+        calls += usize::from(n > 0);
+        shows += n;
+    }
+    let opts = MatchOptions {
+        front_end: front.as_deref().map(|f| &f.jacobians),
+        ..*options
+    };
+    let r = solve_wavelengths(pb, solver, which, &opts);
+    (r.matches, calls + r.observer_calls, shows + r.shows)
+}
+
+/// Solve every wavelength to convergence.
+pub fn evaluate_fully(
+    pb: &MatchProblem<'_>,
+    solver: &SolverSettings,
+    threshold: &[f64],
+    options: &MatchOptions<'_>,
+    mut front: Option<&mut FrontEnd<'_>>,
+) -> SetOutcome {
+    let all: Vec<usize> = (0..pb.test_wavelengths_nm.len()).collect();
+    let full = MatchOptions {
+        stop_below: None,
+        ..*options
+    };
+    let (mut matches, calls, shows) = solve(pb, solver, &all, &full, &mut front);
+    matches.sort_by_key(|m| m.wavelength);
+    outcome(matches, threshold, true, calls, shows)
+}
+
+/// Solve in rounds of `first_round`, 2·`first_round`, … wavelengths along `order`, each
+/// wavelength stopping below its threshold; stop after the first round with a failure.
+pub fn evaluate_early(
+    pb: &MatchProblem<'_>,
+    solver: &SolverSettings,
+    threshold: &[f64],
+    options: &MatchOptions<'_>,
+    order: &WavelengthOrder,
+    first_round: usize,
+    mut front: Option<&mut FrontEnd<'_>>,
+) -> SetOutcome {
+    let order = order.as_slice();
+    let opts = MatchOptions {
+        stop_below: Some(threshold),
+        ..*options
+    };
+    let (mut matches, mut calls, mut shows) = (Vec::new(), 0, 0);
+    let (mut done, mut size) = (0, first_round.max(1));
+    while done < order.len() {
+        let round = &order[done..(done + size).min(order.len())];
+        let (r, c, n) = solve(pb, solver, round, &opts, &mut front);
+        calls += c;
+        shows += n;
+        let failed = r.iter().any(|m| !(m.error < threshold[m.wavelength]));
+        matches.extend(r);
+        done += round.len();
+        size *= 2;
+        if failed {
+            break;
+        }
+    }
+    outcome(matches, threshold, false, calls, shows)
+}
