@@ -56,6 +56,13 @@ pub struct Schedule {
     pub eval_batches: usize,
     /// Stop training early once CMF-SIM has reported this dimension (0: never stop early).
     pub stop_at_dimension: usize,
+    /// Primary sets per K for the CMF-SIM measurements during training (0: as `cmf_sim`). The
+    /// measurement after the last step always uses the full `cmf_sim` budget.
+    pub checkpoint_cmf_sets_per_k: usize,
+    /// Test wavelengths for the measurements during training (0: as `cmf_sim`).
+    pub checkpoint_cmf_wavelengths: usize,
+    /// Location pairs for the measurements during training (0: as `cmf_sim`).
+    pub checkpoint_cmf_location_pairs: usize,
 }
 
 /// Everything a run needs.
@@ -110,8 +117,16 @@ impl RunConfig {
             "paper" => (100_000, 10_000, 100, 100, 8),
             // quick: CMF-SIM at the end with a paper-like budget (100 wavelengths, 8 pairs as
             // official §4.2, 100 sets per K as the note's "all fail" budget; the paper used 500):
-            // 195–306 s on a trained quick LMS cortex on this 2-core machine under load.
-            _ => (3000, 0, 100, 100, 8),
+            // 195–306 s on a trained quick LMS cortex on this 2-core machine under load. Every
+            // 250 steps a smaller budget (below) draws the dimension over training (Fig. 3.3).
+            _ => (3000, 250, 100, 100, 8),
+        };
+        // The budget during training: quick measures 12 times, so each must take seconds, not
+        // minutes. 30 sets per K: with 5, a quick MS dichromat's K = 2 failed by chance (its 10th
+        // set passed; session-2 note), so fewer sets overstate the dimension.
+        let (checkpoint_sets, checkpoint_wavelengths, checkpoint_pairs) = match name {
+            "quick" => (30, 50, 4),
+            _ => (0, 0, 0),
         };
         let cmf_sim = CmfSimSettings {
             sets_per_k,
@@ -137,6 +152,9 @@ impl RunConfig {
                 eval_every_steps: (steps / 20).max(10),
                 eval_batches: 4,
                 stop_at_dimension: 0,
+                checkpoint_cmf_sets_per_k: checkpoint_sets,
+                checkpoint_cmf_wavelengths: checkpoint_wavelengths,
+                checkpoint_cmf_location_pairs: checkpoint_pairs,
             },
         })
     }
@@ -277,6 +295,25 @@ impl RunConfig {
         Ok(())
     }
 
+    /// The CMF-SIM settings for a measurement during training (the schedule's smaller budget
+    /// where it sets one); `final_step` measurements use `cmf_sim` unchanged.
+    pub fn cmf_settings(&self, final_step: bool) -> CmfSimSettings {
+        let mut s = self.cmf_sim.clone();
+        if !final_step {
+            let pick = |v: usize, full: usize| if v == 0 { full } else { v };
+            s.sets_per_k = pick(self.schedule.checkpoint_cmf_sets_per_k, s.sets_per_k);
+            s.n_test_wavelengths = pick(
+                self.schedule.checkpoint_cmf_wavelengths,
+                s.n_test_wavelengths,
+            );
+            s.location_pairs = pick(
+                self.schedule.checkpoint_cmf_location_pairs,
+                s.location_pairs,
+            );
+        }
+        s
+    }
+
     /// The resolved config as TOML text.
     pub fn to_toml(&self) -> String {
         toml::to_string_pretty(self).expect("a RunConfig serialises to TOML")
@@ -326,6 +363,32 @@ mod tests {
             out: None,
             config,
         }
+    }
+
+    #[test]
+    fn the_checkpoint_budget_applies_during_training_only() {
+        let c = RunConfig::preset("quick", "LMS").unwrap();
+        let during = c.cmf_settings(false);
+        let last = c.cmf_settings(true);
+        assert_eq!(
+            last, c.cmf_sim,
+            "the final measurement uses the full budget"
+        );
+        assert_eq!(
+            (
+                during.sets_per_k,
+                during.n_test_wavelengths,
+                during.location_pairs
+            ),
+            (
+                c.schedule.checkpoint_cmf_sets_per_k,
+                c.schedule.checkpoint_cmf_wavelengths,
+                c.schedule.checkpoint_cmf_location_pairs
+            )
+        );
+        assert!(during.sets_per_k < last.sets_per_k);
+        let tiny = RunConfig::preset("tiny", "LMS").unwrap();
+        assert_eq!(tiny.cmf_settings(false), tiny.cmf_sim, "0 means as cmf_sim");
     }
 
     #[test]

@@ -14,6 +14,7 @@ use crate::config::RunConfig;
 use crate::observer::LearnedObserver;
 use crate::pictures;
 use crate::source::RetinaSource;
+use colorimetry::cmf_sim::CmfSimSettings;
 use colorimetry::plot::{LinePlot, Series};
 use colorimetry::{run_cmf_sim, CmfSimResult};
 use cortex::{DataSource, Trainer};
@@ -64,6 +65,12 @@ pub struct DimensionPoint {
     pub dimension: usize,
     /// Seconds CMF-SIM took.
     pub seconds: f64,
+    /// Seconds since the run started, when this measurement finished.
+    pub wall_seconds: f64,
+    /// Primary sets per K of this measurement's budget.
+    pub sets_per_k: usize,
+    /// Test wavelengths of this measurement's budget.
+    pub test_wavelengths: usize,
 }
 
 /// `summary.json`.
@@ -81,8 +88,9 @@ pub struct Summary {
     pub oracle_motion: bool,
     /// Dimension over training.
     pub dimension_over_steps: Vec<DimensionPoint>,
-    /// First step at which each dimension 1, 2, 3, … was measured.
-    pub first_step_at_dimension: Vec<(usize, u64)>,
+    /// First measurement of each dimension 1, 2, 3, …: `(dimension, step, seconds since the
+    /// run started)`.
+    pub first_step_at_dimension: Vec<(usize, u64, f64)>,
     /// Held-out prediction error at the end: `[model MSE, "next = current" MSE, ratio]`.
     pub heldout_prediction: Option<[f64; 3]>,
     /// Mean distance of the estimated eye motion from the true one on held-out batches at the
@@ -240,18 +248,26 @@ pub fn run_with_trainer(
         }
         if mode.cmf_sim && due(schedule.cmf_every_steps) {
             bar.set_message(format!("loss {:.4} · CMF-SIM…", stats.loss));
-            let r = measure(config, &source.retina, &trainer)?;
+            let settings = config.cmf_settings(k == config.steps);
+            let r = measure_with(&settings, config, &source.retina, &trainer)?;
             r.save(out.join("cmf_sim").join(format!("step_{k:06}")))?;
             bar.suspend(|| {
                 println!(
-                    "  step {k}: CMF-SIM dimension {} ({:.0} s; {})",
-                    r.dimension, r.seconds, r.verdict
+                    "  step {k}: CMF-SIM dimension {} ({:.0} s; {} λ, {} sets/K; {})",
+                    r.dimension,
+                    r.seconds,
+                    settings.n_test_wavelengths,
+                    settings.sets_per_k,
+                    r.verdict
                 )
             });
             dims.push(DimensionPoint {
                 step: k,
                 dimension: r.dimension,
                 seconds: r.seconds,
+                wall_seconds: started.elapsed().as_secs_f64(),
+                sets_per_k: settings.sets_per_k,
+                test_wavelengths: settings.n_test_wavelengths,
             });
             let _ = write!(row, ",{}", r.dimension);
             last_cmf = Some(r);
@@ -349,8 +365,8 @@ pub fn run_with_trainer(
     }
     let mut first = Vec::new();
     for d in &dims {
-        if d.dimension > 0 && !first.iter().any(|&(k, _)| k == d.dimension) {
-            first.push((d.dimension, d.step));
+        if d.dimension > 0 && !first.iter().any(|&(k, _, _)| k == d.dimension) {
+            first.push((d.dimension, d.step, d.wall_seconds));
         }
     }
     let summary = Summary {
@@ -379,8 +395,18 @@ pub fn measure(
     retina: &Retina,
     trainer: &Trainer,
 ) -> Result<CmfSimResult, RunError> {
+    measure_with(&config.cmf_sim, config, retina, trainer)
+}
+
+/// [`measure`] with other CMF-SIM settings (the smaller budget used during training).
+pub fn measure_with(
+    settings: &CmfSimSettings,
+    config: &RunConfig,
+    retina: &Retina,
+    trainer: &Trainer,
+) -> Result<CmfSimResult, RunError> {
     let observer = LearnedObserver::new(retina, &trainer.cortex, config.observer.clone());
-    Ok(run_cmf_sim(&observer, &config.cmf_sim)?)
+    Ok(run_cmf_sim(&observer, settings)?)
 }
 
 /// Held-out prediction error `[model MSE, next = current MSE, ratio]` over `batches` batches.
@@ -447,8 +473,8 @@ pub fn print_outcome(out: &Path, summary: &Summary) {
             axis(&inv.truth_hue_axis),
         );
     }
-    for (d, s) in &summary.first_step_at_dimension {
-        println!("  first measured {d}-D at step {s}");
+    for (d, s, t) in &summary.first_step_at_dimension {
+        println!("  first measured {d}-D at step {s} ({t:.0} s into the run)");
     }
     println!(
         "  cmf_sim.json/svg  CMF-SIM errors per wavelength for 0..K primaries; {}",
