@@ -246,7 +246,8 @@ pub fn run_with_trainer(
         } else {
             row.push_str(",,,,");
         }
-        if mode.cmf_sim && due(schedule.cmf_every_steps) {
+        if mode.cmf_sim && (due(schedule.cmf_every_steps) || schedule.cmf_extra_steps.contains(&k))
+        {
             bar.set_message(format!("loss {:.4} · CMF-SIM…", stats.loss));
             let settings = config.cmf_settings(k == config.steps);
             let r = measure_with(&settings, config, &source.retina, &trainer)?;
@@ -340,7 +341,7 @@ pub fn run_with_trainer(
         let mut p = LinePlot::new(
             "Colour dimensionality over training (CMF-SIM)",
             "step",
-            "dimension",
+            "dimension (0 = undefined: no primary set passed)",
         );
         p.push(Series::new(
             "dimension",
