@@ -4,5 +4,6 @@
 pub mod c;
 pub mod d;
 pub mod p;
+pub mod p_plain;
 pub mod shift;
 pub mod w;

@@ -15,6 +15,7 @@
 //! Every warp returns `(warped (B, C, n, n), mask (B, 1, n, n))`; `extra` images (the blurred
 //! ONS of the learned motion estimator) are warped through the same sampling grid.
 
+use super::p_plain::FusedFlow;
 use super::shift::integer_shift_warp;
 use crate::config::{CortexConfig, PMode};
 use crate::motion::sampling::unit_grid;
@@ -22,7 +23,7 @@ use crate::motion::{IdentityFlow, PlainFlow};
 use crate::rng::CortexRng;
 use crate::CortexError;
 use autodiff::nn::realnvp::{RealNvp, RealNvpConfig};
-use autodiff::{ParamStore, Tape, Tensor, Var};
+use autodiff::{ParamStore, Tape, Var};
 
 /// The P bucket.
 pub enum PBucket {
@@ -68,10 +69,11 @@ impl PBucket {
         }
     }
 
-    /// P as a plain f64 map (for M's de-warping and for evaluation).
+    /// P as a plain f64 map at the current parameters (for M's de-warping and for evaluation),
+    /// batched through the fused coupling kernel ([`super::p_plain`]).
     pub fn plain<'a>(&'a self, params: &'a ParamStore<f32>) -> Box<dyn PlainFlow + 'a> {
         match self {
-            PBucket::Flow { flow, .. } => Box::new(FlowPlain { flow, params }),
+            PBucket::Flow { flow, .. } => Box::new(FusedFlow::new(flow, params)),
             PBucket::IdentityIntegerShift { .. } => Box::new(IdentityFlow),
         }
     }
@@ -126,34 +128,5 @@ impl PBucket {
                 (w, m, ex)
             }
         }
-    }
-}
-
-/// The flow evaluated in plain f64 (M's de-warping, evaluation).
-struct FlowPlain<'a> {
-    flow: &'a RealNvp,
-    params: &'a ParamStore<f32>,
-}
-
-impl FlowPlain<'_> {
-    fn map(&self, pts: &mut [[f64; 2]], inverse: bool) {
-        let t = Tensor::from_vec([pts.len(), 2], pts.iter().flatten().copied().collect());
-        let out = if inverse {
-            self.flow.inverse_points(self.params, &t)
-        } else {
-            self.flow.forward_points(self.params, &t)
-        };
-        for (p, q) in pts.iter_mut().zip(out.data().chunks(2)) {
-            *p = [q[0], q[1]];
-        }
-    }
-}
-
-impl PlainFlow for FlowPlain<'_> {
-    fn forward(&self, pts: &mut [[f64; 2]]) {
-        self.map(pts, false)
-    }
-    fn inverse(&self, pts: &mut [[f64; 2]]) {
-        self.map(pts, true)
     }
 }

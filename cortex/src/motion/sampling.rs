@@ -34,11 +34,40 @@ pub fn unit_grid(n: usize) -> Vec<[f64; 2]> {
 /// Bilinear sample of the `h×w` image `img` at normalised point `p` (zeros outside).
 #[inline]
 pub fn bilinear(img: &[f32], h: usize, w: usize, p: [f64; 2]) -> f64 {
-    let x = unit_to_index(p[0], w);
-    let y = unit_to_index(p[1], h);
-    let (x0, y0) = (x.floor(), y.floor());
-    let (fx, fy) = (x - x0, y - y0);
-    let (x0, y0) = (x0 as isize, y0 as isize);
+    bilinear_at(img, h, w, BilinearTap::new(h, w, p))
+}
+
+/// Where a bilinear sample reads: the top-left pixel `(x0, y0)` (column, row; may lie outside)
+/// and the fractions `fx, fy ∈ [0, 1)` towards the next column and row. Computing it once per
+/// point and reusing it for several images gives exactly [`bilinear`]'s values.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BilinearTap {
+    pub x0: isize,
+    pub y0: isize,
+    pub fx: f64,
+    pub fy: f64,
+}
+
+impl BilinearTap {
+    /// The tap of normalised point `p` on an `h×w` image.
+    #[inline]
+    pub fn new(h: usize, w: usize, p: [f64; 2]) -> Self {
+        let x = unit_to_index(p[0], w);
+        let y = unit_to_index(p[1], h);
+        let (x0, y0) = (x.floor(), y.floor());
+        BilinearTap {
+            x0: x0 as isize,
+            y0: y0 as isize,
+            fx: x - x0,
+            fy: y - y0,
+        }
+    }
+}
+
+/// Bilinear sample of the `h×w` image `img` through a precomputed tap (zeros outside).
+#[inline]
+pub fn bilinear_at(img: &[f32], h: usize, w: usize, t: BilinearTap) -> f64 {
+    let BilinearTap { x0, y0, fx, fy } = t;
     let at = |yy: isize, xx: isize| -> f64 {
         if yy >= 0 && xx >= 0 && (yy as usize) < h && (xx as usize) < w {
             img[yy as usize * w + xx as usize] as f64
