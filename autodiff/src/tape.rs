@@ -454,7 +454,11 @@ impl<T: Float> Tape<T> {
             self.values[i].shape()
         );
         let seed = self.pool.copy_of(self.values[i].shape(), &[T::one()]);
-        self.backward_from(&[(loss, seed)], hooks);
+        let seeds = [(loss, seed)];
+        self.backward_from(&seeds, hooks);
+        // The seed was borrowed from the pool: give it back, or every backward leaks a buffer.
+        let [(_, seed)] = seeds;
+        self.pool.put(seed);
     }
 
     /// Reverse-mode sweep from several roots, each seeded with its own output gradient
@@ -589,5 +593,22 @@ mod tests {
         }
         // First iteration allocates two 16-element buffers; later iterations reuse them.
         assert_eq!(tape.pool().fresh_allocations, 1);
+    }
+
+    /// Repeated `backward` calls on one recording reuse the pooled seed and gradients: no
+    /// fresh allocation after the first call (the seed used to be dropped, not returned).
+    #[test]
+    fn backward_returns_its_seed_to_the_pool() {
+        let mut tape = Tape::<f32>::new();
+        let x = tape.leaf(Tensor::full([3], 2.0));
+        let y = tape.square(x);
+        let s = tape.sum(y);
+        tape.backward(s);
+        let after_first = tape.pool().fresh_allocations;
+        for _ in 0..5 {
+            tape.backward(s);
+        }
+        assert_eq!(tape.pool().fresh_allocations, after_first);
+        assert_eq!(tape.grad(x).unwrap().data(), &[4.0; 3]);
     }
 }

@@ -288,6 +288,10 @@ impl<T: Float> Op<T> for Dft2 {
         inputs[0].shape()
     }
 
+    fn overwrites_output(&self) -> bool {
+        true
+    }
+
     fn forward(&mut self, inputs: &[&Tensor<T>], out: &mut Tensor<T>) {
         let (_, h, w) = complex_dims("fft2", out.shape());
         let scale = self.scale(h, w);

@@ -174,6 +174,9 @@ impl<T: Float> Op<T> for ComplexBinary<T> {
         broadcast_len(Op::<T>::name(self), inputs[0].shape(), inputs[1].shape());
         inputs[0].shape()
     }
+    fn overwrites_output(&self) -> bool {
+        true
+    }
     fn forward(&mut self, inputs: &[&Tensor<T>], out: &mut Tensor<T>) {
         let (a, b) = (as_complex(inputs[0].data()), as_complex(inputs[1].data()));
         let m = b.len();

@@ -17,14 +17,12 @@
 //! `B[l] = (Z[l] − conj(Z[−l]))/(2i)`); and only the columns `l ≤ W/2` are transformed, the
 //! others following from `X[k, l] = conj(X[−k, −l])`.
 
-use super::{
-    as_complex, as_complex_mut, complex_dims, gather_columns, plan, transpose_rows, with_scratch,
-    COLS,
-};
+use super::{as_complex, as_complex_mut, complex_dims, gather_columns, plan, with_scratch, COLS};
 use crate::op::{BackwardCx, GradSlots, Op};
 use crate::{Float, Shape, Tape, Tensor, Var};
 use rayon::prelude::*;
 use rustfft::num_complex::Complex;
+use rustfft::Fft;
 
 /// Runs `f(src_image, dst_image)` over the images of a batch, in parallel when worthwhile.
 fn per_image<A: Sync, B: Send>(
@@ -46,12 +44,67 @@ fn per_image<A: Sync, B: Send>(
     }
 }
 
+/// `buf[r·w + c0 + j] = block[j·h + r]`: the inverse of [`gather_columns`].
+#[inline(always)]
+fn scatter_columns<T: Float>(
+    block: &[Complex<T>],
+    buf: &mut [Complex<T>],
+    (h, w): (usize, usize),
+    c0: usize,
+    nc: usize,
+) {
+    for (r, line) in buf.chunks_exact_mut(w).take(h).enumerate() {
+        for (j, v) in line[c0..c0 + nc].iter_mut().enumerate() {
+            *v = block[j * h + r];
+        }
+    }
+}
+
+/// Row stride of the `H × (W/2 + 1)` half-spectrum buffers: rounded up to whole blocks of
+/// [`COLS`] columns, so a block gather reads whole cache lines.
+fn half_stride(w: usize) -> usize {
+    (w / 2 + 1).next_multiple_of(COLS)
+}
+
+/// In-place length-`h` transforms of the columns `0..ncols` of the row-major buffer `buf` of
+/// `h` rows of `stride` values, [`COLS`] columns at a time through the contiguous `block`.
+fn columns_in_place<T: Float>(
+    fft: &dyn Fft<T>,
+    buf: &mut [Complex<T>],
+    block: &mut [Complex<T>],
+    scratch: &mut [Complex<T>],
+    (h, stride, ncols): (usize, usize, usize),
+) {
+    for c0 in (0..ncols).step_by(COLS) {
+        let nc = COLS.min(ncols - c0);
+        let block = &mut block[..nc * h];
+        gather_columns(buf, block, (h, stride), c0, nc);
+        fft.process_with_scratch(block, scratch);
+        scatter_columns(block, buf, (h, stride), c0, nc);
+    }
+}
+
+/// `d (=|+=) v · scale`.
+#[inline(always)]
+fn store<V: Copy + std::ops::Add<Output = V> + std::ops::Mul<T, Output = V>, T: Float>(
+    d: &mut V,
+    v: V,
+    scale: T,
+    accumulate: bool,
+) {
+    *d = if accumulate {
+        *d + v * scale
+    } else {
+        v * scale
+    };
+}
+
 /// `dst (=|+=) scale · DFT2(src)` (forward sign) for real `H×W` images in `src` and complex
 /// (interleaved) full spectra in `dst`.
 ///
-/// Per image: pairs of rows as one complex FFT each, separated into the row spectra of columns
-/// `0..=W/2`; those columns gathered in blocks and transformed into a transposed (`W × H`)
-/// spectrum, whose remaining columns follow by symmetry; then written row by row into `dst`.
+/// Per image, in a thread-local `H × (W/2 + 1)` buffer: pairs of rows as one complex FFT each,
+/// separated into the row spectra of columns `0..=W/2`; the column FFTs of that half, in place;
+/// then `dst` is written row by row, its columns `l > W/2` from `X[k, l] = conj(X[−k, W − l])`.
 pub(crate) fn r2c<T: Float>(
     src: &[T],
     dst: &mut [T],
@@ -59,7 +112,7 @@ pub(crate) fn r2c<T: Float>(
     scale: T,
     accumulate: bool,
 ) {
-    let (plane, half) = (h * w, w / 2 + 1);
+    let (plane, half, hs) = (h * w, w / 2 + 1, half_stride(w));
     if plane == 0 || src.is_empty() {
         return;
     }
@@ -71,17 +124,15 @@ pub(crate) fn r2c<T: Float>(
     let (fft_w, fft_h) = (plan::<T>(w, false), plan::<T>(h, false));
     let scratch_len = fft_w
         .get_inplace_scratch_len()
-        .max(fft_h.get_outofplace_scratch_len());
+        .max(fft_h.get_inplace_scratch_len());
     let half_t = T::of(0.5);
     per_image(src, plane, dst, 2 * plane, |src, dst| {
         let dst = as_complex_mut(dst);
-        with_scratch::<T, _>(scratch_len + w + h * half + plane + COLS * h, |buf| {
+        with_scratch::<T, _>(scratch_len + w + h * hs + COLS * h, |buf| {
             let (scratch, rest) = buf.split_at_mut(scratch_len);
             let (z, rest) = rest.split_at_mut(w);
-            // Row spectra of columns 0..=W/2: H × half, row-major.
-            let (rows, rest) = rest.split_at_mut(h * half);
-            // The full spectrum, transposed: W × H (image column l is row l).
-            let (colmaj, block) = rest.split_at_mut(plane);
+            // Row spectra of columns 0..=W/2 (H × half, row-major), then the 2-D half spectrum.
+            let (rows, block) = rest.split_at_mut(h * hs);
             for r in (0..h).step_by(2) {
                 let a = &src[r * w..][..w];
                 if r + 1 < h {
@@ -96,7 +147,7 @@ pub(crate) fn r2c<T: Float>(
                 }
                 fft_w.process_with_scratch(z, scratch);
                 // A[l] = (p + q)/2, B[l] = −i(p − q)/2 with p = Z[l], q = conj(Z[−l]).
-                let (ra, rb) = rows[r * half..].split_at_mut(half);
+                let (ra, rb) = rows[r * hs..].split_at_mut(hs);
                 for l in 0..half {
                     let (p, q) = (z[l], z[if l == 0 { 0 } else { w - l }].conj());
                     ra[l] = (p + q) * half_t;
@@ -106,26 +157,18 @@ pub(crate) fn r2c<T: Float>(
                     }
                 }
             }
-            for l0 in (0..half).step_by(COLS) {
-                let nl = COLS.min(half - l0);
-                let block = &mut block[..nl * h];
-                gather_columns(rows, block, (h, half), l0, nl);
-                let out = &mut colmaj[l0 * h..][..nl * h];
-                fft_h.process_outofplace_with_scratch(block, out, scratch);
-            }
-            // X[k, l] = conj(X[−k, W − l]) for the columns l > W/2.
-            for l in half..w {
-                let (known, rest) = colmaj.split_at_mut(l * h);
-                let (from, to) = (&known[(w - l) * h..][..h], &mut rest[..h]);
-                to[0] = from[0].conj();
-                for (t, f) in to[1..].iter_mut().zip(from[1..].iter().rev()) {
-                    *t = f.conj();
+            columns_in_place(&*fft_h, rows, block, scratch, (h, hs, half));
+            for (k, out) in dst.chunks_exact_mut(w).enumerate() {
+                let own = &rows[k * hs..][..half];
+                let mirror = &rows[((h - k) % h) * hs..][..half];
+                let (lo, hi) = out.split_at_mut(half);
+                for (d, &v) in lo.iter_mut().zip(own) {
+                    store(d, v, scale, accumulate);
                 }
-            }
-            for r0 in (0..h).step_by(COLS) {
-                let nr = COLS.min(h - r0);
-                let out = &mut dst[r0 * w..][..nr * w];
-                transpose_rows(colmaj, out, (w, h), r0, scale, accumulate);
+                // hi[j] is column l = half + j, mirrored from column W − l = W − half − j.
+                for (d, &v) in hi.iter_mut().zip(mirror[1..=w - half].iter().rev()) {
+                    store(d, v.conj(), scale, accumulate);
+                }
             }
         });
     });
@@ -134,10 +177,10 @@ pub(crate) fn r2c<T: Float>(
 /// `dst (=|+=) scale · Re(IDFT2(src))` (inverse sign, unnormalised) for complex `H×W` spectra
 /// in `src` and real images in `dst`.
 ///
-/// Per image: the spectrum is transposed (block gathers); the Hermitian part of its columns
-/// `0..=W/2` is inverse-transformed; then blocks of rows are gathered back, extended by
-/// symmetry to full rows, and transformed in pairs as `D[r] + i·D[r + 1]`, whose real and
-/// imaginary parts are the two real output rows.
+/// Per image, in a thread-local `H × (W/2 + 1)` buffer: the Hermitian part of the columns
+/// `0..=W/2`, read row by row (row `k` and row `−k` of `src`); its column IDFTs in place; then
+/// each pair of rows, extended by symmetry to full rows, is transformed as `D[r] + i·D[r + 1]`,
+/// whose real and imaginary parts are the two real output rows.
 pub(crate) fn c2r<T: Float>(
     src: &[T],
     dst: &mut [T],
@@ -145,7 +188,7 @@ pub(crate) fn c2r<T: Float>(
     scale: T,
     accumulate: bool,
 ) {
-    let (plane, half) = (h * w, w / 2 + 1);
+    let (plane, half, hs) = (h * w, w / 2 + 1, half_stride(w));
     if plane == 0 || src.is_empty() {
         return;
     }
@@ -161,66 +204,54 @@ pub(crate) fn c2r<T: Float>(
     let half_t = T::of(0.5);
     per_image(src, 2 * plane, dst, plane, |src, dst| {
         let src = as_complex(src);
-        with_scratch::<T, _>(scratch_len + plane + half * h + COLS * w, |buf| {
+        with_scratch::<T, _>(scratch_len + w + h * hs + COLS * h, |buf| {
             let (scratch, rest) = buf.split_at_mut(scratch_len);
-            // The spectrum transposed: W × H.
-            let (full, rest) = rest.split_at_mut(plane);
-            // Column IDFTs of the Hermitian part, columns 0..=W/2: half × H.
-            let (colh, rows) = rest.split_at_mut(half * h);
-            for c0 in (0..w).step_by(COLS) {
-                let nc = COLS.min(w - c0);
-                gather_columns(src, &mut full[c0 * h..][..nc * h], (h, w), c0, nc);
-            }
-            for l in 0..half {
-                let a = &full[l * h..][..h];
-                let b = &full[if l == 0 { 0 } else { w - l } * h..][..h];
-                let col = &mut colh[l * h..][..h];
-                col[0] = (a[0] + b[0].conj()) * half_t;
-                for ((c, &av), &bv) in col[1..].iter_mut().zip(&a[1..]).zip(b[1..].iter().rev()) {
-                    *c = (av + bv.conj()) * half_t;
+            let (z, rest) = rest.split_at_mut(w);
+            // The Hermitian part of columns 0..=W/2 (H × half, row-major), then its column IDFTs.
+            let (hh, block) = rest.split_at_mut(h * hs);
+            for (k, out) in hh.chunks_exact_mut(hs).enumerate() {
+                let a = &src[k * w..][..w];
+                let b = &src[((h - k) % h) * w..][..w];
+                out[0] = (a[0] + b[0].conj()) * half_t;
+                for ((o, &av), &bv) in out[1..]
+                    .iter_mut()
+                    .zip(&a[1..])
+                    .zip(b[w + 1 - half..].iter().rev())
+                {
+                    *o = (av + bv.conj()) * half_t;
                 }
             }
-            fft_h.process_with_scratch(colh, scratch);
-            for r0 in (0..h).step_by(COLS) {
-                let nr = COLS.min(h - r0);
-                let rows = &mut rows[..nr * w];
-                for l in 0..half {
-                    for (j, &v) in colh[l * h + r0..][..nr].iter().enumerate() {
-                        rows[j * w + l] = v;
+            columns_in_place(&*fft_h, hh, block, scratch, (h, hs, half));
+            // Row r of D is Hermitian: D[r, l] = conj(D[r, W − l]) for the columns l ≥ half.
+            let m = w - half;
+            for r in (0..h).step_by(2) {
+                let x = &hh[r * hs..][..half];
+                let (lo, hi) = z.split_at_mut(half);
+                if r + 1 < h {
+                    // Pack: z = D[r] + i·D[r + 1].
+                    let y = &hh[(r + 1) * hs..][..half];
+                    let pack =
+                        |a: Complex<T>, b: Complex<T>| Complex::new(a.re - b.im, a.im + b.re);
+                    for ((zc, &a), &b) in lo.iter_mut().zip(x).zip(y) {
+                        *zc = pack(a, b);
+                    }
+                    let mirrored = x[1..=m].iter().rev().zip(y[1..=m].iter().rev());
+                    for (zc, (a, b)) in hi.iter_mut().zip(mirrored) {
+                        *zc = pack(a.conj(), b.conj());
+                    }
+                } else {
+                    lo.copy_from_slice(x);
+                    for (zc, a) in hi.iter_mut().zip(x[1..=m].iter().rev()) {
+                        *zc = a.conj();
                     }
                 }
-                for row in rows.chunks_exact_mut(w) {
-                    let (lo, hi) = row.split_at_mut(half);
-                    for (t, f) in hi.iter_mut().zip(lo[1..=w - half].iter().rev()) {
-                        *t = f.conj();
-                    }
+                fft_w.process_with_scratch(z, scratch);
+                for (d, zc) in dst[r * w..][..w].iter_mut().zip(z.iter()) {
+                    store(d, zc.re, scale, accumulate);
                 }
-                // Pack pairs: z = D[r] + i·D[r + 1], in place of D[r].
-                for j in (0..nr).step_by(2) {
-                    let (a, b) = rows[j * w..].split_at_mut(w);
-                    if j + 1 < nr {
-                        for (x, y) in a.iter_mut().zip(&b[..w]) {
-                            *x = Complex::new(x.re - y.im, x.im + y.re);
-                        }
-                    }
-                    fft_w.process_with_scratch(a, scratch);
-                    let ya = &mut dst[(r0 + j) * w..][..w];
-                    for (d, z) in ya.iter_mut().zip(a.iter()) {
-                        *d = if accumulate {
-                            *d + z.re * scale
-                        } else {
-                            z.re * scale
-                        };
-                    }
-                    if j + 1 < nr {
-                        let yb = &mut dst[(r0 + j + 1) * w..][..w];
-                        for (d, z) in yb.iter_mut().zip(a.iter()) {
-                            *d = if accumulate {
-                                *d + z.im * scale
-                            } else {
-                                z.im * scale
-                            };
-                        }
+                if r + 1 < h {
+                    for (d, zc) in dst[(r + 1) * w..][..w].iter_mut().zip(z.iter()) {
+                        store(d, zc.im, scale, accumulate);
                     }
                 }
             }
@@ -257,6 +288,10 @@ impl<T: Float> Op<T> for RealDft2 {
             out.push(2);
             Shape::new(&out)
         }
+    }
+
+    fn overwrites_output(&self) -> bool {
+        true
     }
 
     fn forward(&mut self, inputs: &[&Tensor<T>], out: &mut Tensor<T>) {
@@ -303,3 +338,6 @@ impl<T: Float> Tape<T> {
         self.apply(RealDft2 { inverse: true }, &[x])
     }
 }
+
+#[cfg(test)]
+mod tests;
