@@ -98,6 +98,10 @@ pub struct Summary {
     pub heldout_motion_error_px: Option<f64>,
     /// CMF-SIM verdict at the end.
     pub verdict: String,
+    /// Per K tried at the end: `(K, closest max-error/threshold ratio over its sets)`; < 1
+    /// passed. How far the verdict is from the threshold (a lower bound for failed K, see
+    /// [`colorimetry::cmf_sim::KSummary::closest_ratio`]).
+    pub closest_ratio_per_k: Vec<(usize, f64)>,
     /// Learned invariants against the truth (evaluation only).
     pub invariants: Option<pictures::Invariants>,
     /// The resolved config.
@@ -383,6 +387,12 @@ pub fn run_with_trainer(
         verdict: last_cmf
             .as_ref()
             .map_or_else(|| "not measured".to_string(), |r| r.verdict.clone()),
+        closest_ratio_per_k: last_cmf.as_ref().map_or_else(Vec::new, |r| {
+            r.per_k
+                .iter()
+                .filter_map(|k| Some((k.n_primaries, k.closest_ratio()?)))
+                .collect()
+        }),
         invariants,
         config: config.clone(),
     };
@@ -481,6 +491,17 @@ pub fn print_outcome(out: &Path, summary: &Summary) {
         "  cmf_sim.json/svg  CMF-SIM errors per wavelength for 0..K primaries; {}",
         summary.verdict
     );
+    if !summary.closest_ratio_per_k.is_empty() {
+        let margins: Vec<String> = summary
+            .closest_ratio_per_k
+            .iter()
+            .map(|(k, r)| format!("K={k} {r:.3}"))
+            .collect();
+        println!(
+            "  closest set per K, max error / threshold (< 1 passes): {}",
+            margins.join(", ")
+        );
+    }
     println!("  dimension.svg     dimension over training;  loss.svg  training loss");
     println!("  pictures/         ONS, Neural-Scope percept beside the truth, learned C, P positions, W kernel");
     println!("  metrics.csv, checkpoints/, config.toml");

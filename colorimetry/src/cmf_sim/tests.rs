@@ -72,6 +72,17 @@ fn cone_observers_have_dimension_k() {
             assert!(!ks.passed && ks.sets_tried == 20, "{}: {ks:?}", r.observer);
         }
         assert!(r.per_k[k - 1].passed);
+        // the margins agree with the verdicts: ≥ 1 for every failed K, < 1 for K
+        for ks in &r.per_k {
+            let closest = ks.closest_ratio().expect("sets were tried");
+            assert_eq!(
+                closest < 1.0,
+                ks.passed,
+                "{}: K={} {closest}",
+                r.observer,
+                ks.n_primaries
+            );
+        }
         assert_eq!(r.curves.len(), k + 1);
         // areas shrink from the energy curve down to the passing set
         assert!(r.curves[k].area < 1e-6 * r.curves[0].area);

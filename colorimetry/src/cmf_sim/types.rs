@@ -132,6 +132,18 @@ pub struct KSummary {
     pub sets: Vec<SetRecord>,
 }
 
+impl KSummary {
+    /// How close this K came to passing: the smallest `max error / threshold` over the sets
+    /// tried (< 1 for a passing set). For a set rejected early the maximum is over the
+    /// wavelengths solved, so for a failed K this is a lower bound on the true margin.
+    pub fn closest_ratio(&self) -> Option<f64> {
+        self.sets
+            .iter()
+            .map(|s| s.worst_ratio_solved)
+            .min_by(f64::total_cmp)
+    }
+}
+
 /// The result of CMF-SIM.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct CmfSimResult {
