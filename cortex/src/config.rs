@@ -147,6 +147,22 @@ pub struct MConfig {
     pub refine_max_step_px: f64,
     /// Weight of the blurred warp objective added to the loss for P (learned mode only).
     pub blur_loss_weight: f64,
+    /// Weight of the gauge term of the learned M (learned mode only; see
+    /// [`crate::motion::gauge`]): the squared distance of P's least-squares affine fit over the
+    /// ONS grid from the identity. When the motion is estimated through P, any affine change
+    /// of the visual-field coordinates (P → A·P + c, d → A·d) predicts exactly the same
+    /// frames, so the prediction loss does not fix P's affine part and Adam lets it drift
+    /// without bound; this term pins it. Per loss site: the term is multiplied by the number
+    /// of sites the main loss sums over (`(n − 2·border)²`), so its pull against the loss's
+    /// gradients does not depend on n.
+    #[serde(default = "default_gauge_weight")]
+    pub gauge_weight: f64,
+}
+
+/// [`MConfig::gauge_weight`] when a config file (or a checkpoint written before the field
+/// existed) leaves it out.
+fn default_gauge_weight() -> f64 {
+    1.0
 }
 
 /// Loss settings.
@@ -235,6 +251,7 @@ impl CortexConfig {
                 refine_stride_px: 4,
                 refine_max_step_px: 1.0,
                 blur_loss_weight: 1.0,
+                gauge_weight: default_gauge_weight(),
             },
             loss: LossConfig { border_px: 3 },
             train: TrainConfig {
@@ -340,6 +357,12 @@ impl CortexConfig {
                     "{} must be odd and smaller than the ONS",
                     self.m.blur_kernel_px
                 ),
+            );
+        }
+        if !(self.m.gauge_weight.is_finite() && self.m.gauge_weight >= 0.0) {
+            return bad(
+                "m.gauge_weight",
+                format!("{} must be finite and ≥ 0", self.m.gauge_weight),
             );
         }
         if self.m.blur_sigma_px.is_nan() || self.m.blur_sigma_px <= 0.0 {

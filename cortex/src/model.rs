@@ -9,7 +9,8 @@
 //! 4. re-encode Ψ: `Ô_{t+1} = Ψ_W(⟨V̂_{t+1}, C⟩)`.
 //! 5. loss = masked squared error with a `border_px` border, official normalisation (§3.8);
 //!    plus, for the learned M, `blur_loss_weight ×` the same error between the warped blurred
-//!    `B(O_t)` and `B(O_{t+1})`.
+//!    `B(O_t)` and `B(O_{t+1})`, and `gauge_weight ×` the distance of P's affine fit from the
+//!    identity (the learned M leaves P's affine part free: [`crate::motion::gauge`]).
 //!
 //! Baselines (paper S-05): `identity_percept` skips W, C and D (the percept is the ONS);
 //! `no_demosaicker` uses D = identity; `cone_activations_as_ons` changes only the data.
@@ -20,7 +21,9 @@
 use crate::buckets::{c::CBucket, d::DBucket, p::PBucket, w::WBucket};
 use crate::config::{Baseline, CortexConfig, MMode};
 use crate::motion::block_matching::{BlockMatcher, DewarpGrid};
+use crate::motion::gauge::record_gauge_term;
 use crate::motion::learned::SubpixelRefiner;
+use crate::motion::sampling::unit_grid;
 use crate::CortexError;
 use autodiff::{ParamStore, Tape, Tensor, Var};
 use std::time::Instant;
@@ -106,6 +109,8 @@ pub struct Cortex {
     pub p: PBucket,
     matcher: BlockMatcher,
     refiner: SubpixelRefiner,
+    /// The ONS grid, where the learned M's gauge term fits P (`motion::gauge`).
+    gauge_uv: Vec<[f64; 2]>,
 }
 
 /// The motion of one batch.
@@ -138,6 +143,7 @@ impl Cortex {
         let p = PBucket::new(&mut params, &wcfg)?;
         let matcher = BlockMatcher::from_config(&config.m);
         let refiner = SubpixelRefiner::from_config(&config);
+        let config_n = config.ons_size_px;
         Ok(Cortex {
             config,
             params,
@@ -147,6 +153,7 @@ impl Cortex {
             p,
             matcher,
             refiner,
+            gauge_uv: unit_grid(config_n),
         })
     }
 
@@ -253,7 +260,7 @@ impl Cortex {
         marks.enter(tape, Bucket::Loss);
         let border = self.config.loss.border_px;
         let main = tape.masked_sq_error(pred, o2, mask, border);
-        let loss = match (&motion.blurred, extra_w.first()) {
+        let mut loss = match (&motion.blurred, extra_w.first()) {
             (Some((_, b2)), Some(&bw)) if self.config.m.blur_loss_weight > 0.0 => {
                 let b2v = tape.constant_from([b, 1, n, n], b2);
                 let e = tape.masked_sq_error(bw, b2v, mask, border);
@@ -262,6 +269,22 @@ impl Cortex {
             }
             _ => main,
         };
+        // The learned M estimates d̂ through P, which leaves P's affine part free (see
+        // `motion::gauge`): pin it to the identity.
+        if let (Some(_), PBucket::Flow { flow, uv, .. }) = (&motion.blurred, &self.p) {
+            // in the main loss's normalisation: a sum over the loss sites
+            let sites = (n - 2 * border).pow(2) as f64;
+            let wgt = self.config.m.gauge_weight * sites;
+            if wgt > 0.0 {
+                marks.enter(tape, Bucket::P);
+                let vars = flow.record(tape, &self.params);
+                let pts = tape.constant_from([uv.len() / 2, 2], uv);
+                let xy = flow.forward_with(tape, &vars, pts);
+                let g = record_gauge_term(tape, xy, &self.gauge_uv);
+                let g = tape.scale(g, wgt);
+                loss = tape.add(loss, g);
+            }
+        }
         marks.finish();
         Prediction {
             loss,

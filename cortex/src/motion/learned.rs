@@ -15,6 +15,12 @@
 //! 3. **P learns on the same objective**: the trainer adds `blur_loss_weight · E(d̂)` (masked,
 //!    official normalisation, through the tape) to the main loss, so P's parameters receive the
 //!    gradient of the blurred objective as the paper describes.
+//! 4. **Gauge**: because d̂ is measured through P, P's affine part (scale, shear, rotation,
+//!    origin of the field) is invisible to both objectives; the trainer also adds
+//!    `gauge_weight ×` the distance of P's affine fit from the identity
+//!    ([`super::gauge`]). Without it P's scale drifted without bound under Adam and the
+//!    estimate in field units with it (×300 by step ~280 on the quick LMS run, then a
+//!    non-finite gradient).
 //!
 //! So M's "parameters" are per-sample (the refined d̂ is inferred, not amortised by a network),
 //! and the learnable part optimised on the blurred objective is P. This keeps the estimator

@@ -8,6 +8,7 @@
 
 pub mod block_matching;
 pub mod blur;
+pub mod gauge;
 pub mod learned;
 pub mod sampling;
 
