@@ -107,10 +107,10 @@ impl RunConfig {
         retina.cones = cones.to_string();
         let mut cortex = CortexConfig::preset(name).map_err(|e| invalid(e.to_string()))?;
         if name == "quick" {
-            // The quick run uses the oracle eye motion (announced in its output): with the
-            // block-matching estimate, P's gradient became non-finite at step 557 of a quick LMS
-            // run (seed 0) — an open problem. Set `[cortex.m] mode = "block_matching"` (and
-            // `oracle_motion = false`) in a config file to run without the oracle.
+            // The quick run uses the oracle eye motion (announced in its output), which keeps
+            // it inside its time budget: the learned estimator (`[cortex.m] mode = "learned"`,
+            // `oracle_motion = false` in a config file) trains stably since the gauge term
+            // (cortex::motion::gauge) but costs ~50 % more per step (session-3 note).
             cortex.m.mode = cortex::config::MMode::Oracle;
         }
         let (steps, cmf_every, sets_per_k, wavelengths, pairs) = match name {

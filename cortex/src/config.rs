@@ -147,7 +147,7 @@ pub struct MConfig {
     pub refine_max_step_px: f64,
     /// Weight of the blurred warp objective added to the loss for P (learned mode only).
     pub blur_loss_weight: f64,
-    /// Weight of the gauge term of the learned M (learned mode only; see
+    /// Weight of the gauge term for an estimated M (block matching and learned modes; see
     /// [`crate::motion::gauge`]): the squared distance of P's least-squares affine fit over the
     /// ONS grid from the identity. When the motion is estimated through P, any affine change
     /// of the visual-field coordinates (P → A·P + c, d → A·d) predicts exactly the same

@@ -9,8 +9,8 @@
 //! 4. re-encode Ψ: `Ô_{t+1} = Ψ_W(⟨V̂_{t+1}, C⟩)`.
 //! 5. loss = masked squared error with a `border_px` border, official normalisation (§3.8);
 //!    plus, for the learned M, `blur_loss_weight ×` the same error between the warped blurred
-//!    `B(O_t)` and `B(O_{t+1})`, and `gauge_weight ×` the distance of P's affine fit from the
-//!    identity (the learned M leaves P's affine part free: [`crate::motion::gauge`]).
+//!    `B(O_t)` and `B(O_{t+1})`; and for any estimated M, `gauge_weight ×` the distance of P's
+//!    affine fit from the identity (it leaves P's affine part free: [`crate::motion::gauge`]).
 //!
 //! Baselines (paper S-05): `identity_percept` skips W, C and D (the percept is the ONS);
 //! `no_demosaicker` uses D = identity; `cone_activations_as_ons` changes only the data.
@@ -269,9 +269,11 @@ impl Cortex {
             }
             _ => main,
         };
-        // The learned M estimates d̂ through P, which leaves P's affine part free (see
-        // `motion::gauge`): pin it to the identity.
-        if let (Some(_), PBucket::Flow { flow, uv, .. }) = (&motion.blurred, &self.p) {
+        // An estimated M (block matching or learned) measures d̂ through P, which leaves P's
+        // affine part free (see `motion::gauge`): pin it to the identity.
+        if let (true, PBucket::Flow { flow, uv, .. }) =
+            (self.config.m.mode != MMode::Oracle, &self.p)
+        {
             // in the main loss's normalisation: a sum over the loss sites
             let sites = (n - 2 * border).pow(2) as f64;
             let wgt = self.config.m.gauge_weight * sites;
