@@ -12,7 +12,7 @@
 //! Plain timing loop (no criterion): a training step mutates the model, and the split per
 //! bucket is the point.
 
-use cortex::config::CortexConfig;
+use cortex::config::{CortexConfig, MMode};
 use cortex::model::{BUCKETS, BUCKET_NAMES};
 use cortex::synthetic::{SyntheticConfig, SyntheticSource};
 use cortex::{DataSource, StepStats, Trainer};
@@ -73,6 +73,10 @@ fn main() {
     println!("rayon threads: {}", rayon::current_num_threads());
     if want("quick") {
         bench("quick", CortexConfig::quick(), 3, 15);
+        // The default `colorvision run` gives the quick cortex the oracle motion (M costs nothing).
+        let mut oracle = CortexConfig::quick();
+        oracle.m.mode = MMode::Oracle;
+        bench("quick, oracle motion (the default run)", oracle, 3, 15);
         bench("sandbox", CortexConfig::sandbox(), 3, 15);
     }
     if want("paper") {
