@@ -122,7 +122,7 @@ impl RunConfig {
             // 90–221 s on a trained quick LMS cortex on this 2-core machine under load. During
             // training a smaller budget (below) draws the dimension over steps (Fig. 3.3).
             // 6 000 steps: at 3 000 a quick LMS cortex measured 2-D with this budget (its best
-            // K = 2 set passed with 0.2 % to spare), at 6 000 3-D (session-3 note).
+            // K = 2 set passed with 0.02 % to spare), at 6 000 3-D (session-3 note).
             _ => (6000, 1500, 100, 100, 8),
         };
         // Early measurements catch the growth of the dimension (a quick LMS cortex measured

@@ -254,7 +254,7 @@ pub fn run_with_trainer(
         {
             bar.set_message(format!("loss {:.4} · CMF-SIM…", stats.loss));
             let settings = config.cmf_settings(k == config.steps);
-            let r = measure_with(&settings, config, &source.retina, &trainer)?;
+            let r = measure(&settings, config, &source.retina, &trainer)?;
             r.save(out.join("cmf_sim").join(format!("step_{k:06}")))?;
             bar.suspend(|| {
                 println!(
@@ -400,17 +400,8 @@ pub fn run_with_trainer(
     Ok(summary)
 }
 
-/// CMF-SIM of the current cortex behind `retina`.
+/// CMF-SIM with `settings` on the observer "retina + the trainer's cortex".
 pub fn measure(
-    config: &RunConfig,
-    retina: &Retina,
-    trainer: &Trainer,
-) -> Result<CmfSimResult, RunError> {
-    measure_with(&config.cmf_sim, config, retina, trainer)
-}
-
-/// [`measure`] with other CMF-SIM settings (the smaller budget used during training).
-pub fn measure_with(
     settings: &CmfSimSettings,
     config: &RunConfig,
     retina: &Retina,
