@@ -68,6 +68,44 @@ fn conv(c: &mut Criterion) {
     group.finish();
 }
 
+/// The three products of one conv separately (forward only; forward + `∂x`; forward + `∂w`),
+/// direct kernels, to see where a fwd+bwd time goes. Filter with `-- phases`.
+fn conv_phases(c: &mut Criterion) {
+    let mut group = c.benchmark_group("conv3x3_phases");
+    group
+        .sample_size(20)
+        .measurement_time(Duration::from_secs(3))
+        .warm_up_time(Duration::from_secs(1));
+    for &(b, ci, h, co) in &[(8, 16, 64, 16), (8, 64, 16, 64), (4, 16, 256, 16)] {
+        let x = noise(&[b, ci, h, h], 1);
+        let w = noise(&[co, ci, 3, 3], 2);
+        let r = Arc::new(noise(&[b, co, h, h], 3));
+        let mut tape = Tape::<f32>::new();
+        for phase in ["fwd", "fwd+dx", "fwd+dw"] {
+            group.bench_function(format!("({b},{ci},{h},{h})->{co}/{phase}"), |bench| {
+                bench.iter(|| {
+                    tape.clear();
+                    let xt = tape.pool().copy_of(x.shape(), x.data());
+                    let wt = tape.pool().copy_of(w.shape(), w.data());
+                    let (xv, wv) = match phase {
+                        "fwd+dx" => (tape.leaf(xt), tape.constant(wt)),
+                        "fwd+dw" => (tape.constant(xt), tape.leaf(wt)),
+                        _ => (tape.constant(xt), tape.constant(wt)),
+                    };
+                    let op = Conv2d::new(Padding::Reflect, false).with_kernel(ConvKernel::Direct);
+                    let y = tape.apply(op, &[xv, wv]);
+                    if phase != "fwd" {
+                        let l = tape.apply(InjectGrad(r.clone()), &[y]);
+                        tape.backward(l);
+                    }
+                    black_box(tape.value(y).data()[0]);
+                })
+            });
+        }
+    }
+    group.finish();
+}
+
 fn unet(c: &mut Criterion) {
     let mut group = c.benchmark_group("unet_step");
     group
@@ -100,5 +138,5 @@ fn unet(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, conv, unet);
+criterion_group!(benches, conv, conv_phases, unet);
 criterion_main!(benches);

@@ -1,4 +1,5 @@
-//! One cortex training step at `quick` and `paper` (`cargo bench --bench cortex_step [quick|paper]`).
+//! One cortex training step at `quick` and `paper` (`cargo bench --bench cortex_step [quick|paper]
+//! [--profile]`).
 //!
 //! Targets (issue 4): the whole quick step, retina batch included, ≤ 61 ms (anchor: PyTorch
 //! 2.15 CPU, 2 threads, a 16/32/64 U-Net alone, forward + backward + Adam at batch 8, 64²);
@@ -38,7 +39,9 @@ fn bench(name: &str, cfg: CortexConfig, warmup: usize, timed: usize) {
     let gen_ms = t0.elapsed().as_secs_f64() * 1e3;
     let mut trainer = Trainer::new(cfg).expect("preset is valid");
     let mut stats: Vec<StepStats> = Vec::new();
+    let profile = std::env::args().any(|a| a == "--profile");
     for k in 0..warmup + timed {
+        trainer.set_profiling(profile && k >= warmup);
         let s = trainer.step(&batch).expect("step");
         if k >= warmup {
             stats.push(s);
@@ -62,9 +65,14 @@ fn bench(name: &str, cfg: CortexConfig, warmup: usize, timed: usize) {
     println!(
         "  per bucket, forward+backward ms: {line}adam {adam:.1}  (whole backward {credit:.1})"
     );
+    if profile {
+        let p = trainer.take_profile().scaled(1.0 / timed as f64);
+        println!("  per op, ms per step (calls over all {timed} steps):\n{p}");
+    }
 }
 
 fn main() {
+    // `--profile`: also print the per-op table of the tape profiler (adds ≈ 50 ns per op).
     let args: Vec<String> = std::env::args()
         .skip(1)
         .filter(|a| !a.starts_with('-'))

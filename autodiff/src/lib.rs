@@ -25,11 +25,12 @@ pub mod op;
 pub mod ops;
 pub mod optim;
 pub mod params;
+pub mod profile;
 pub mod tape;
 pub mod tensor;
 
 pub use float::Float;
-pub use op::{BackwardCx, GradSlots, Op, Pointwise};
+pub use op::{BackwardCx, GradSlots, GradTarget, Op, Pointwise};
 pub use params::{ParamId, ParamStore};
 pub use tape::{BackwardHooks, BufferPool, NoHooks, NodeKind, NodeView, Tape, Var};
 pub use tensor::{Shape, Tensor};

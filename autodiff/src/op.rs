@@ -50,6 +50,24 @@ pub struct BackwardCx<'a, T> {
     pub dy: &'a Tensor<T>,
 }
 
+/// A gradient buffer handed out by [`GradSlots::target`].
+pub enum GradTarget<'a, T> {
+    /// The first gradient for this input: contents unspecified, overwrite every element.
+    Fresh(&'a mut [T]),
+    /// A gradient is already there: add into it.
+    Accumulate(&'a mut [T]),
+}
+
+impl<'a, T: Float> GradTarget<'a, T> {
+    /// The buffer and whether to add into it (`true`) or overwrite it (`false`).
+    pub fn into_parts(self) -> (&'a mut [T], bool) {
+        match self {
+            GradTarget::Fresh(g) => (g, false),
+            GradTarget::Accumulate(g) => (g, true),
+        }
+    }
+}
+
 /// The gradient accumulators of one node's inputs, allocated lazily (zeroed) on first use.
 pub struct GradSlots<'a, T: Float> {
     pub(crate) grads: &'a mut [Option<Tensor<T>>],
@@ -95,6 +113,30 @@ impl<T: Float> GradSlots<'_, T> {
         let shape = self.input_shapes[i];
         let pool = &mut *self.pool;
         Some(self.grads[id].get_or_insert_with(|| pool.zeros(shape)))
+    }
+
+    /// The gradient buffer of input `i` for an op that can write every element in one pass,
+    /// or `None` when the input wants no gradient. When no gradient has reached input `i`
+    /// yet, the buffer is [`GradTarget::Fresh`]: its contents are unspecified and the op must
+    /// overwrite **every** element (this skips zero-filling it and reading the zeros back).
+    /// Otherwise it is [`GradTarget::Accumulate`]: add into it, as with [`GradSlots::slot`].
+    ///
+    /// In this crate's own tests and in debug builds a fresh buffer is filled with NaN, so an
+    /// op that leaves an element unwritten fails its gradient check.
+    pub fn target(&mut self, i: usize) -> Option<GradTarget<'_, T>> {
+        if !self.wants(i) {
+            return None;
+        }
+        let id = self.input_ids[i] as usize;
+        let slot = &mut self.grads[id];
+        if slot.is_some() {
+            return slot.as_mut().map(|t| GradTarget::Accumulate(t.data_mut()));
+        }
+        let mut fresh = self.pool.uninit(self.input_shapes[i]);
+        if cfg!(any(test, debug_assertions)) {
+            fresh.data_mut().fill(T::nan());
+        }
+        Some(GradTarget::Fresh(slot.insert(fresh).data_mut()))
     }
 
     /// The accumulator of input `i` as a flat slice: add into it.

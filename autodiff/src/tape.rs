@@ -12,6 +12,7 @@
 
 use crate::op::{BackwardCx, ClosureOp, GradSlots, Op, Pointwise, PointwiseOp};
 use crate::params::ParamId;
+use crate::profile::Profile;
 use crate::{Float, Shape, Tensor};
 use std::collections::HashMap;
 use std::sync::atomic::{AtomicU32, Ordering};
@@ -199,6 +200,8 @@ pub struct Tape<T: Float = f32> {
     values: Vec<Tensor<T>>,
     grads: Vec<Option<Tensor<T>>>,
     pool: BufferPool<T>,
+    /// Per-op times, when profiling is on (see [`crate::profile`]).
+    profile: Option<Profile>,
 }
 
 impl<T: Float> Default for Tape<T> {
@@ -218,6 +221,7 @@ impl<T: Float> Tape<T> {
             values: Vec::new(),
             grads: Vec::new(),
             pool: BufferPool::default(),
+            profile: None,
         }
     }
 
@@ -232,6 +236,21 @@ impl<T: Float> Tape<T> {
         self.nodes.clear();
         self.input_ids.clear();
         self.generation = self.generation.wrapping_add(1);
+    }
+
+    /// Turns the per-op profile on or off (see [`crate::profile`]); turning it off drops what
+    /// was collected.
+    pub fn set_profiling(&mut self, on: bool) {
+        self.profile = on.then(|| self.profile.take().unwrap_or_default());
+    }
+
+    /// The per-op times collected since profiling was turned on or last taken (empty when
+    /// profiling is off); collection goes on from zero.
+    pub fn take_profile(&mut self) -> Profile {
+        match &mut self.profile {
+            Some(p) => std::mem::take(p),
+            None => Profile::default(),
+        }
     }
 
     /// Number of nodes recorded since the last `clear()`.
@@ -354,7 +373,11 @@ impl<T: Float> Tape<T> {
             } else {
                 self.pool.zeros(shape)
             };
+            let start = self.profile.is_some().then(std::time::Instant::now);
             op.forward(&input_values, &mut out);
+            if let (Some(p), Some(t)) = (&mut self.profile, start) {
+                p.add_forward(op.name(), t.elapsed().as_secs_f64());
+            }
             out
         };
         let ids = ids.to_vec();
@@ -542,6 +565,7 @@ impl<T: Float> Tape<T> {
                     wants,
                     pool: &mut self.pool,
                 };
+                let start = self.profile.is_some().then(std::time::Instant::now);
                 if !hooks.override_vjp(&view, &dy, &mut dx) {
                     let cx = BackwardCx {
                         inputs: &input_values,
@@ -549,6 +573,9 @@ impl<T: Float> Tape<T> {
                         dy: &dy,
                     };
                     op.backward(&cx, &mut dx);
+                }
+                if let (Some(p), Some(t)) = (&mut self.profile, start) {
+                    p.add_backward(op.name(), t.elapsed().as_secs_f64());
                 }
             }
             let keep = node.retain || matches!(node.kind, NodeKind::Leaf | NodeKind::Param(_));

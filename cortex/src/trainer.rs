@@ -167,6 +167,16 @@ impl Trainer {
         self.rule = Some(rule);
     }
 
+    /// Turns the training tape's per-op profile on or off (see `autodiff::profile`).
+    pub fn set_profiling(&mut self, on: bool) {
+        self.tape.set_profiling(on);
+    }
+
+    /// The per-op times of the steps since profiling was turned on or last taken.
+    pub fn take_profile(&mut self) -> autodiff::profile::Profile {
+        self.tape.take_profile()
+    }
+
     /// Keep a detached copy of each step's percept for Neural Scope ([`Trainer::last_percept`]).
     pub fn set_keep_percept(&mut self, keep: bool) {
         self.keep_percept = keep;

@@ -235,8 +235,8 @@ impl UNet {
         }
         for (up, skip) in self.ups.iter().zip(skips.into_iter().rev()) {
             let (wt, bt) = (param(tape, up.weight), param(tape, up.bias));
-            let u = tape.conv_transpose2x2(h, wt);
-            let u = tape.add_channel_bias(u, bt);
+            // One fused op: conv_transpose2x2(h, wt) + bt per channel.
+            let u = tape.conv_transpose2x2_bias(h, wt, bt);
             let cat = tape.concat(&[skip, u]);
             h = up.conv.forward(tape, param, cat);
         }

@@ -12,8 +12,14 @@
 //!
 //! A leading axis of 1 on `c` broadcasts over the batch; its gradient sums over the batch.
 //! Layout: every op sees `(outer, C, inner)` with `inner` = product of axes 2.., row-major.
+//!
+//! `concat` and `add_channel_bias` (the U-Net's) run at memory speed: parallel over blocks of
+//! images or planes, each output written once, and an input gradient that no other op has
+//! touched yet is written in one pass instead of zero-filled and added to
+//! ([`GradSlots::target`]).
 
 use crate::{BackwardCx, Float, GradSlots, Op, Shape, Tape, Tensor, Var};
+use rayon::prelude::*;
 
 /// Op names of this file (registry rule, see [`crate::ops`]).
 pub const OPS: &[&str] = &[
@@ -24,6 +30,38 @@ pub const OPS: &[&str] = &[
     "channel_outer",
     "normalize_channels",
 ];
+
+/// Elements per parallel task, at least, for the memory-bound ops here (concat,
+/// add_channel_bias): below this rayon's overhead dominates.
+const MIN_TASK_ELEMS: usize = 1 << 15;
+
+/// How many `len`-element units make one parallel task of at least [`MIN_TASK_ELEMS`].
+fn units_per_task(len: usize) -> usize {
+    (MIN_TASK_ELEMS / len.max(1)).max(1)
+}
+
+/// `dst = src` (`acc == false`) or `dst += src`.
+#[inline]
+fn write_or_add<T: Float>(dst: &mut [T], src: &[T], acc: bool) {
+    if acc {
+        dst.iter_mut().zip(src).for_each(|(a, &v)| *a += v);
+    } else {
+        dst.copy_from_slice(src);
+    }
+}
+
+/// `Σ v`, with 8 independent partial sums so the loop vectorises.
+fn sum<T: Float>(v: &[T]) -> T {
+    let mut acc = [T::zero(); 8];
+    let chunks = v.chunks_exact(8);
+    let tail = chunks.remainder().iter().fold(T::zero(), |s, &x| s + x);
+    for c in chunks {
+        for (a, &x) in acc.iter_mut().zip(c) {
+            *a += x;
+        }
+    }
+    acc.iter().fold(tail, |s, &x| s + x)
+}
 
 /// `(outer, channels, inner)` of a rank ≥ 2 shape; panics naming `op`.
 #[track_caller]
@@ -68,33 +106,48 @@ impl<T: Float> Op<T> for Concat {
         with_channels(first, c)
     }
     fn forward(&mut self, inputs: &[&Tensor<T>], out: &mut Tensor<T>) {
-        let (outer, ctot, inner) = split(out.shape(), "concat");
-        let y = out.data_mut();
-        let mut c0 = 0;
-        for t in inputs {
-            let ci = t.dims()[1];
-            for b in 0..outer {
-                y[(b * ctot + c0) * inner..][..ci * inner]
-                    .copy_from_slice(&t.data()[b * ci * inner..][..ci * inner]);
-            }
-            c0 += ci;
+        let (_, ctot, inner) = split(out.shape(), "concat");
+        let n = ctot * inner;
+        if n == 0 {
+            return;
         }
-    }
-    fn backward(&self, cx: &BackwardCx<'_, T>, dx: &mut GradSlots<'_, T>) {
-        let (outer, ctot, inner) = split(cx.dy.shape(), "concat");
-        let dy = cx.dy.data();
-        let mut c0 = 0;
-        for (i, t) in cx.inputs.iter().enumerate() {
-            let ci = t.dims()[1];
-            if let Some(g) = dx.slot_data(i) {
-                for b in 0..outer {
-                    let src = &dy[(b * ctot + c0) * inner..][..ci * inner];
-                    for (a, &v) in g[b * ci * inner..][..ci * inner].iter_mut().zip(src) {
-                        *a += v;
+        // Parallel over groups of images; each image's channel blocks are copied in order.
+        out.data_mut()
+            .par_chunks_mut(n * units_per_task(n))
+            .enumerate()
+            .for_each(|(k, ys)| {
+                let b0 = k * units_per_task(n);
+                for (db, y) in ys.chunks_exact_mut(n).enumerate() {
+                    let mut c0 = 0;
+                    for t in inputs {
+                        let m = t.dims()[1] * inner;
+                        y[c0..c0 + m].copy_from_slice(&t.data()[(b0 + db) * m..][..m]);
+                        c0 += m;
                     }
                 }
+            });
+    }
+    fn overwrites_output(&self) -> bool {
+        true
+    }
+    fn backward(&self, cx: &BackwardCx<'_, T>, dx: &mut GradSlots<'_, T>) {
+        let (_, ctot, inner) = split(cx.dy.shape(), "concat");
+        let (dy, n) = (cx.dy.data(), ctot * inner);
+        let mut c0 = 0;
+        for (i, t) in cx.inputs.iter().enumerate() {
+            let m = t.dims()[1] * inner;
+            if let (Some(g), true) = (dx.target(i), m > 0) {
+                // One pass: copy into a fresh gradient, add into an existing one.
+                let (g, acc) = g.into_parts();
+                let per = units_per_task(m);
+                g.par_chunks_mut(m * per).enumerate().for_each(|(k, gs)| {
+                    for (db, gb) in gs.chunks_exact_mut(m).enumerate() {
+                        let b = k * per + db;
+                        write_or_add(gb, &dy[b * n + c0..][..m], acc);
+                    }
+                });
             }
-            c0 += ci;
+            c0 += m;
         }
     }
 }
@@ -166,29 +219,53 @@ impl<T: Float> Op<T> for AddChannelBias {
     }
     fn forward(&mut self, inputs: &[&Tensor<T>], out: &mut Tensor<T>) {
         let (_, c, inner) = split(inputs[0].shape(), "add_channel_bias");
-        let bias = inputs[1].data();
-        let chunks = out
-            .data_mut()
-            .chunks_exact_mut(inner.max(1))
-            .zip(inputs[0].data().chunks_exact(inner.max(1)));
-        for (k, (y, x)) in chunks.enumerate() {
-            let bk = bias[k % c];
-            for (o, &v) in y.iter_mut().zip(x) {
-                *o = v + bk;
-            }
+        if inner * c == 0 {
+            return;
         }
+        let bias = inputs[1].data();
+        let per = units_per_task(inner);
+        out.data_mut()
+            .par_chunks_mut(inner * per)
+            .zip(inputs[0].data().par_chunks(inner * per))
+            .enumerate()
+            .for_each(|(k, (ys, xs))| {
+                let planes = ys.chunks_exact_mut(inner).zip(xs.chunks_exact(inner));
+                for (p, (y, x)) in planes.enumerate() {
+                    let bk = bias[(k * per + p) % c];
+                    for (o, &v) in y.iter_mut().zip(x) {
+                        *o = v + bk;
+                    }
+                }
+            });
+    }
+    fn overwrites_output(&self) -> bool {
+        true
     }
     fn backward(&self, cx: &BackwardCx<'_, T>, dx: &mut GradSlots<'_, T>) {
-        let (_, c, inner) = split(cx.inputs[0].shape(), "add_channel_bias");
+        let (outer, c, inner) = split(cx.inputs[0].shape(), "add_channel_bias");
         let dy = cx.dy.data();
-        if let Some(g) = dx.slot_data(0) {
-            for (a, &v) in g.iter_mut().zip(dy) {
-                *a += v;
-            }
+        if inner * c == 0 {
+            return;
+        }
+        let per = units_per_task(inner);
+        if let Some(g) = dx.target(0) {
+            let (g, acc) = g.into_parts();
+            g.par_chunks_mut(inner * per)
+                .zip(dy.par_chunks(inner * per))
+                .for_each(|(g, d)| write_or_add(g, d, acc));
         }
         if let Some(g) = dx.slot_data(1) {
-            for (k, row) in dy.chunks_exact(inner.max(1)).enumerate() {
-                g[k % c] += row.iter().copied().sum::<T>();
+            // Plane sums in parallel, then a fixed-order reduction over the batch.
+            let mut sums = vec![T::zero(); outer * c];
+            sums.par_chunks_mut(per)
+                .zip(dy.par_chunks(inner * per))
+                .for_each(|(s, d)| {
+                    for (a, plane) in s.iter_mut().zip(d.chunks_exact(inner)) {
+                        *a = sum(plane);
+                    }
+                });
+            for row in sums.chunks_exact(c) {
+                g.iter_mut().zip(row).for_each(|(a, &v)| *a += v);
             }
         }
     }
@@ -478,6 +555,25 @@ mod tests {
             prop_assert!(r.is_ok(), "{}", r.unwrap_err());
         }
 
+        /// Inputs used twice: the later op's backward gets fresh gradient buffers (written
+        /// over; NaN-filled under test, so a missed element fails), the earlier one adds.
+        #[test]
+        fn concat_and_bias_gradients_into_shared_inputs(
+            (x, b) in (1usize..=3).prop_flat_map(|c| (dims_with(c).prop_flat_map(st::tensor_of), st::tensor_of(vec![c]))),
+        ) {
+            let r = check_gradients(
+                |t, v| {
+                    let y = t.add_channel_bias(v[0], v[1]);
+                    let z = t.add_channel_bias(v[0], v[1]);
+                    let yz = t.mul(y, z);
+                    t.concat(&[v[0], yz, v[0]])
+                },
+                &[x.clone(), b],
+                &CheckConfig::default(),
+            );
+            prop_assert!(r.is_ok(), "{:?}: {}", x.shape(), r.unwrap_err());
+        }
+
         #[test]
         fn channel_dot_and_outer_gradients(
             (v, c, p) in (1usize..=4, any::<bool>()).prop_flat_map(|(n, bcast)| dims_with(n).prop_flat_map(move |d| {
@@ -534,6 +630,49 @@ mod tests {
         let pts = t.constant(Tensor::from_vec([3, 2], vec![1., 2., 3., 4., 5., 6.]));
         let ys = t.slice(pts, 1, 1);
         assert_eq!(t.value(ys).data(), &[2., 4., 6.]);
+    }
+
+    #[test]
+    fn large_concat_and_bias_match_plain_loops() {
+        // Big enough for several parallel tasks (MIN_TASK_ELEMS); integer values keep every
+        // sum exact, so the results must agree exactly whatever the summation order.
+        let (bn, ca, cb, inner) = (3, 5, 2, 70 * 90);
+        let a = Tensor::from_fn([bn, ca, 70, 90], |i| ((i * 37) % 19) as f64 - 9.0);
+        let b = Tensor::from_fn([bn, cb, 70, 90], |i| ((i * 11) % 23) as f64 - 11.0);
+        let bias = Tensor::from_vec([ca + cb], (0..ca + cb).map(|k| k as f64).collect());
+        let mut t = Tape::<f64>::new();
+        let (av, bv, biasv) = (t.leaf(a.clone()), t.leaf(b.clone()), t.leaf(bias.clone()));
+        let cat = t.concat(&[av, bv]);
+        let y = t.add_channel_bias(cat, biasv);
+        let c = ca + cb;
+        let at = |bi: usize, k: usize, q: usize| {
+            if k < ca {
+                a.data()[(bi * ca + k) * inner + q]
+            } else {
+                b.data()[(bi * cb + k - ca) * inner + q]
+            }
+        };
+        let want = Tensor::from_fn([bn, c, 70, 90], |f| {
+            let (bi, k, q) = (f / (c * inner), (f / inner) % c, f % inner);
+            at(bi, k, q) + k as f64
+        });
+        assert_eq!(t.value(y).data(), want.data());
+        let dy = Tensor::from_fn(t.shape(y), |i| ((i * 29) % 13) as f64 - 6.0);
+        t.backward_from(&[(y, dy.clone())], &mut crate::NoHooks);
+        let mut gb = vec![0.0; c];
+        for (p, plane) in dy.data().chunks_exact(inner).enumerate() {
+            gb[p % c] += plane.iter().sum::<f64>();
+        }
+        assert_eq!(t.grad(biasv).unwrap().data(), &gb[..]);
+        let pick = |bi: usize, k: usize| &dy.data()[(bi * c + k) * inner..][..inner];
+        let ga: Vec<f64> = (0..bn)
+            .flat_map(|bi| (0..ca).flat_map(move |k| pick(bi, k).to_vec()))
+            .collect();
+        let gbb: Vec<f64> = (0..bn)
+            .flat_map(|bi| (ca..c).flat_map(move |k| pick(bi, k).to_vec()))
+            .collect();
+        assert_eq!(t.grad(av).unwrap().data(), &ga[..]);
+        assert_eq!(t.grad(bv).unwrap().data(), &gbb[..]);
     }
 
     #[test]

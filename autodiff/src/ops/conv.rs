@@ -7,7 +7,9 @@
 //!   `p = (k−1)/2` — a cross-correlation, as in PyTorch. Bias is a separate op
 //!   ([`Tape::add_channel_bias`]).
 //! - `conv_transpose2x2(x, w)`: `x (B, Cin, H, W)`, `w (Cin, Cout, 2, 2)` → `(B, Cout, 2H, 2W)`,
-//!   `y[b,o,2i+a,2j+c] = Σ_ci x[b,ci,i,j] · w[ci,o,a,c]` (each output pixel has one source).
+//!   `y[b,o,2i+a,2j+c] = Σ_ci x[b,ci,i,j] · w[ci,o,a,c]` (each output pixel has one source);
+//!   `conv_transpose2x2_bias(x, w, b)` adds `b[o]` in the same pass (PyTorch's
+//!   `ConvTranspose2d` with bias, as the U-Net uses it).
 //!
 //! Both declare their kernel as the weight input (`weight_inputs() == [1]`), so feedback
 //! alignment can substitute a fixed random kernel in backward.
@@ -41,7 +43,7 @@ mod transpose;
 pub use lowering::Padding;
 pub use transpose::ConvTranspose2x2;
 
-use crate::{BackwardCx, Float, GradSlots, Op, Shape, Tape, Tensor, Var};
+use crate::{BackwardCx, Float, GradSlots, GradTarget, Op, Shape, Tape, Tensor, Var};
 use lowering::{Geometry, Scratch};
 use std::any::Any;
 use std::sync::atomic::{AtomicU8, Ordering};
@@ -244,6 +246,10 @@ impl<T: Float> Op<T> for Conv2d {
         let want_w = dx.wants(1);
         // ∂w into a zeroed scratch first: both slots borrow `dx`.
         let mut gw = Scratch::<T>::zeroed(if want_w { w.data().len() } else { 0 });
+        let (gx, gx_add) = match dx.target(0).map(GradTarget::into_parts) {
+            Some((g, add)) => (Some(g), add),
+            None => (None, true),
+        };
         (table.backward)(direct::BwdArgs {
             g,
             co,
@@ -252,11 +258,16 @@ impl<T: Float> Op<T> for Conv2d {
             dy: cx.dy.data(),
             mask: self.relu.then(|| cx.output.data()),
             xp: saved,
-            gx: dx.slot_data(0),
+            gx,
+            gx_add,
             gw: want_w.then_some(&mut gw[..]),
         });
-        if let (true, Some(slot)) = (want_w, dx.slot_data(1)) {
-            slot.iter_mut().zip(gw.iter()).for_each(|(a, &b)| *a += b);
+        match dx.target(1) {
+            Some(GradTarget::Fresh(slot)) => slot.copy_from_slice(&gw),
+            Some(GradTarget::Accumulate(slot)) => {
+                slot.iter_mut().zip(gw.iter()).for_each(|(a, &b)| *a += b)
+            }
+            None => {}
         }
     }
 

@@ -2,19 +2,87 @@
 //!
 //! `x (B, C, H, W)` → `(B, C, ⌊H/2⌋, ⌊W/2⌋)`. Like PyTorch's `MaxPool2d(2)` (floor mode), an
 //! odd last row or column is dropped. Ties go to the first maximum in row-major window order
-//! (top-left, top-right, bottom-left, bottom-right), and NaN propagates as the max. Forward
-//! saves the argmax of every window in the op; backward routes `dy` to that pixel only.
+//! (top-left, top-right, bottom-left, bottom-right), and NaN propagates as the max (the first
+//! NaN of a window is its argmax). Backward routes `dy` to the argmax pixel only.
+//!
+//! Forward computes each window's max and argmax branch-free as a tournament (the two pairs of
+//! the window, then their winners, the left one winning ties), which picks the same pixel as
+//! the sequential rule above, and saves the argmax (one byte per window, in a buffer recycled
+//! across ops) for backward. Both passes run in parallel over chunks of `(b, c)` planes.
 
 use crate::{BackwardCx, Float, GradSlots, Op, Shape, Tape, Tensor, Var};
 use rayon::prelude::*;
+use std::sync::Mutex;
 
 /// Op names of this file (registry rule, see [`crate::ops`]).
 pub const OPS: &[&str] = &["max_pool2x2"];
 
-/// 2×2 max pooling, stride 2, floor mode. Saves the window offset (0..4) of each maximum.
+/// Input elements per parallel task, at least: below this rayon's overhead dominates.
+const MIN_TASK_ELEMS: usize = 1 << 15;
+
+/// Argmax buffers of dropped ops, reused by later ones (fresh pages are slow on these VMs).
+static ARGMAX_STASH: Mutex<Vec<Vec<u8>>> = Mutex::new(Vec::new());
+
+/// Most buffers the stash keeps.
+const STASH_MAX: usize = 16;
+
+/// 2×2 max pooling, stride 2, floor mode (see the module docs). Saves the window offset (0..4,
+/// row-major) of each maximum.
 #[derive(Debug, Default)]
 pub struct MaxPool2x2 {
     argmax: Vec<u8>,
+}
+
+impl Drop for MaxPool2x2 {
+    fn drop(&mut self) {
+        let buf = std::mem::take(&mut self.argmax);
+        if buf.capacity() > 0 {
+            let mut stash = ARGMAX_STASH.lock().unwrap_or_else(|e| e.into_inner());
+            if stash.len() < STASH_MAX {
+                stash.push(buf);
+            }
+        }
+    }
+}
+
+/// A buffer of `n` bytes (contents unspecified), from the stash when one is large enough.
+fn take_argmax(n: usize) -> Vec<u8> {
+    let mut stash = ARGMAX_STASH.lock().unwrap_or_else(|e| e.into_inner());
+    let best = (0..stash.len())
+        .filter(|&i| stash[i].capacity() >= n)
+        .min_by_key(|&i| stash[i].capacity());
+    let mut buf = best.map_or_else(Vec::new, |i| stash.swap_remove(i));
+    drop(stash);
+    buf.resize(n, 0);
+    buf
+}
+
+/// `(max, 1 if b won)` of `a` then `b`: `b` wins when larger, or NaN while `a` is not; so ties
+/// go to `a` and NaN beats every number.
+#[inline(always)]
+fn duel<T: Float>(a: T, b: T) -> (T, u8) {
+    // Non-short-circuit `|` and `&` keep this a select, not a branch.
+    let b_wins = (b > a) | (b.is_nan() & !a.is_nan());
+    (if b_wins { b } else { a }, b_wins as u8)
+}
+
+/// Pools one `(h, w)` plane `xp` into `y` and `arg` (`⌊h/2⌋ × wo` each).
+fn pool_plane<T: Float>(xp: &[T], y: &mut [T], arg: &mut [u8], w: usize, wo: usize) {
+    let rows = y.chunks_exact_mut(wo).zip(arg.chunks_exact_mut(wo));
+    for (i, (yr, ar)) in rows.enumerate() {
+        let r0 = &xp[2 * i * w..][..2 * wo];
+        let r1 = &xp[(2 * i + 1) * w..][..2 * wo];
+        let wins = r0.chunks_exact(2).zip(r1.chunks_exact(2));
+        for ((o, q), (a, b)) in yr.iter_mut().zip(ar.iter_mut()).zip(wins) {
+            let (top, qt) = duel(a[0], a[1]);
+            let (bottom, qb) = duel(b[0], b[1]);
+            let (m, lower) = duel(top, bottom);
+            *o = m;
+            // lower ? 2 + qb : qt, as bit operations (u8 lanes vectorise, selects may not).
+            let lm = lower.wrapping_neg();
+            *q = (lower << 1) | (qb & lm) | (qt & !lm);
+        }
+    }
 }
 
 impl<T: Float> Op<T> for MaxPool2x2 {
@@ -32,32 +100,26 @@ impl<T: Float> Op<T> for MaxPool2x2 {
         let x = inputs[0];
         let (_, _, h, w) = x.shape().bchw("max_pool2x2");
         let (ho, wo) = (h / 2, w / 2);
-        self.argmax.clear();
-        self.argmax.resize(out.numel(), 0);
         if ho * wo == 0 {
             return;
         }
+        let mut argmax = take_argmax(out.numel());
+        let planes = (MIN_TASK_ELEMS / (h * w)).max(1);
+        let (n_in, n_out) = (planes * h * w, planes * ho * wo);
         out.data_mut()
-            .par_chunks_mut(ho * wo)
-            .zip(self.argmax.par_chunks_mut(ho * wo))
-            .zip(x.data().par_chunks(h * w))
-            .for_each(|((y, arg), xp)| {
-                for i in 0..ho {
-                    let (r0, r1) = (&xp[2 * i * w..][..w], &xp[(2 * i + 1) * w..][..w]);
-                    for j in 0..wo {
-                        let win = [r0[2 * j], r0[2 * j + 1], r1[2 * j], r1[2 * j + 1]];
-                        let mut best = 0;
-                        for (q, &v) in win.iter().enumerate().skip(1) {
-                            // A NaN beats every number and then stays the max.
-                            if v > win[best] || (v.is_nan() && !win[best].is_nan()) {
-                                best = q;
-                            }
-                        }
-                        y[i * wo + j] = win[best];
-                        arg[i * wo + j] = best as u8;
-                    }
+            .par_chunks_mut(n_out)
+            .zip(argmax.par_chunks_mut(n_out))
+            .zip(x.data().par_chunks(n_in))
+            .for_each(|((ys, args), xs)| {
+                let per_plane = ys
+                    .chunks_exact_mut(ho * wo)
+                    .zip(args.chunks_exact_mut(ho * wo))
+                    .zip(xs.chunks_exact(h * w));
+                for ((yp, ap), xp) in per_plane {
+                    pool_plane(xp, yp, ap, w, wo);
                 }
             });
+        self.argmax = argmax;
     }
 
     fn overwrites_output(&self) -> bool {
@@ -71,14 +133,24 @@ impl<T: Float> Op<T> for MaxPool2x2 {
         if ho * wo == 0 {
             return;
         }
-        gx.par_chunks_mut(h * w)
-            .zip(cx.dy.data().par_chunks(ho * wo))
-            .zip(self.argmax.par_chunks(ho * wo))
-            .for_each(|((gp, dy), arg)| {
-                for i in 0..ho {
-                    for j in 0..wo {
-                        let q = arg[i * wo + j] as usize;
-                        gp[(2 * i + q / 2) * w + 2 * j + q % 2] += dy[i * wo + j];
+        let planes = (MIN_TASK_ELEMS / (h * w)).max(1);
+        let (n_in, n_out) = (planes * h * w, planes * ho * wo);
+        gx.par_chunks_mut(n_in)
+            .zip(cx.dy.data().par_chunks(n_out))
+            .zip(self.argmax.par_chunks(n_out))
+            .for_each(|((gs, dys), args)| {
+                let per_plane = gs
+                    .chunks_exact_mut(h * w)
+                    .zip(dys.chunks_exact(ho * wo))
+                    .zip(args.chunks_exact(ho * wo));
+                for ((gp, dy), arg) in per_plane {
+                    for i in 0..ho {
+                        let (g0, g1) = gp[2 * i * w..][..2 * w].split_at_mut(w);
+                        let (dr, ar) = (&dy[i * wo..][..wo], &arg[i * wo..][..wo]);
+                        for (j, (&d, &q)) in dr.iter().zip(ar).enumerate() {
+                            let row = if q < 2 { &mut *g0 } else { &mut *g1 };
+                            row[2 * j + (q & 1) as usize] += d;
+                        }
                     }
                 }
             });
@@ -165,6 +237,62 @@ mod tests {
             &mut crate::NoHooks,
         );
         assert_eq!(t.grad(x).unwrap().data(), &[1., 0., 0., 1., 0., 0., 0., 0.]);
+    }
+
+    /// The forward rule written out plainly: value and window offset of the first maximum,
+    /// a NaN beating every number.
+    fn reference(x: &Tensor<f32>) -> (Vec<f32>, Vec<usize>) {
+        let (b, c, h, w) = x.shape().bchw("reference");
+        let (ho, wo) = (h / 2, w / 2);
+        let (mut vals, mut at) = (vec![], vec![]);
+        for p in 0..b * c {
+            for i in 0..ho {
+                for j in 0..wo {
+                    let idx = |q: usize| p * h * w + (2 * i + q / 2) * w + 2 * j + q % 2;
+                    let mut best = 0;
+                    for q in 1..4 {
+                        let (v, m) = (x.data()[idx(q)], x.data()[idx(best)]);
+                        if v > m || (v.is_nan() && !m.is_nan()) {
+                            best = q;
+                        }
+                    }
+                    vals.push(x.data()[idx(best)]);
+                    at.push(idx(best));
+                }
+            }
+        }
+        (vals, at)
+    }
+
+    #[test]
+    fn matches_the_plain_rule_with_ties_nans_and_signed_zeros() {
+        // Few distinct values, so most windows tie; several planes per parallel task and
+        // several tasks (MIN_TASK_ELEMS), odd sizes.
+        let palette = [0.0f32, -0.0, 1.0, 1.0, -2.0, f32::NAN];
+        let mut seed = 7u64;
+        let x = Tensor::from_fn([3, 5, 37, 41], |_| {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            palette[(seed >> 33) as usize % palette.len()]
+        });
+        let (vals, at) = reference(&x);
+        let mut t = Tape::<f32>::new();
+        let xv = t.leaf(x.clone());
+        let y = t.max_pool2x2(xv);
+        for (k, (&got, &want)) in t.value(y).data().iter().zip(&vals).enumerate() {
+            assert!(
+                got == want || (got.is_nan() && want.is_nan()),
+                "window {k}: {got} vs {want}"
+            );
+        }
+        let dy = Tensor::from_fn(t.shape(y), |k| k as f32 + 1.0);
+        t.backward_from(&[(y, dy.clone())], &mut crate::NoHooks);
+        let mut want = vec![0.0f32; x.numel()];
+        for (k, &i) in at.iter().enumerate() {
+            want[i] += dy.data()[k];
+        }
+        assert_eq!(t.grad(xv).unwrap().data(), &want[..]);
     }
 
     #[test]

@@ -62,8 +62,9 @@ pub(crate) struct BwdArgs<'a, T> {
     pub mask: Option<&'a [T]>,
     /// The padded images written by forward for this `x`, if still valid.
     pub xp: Option<&'a [T]>,
-    /// `∂x` accumulator (added into), when wanted.
+    /// `∂x`, when wanted: added into when `gx_add`, else overwritten (every element).
     pub gx: Option<&'a mut [T]>,
+    pub gx_add: bool,
     /// `∂w` accumulator (added into), when wanted.
     pub gw: Option<&'a mut [T]>,
 }
@@ -133,3 +134,7 @@ fn pack<T: Float>(co: usize, c: usize, w: &[T], mr: usize, flip: bool, out: &mut
 mod x86;
 #[cfg(target_arch = "x86_64")]
 mod x86_backward;
+#[cfg(target_arch = "x86_64")]
+mod x86_by_image;
+#[cfg(all(test, target_arch = "x86_64"))]
+pub(crate) use x86_backward::BY_IMAGE;

@@ -115,6 +115,22 @@ proptest! {
         prop_assert!(r.is_ok(), "conv2d {mode:?} x {:?} w {:?}: {}", x.shape(), w.shape(), r.unwrap_err());
     }
 
+    /// `x` and `w` feed two convs: the later conv's backward gets fresh gradient buffers
+    /// (overwritten; NaN-filled under test, so a missed element fails), the earlier one adds.
+    #[test]
+    fn conv2d_gradients_into_shared_inputs((x, w, mode) in conv_case()) {
+        let r = check_gradients(
+            |t, v| {
+                let a = t.conv2d(v[0], v[1], mode);
+                let b = t.conv2d(v[0], v[1], Padding::Zero);
+                t.add(a, b)
+            },
+            &[x.clone(), w.clone()],
+            &CheckConfig::default(),
+        );
+        prop_assert!(r.is_ok(), "conv2d twice {mode:?} x {:?} w {:?}: {}", x.shape(), w.shape(), r.unwrap_err());
+    }
+
     #[test]
     fn conv2d_matches_direct_loops((x, w, mode) in conv_case()) {
         let mut t = Tape::<f64>::new();
@@ -371,6 +387,7 @@ fn direct_kernels_match_direct_loops_f64_and_f32() {
         (2, 17, 20, 8, 9),
         (1, 3, 11, 1, 2),
         (2, 1, 1, 40, 1),
+        (5, 3, 9, 21, 18),
     ];
     for (i, &(b, ci, h, wd, co)) in shapes.iter().enumerate() {
         let seed = 100 + 10 * i as u64;
@@ -411,16 +428,17 @@ fn direct_kernels_match_direct_loops_f64_and_f32() {
                         assert!(d < tol, "{dtype} {case}: {name} off by {d:e} (relative)");
                     }
                 };
-                check(
-                    &run_kernel::<f64>(ConvKernel::Direct, &x, &w, &r, mode, relu),
-                    1e-13,
-                    "f64",
-                );
-                check(
-                    &run_kernel::<f32>(ConvKernel::Direct, &x, &w, &r, mode, relu),
-                    1e-5,
-                    "f32",
-                );
+                // Backward both batch-wide and image by image (for batches of ≥ 2 images).
+                for by_image in [false, true] {
+                    #[cfg(target_arch = "x86_64")]
+                    direct::BY_IMAGE.store(by_image, std::sync::atomic::Ordering::Relaxed);
+                    let f64s = run_kernel::<f64>(ConvKernel::Direct, &x, &w, &r, mode, relu);
+                    check(&f64s, 1e-13, &format!("f64 by image {by_image}"));
+                    let f32s = run_kernel::<f32>(ConvKernel::Direct, &x, &w, &r, mode, relu);
+                    check(&f32s, 1e-5, &format!("f32 by image {by_image}"));
+                }
+                #[cfg(target_arch = "x86_64")]
+                direct::BY_IMAGE.store(true, std::sync::atomic::Ordering::Relaxed);
             }
         }
     }

@@ -133,13 +133,6 @@ fn forward<V: Simd>(a: FwdArgs<'_, V::S>) {
     let (hw, stride) = (h * w, xp_stride(&g));
     let batch = a.x.len() / (c * hw);
     assert_eq!(a.xp.len(), batch * stride, "conv2d direct: xp length");
-    a.xp.par_chunks_mut(stride)
-        .zip(a.x.par_chunks(c * hw))
-        .for_each(|(xp, x)| {
-            let (img, slack) = xp.split_at_mut(g.padded_len());
-            g.pad(x, img);
-            slack.fill(zero::<V::S>());
-        });
     let mut wf = Scratch::<V::S>::take(co.div_ceil(MR) * c * 9 * MR);
     pack(co, c, a.w, MR, false, &mut wf);
     let per_group = co.div_ceil(MR).div_ceil(groups(batch, co.div_ceil(MR))) * MR;
@@ -148,10 +141,17 @@ fn forward<V: Simd>(a: FwdArgs<'_, V::S>) {
         let (i, j) = (p / nb, p % nb * V::L);
         (i * rw + j, i * w + j, (w - j).min(V::L))
     };
-    let (xp, wf) = (&*a.xp, &*wf);
+    let wf = &*wf;
+    // Each image is padded right before it is convolved, by the same task, so the padded
+    // copy is still in L2 when the kernel reads it.
     a.y.par_chunks_mut(co * hw)
-        .zip(xp.par_chunks(stride))
-        .for_each(|(y, xp)| {
+        .zip(a.xp.par_chunks_mut(stride))
+        .zip(a.x.par_chunks(c * hw))
+        .for_each(|((y, xp), x)| {
+            let (img, slack) = xp.split_at_mut(g.padded_len());
+            g.pad(x, img);
+            slack.fill(zero::<V::S>());
+            let xp = &*xp;
             y.par_chunks_mut(per_group * hw)
                 .enumerate()
                 .for_each(|(gi, yg)| {

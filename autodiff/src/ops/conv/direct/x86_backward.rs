@@ -6,6 +6,7 @@ use super::super::kernels::{channels_last, dw_block, Rows, Simd, Store};
 use super::x86::{avx512, Corr, MR};
 use super::*;
 use rayon::prelude::*;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 pub(super) fn backward<V: Simd>(a: BwdArgs<'_, V::S>) {
     avx512();
@@ -13,6 +14,9 @@ pub(super) fn backward<V: Simd>(a: BwdArgs<'_, V::S>) {
     let (c, h, w) = (g.c, g.h, g.w);
     let hw = h * w;
     let batch = a.x.len() / (c * hw);
+    if batch >= rayon::current_num_threads().max(2) && BY_IMAGE.load(Ordering::Relaxed) {
+        return super::x86_by_image::backward::<V>(a);
+    }
     let mask = |b: usize| a.mask.map(|y| &y[b * co * hw..][..co * hw]);
     if let Some(gx) = a.gx {
         let zstride = g.dyz_len(co) + SLACK;
@@ -25,7 +29,7 @@ pub(super) fn backward<V: Simd>(a: BwdArgs<'_, V::S>) {
                 g.pad_dy(co, dy, mask(b), img);
                 slack.fill(zero());
             });
-        grad_x::<V>(g, co, a.w, &dyz, zstride, gx);
+        grad_x::<V>(g, co, a.w, &dyz, zstride, gx, a.gx_add);
     }
     if let Some(gw) = a.gw {
         let co_l = co.div_ceil(V::L) * V::L;
@@ -53,8 +57,12 @@ pub(super) fn backward<V: Simd>(a: BwdArgs<'_, V::S>) {
     }
 }
 
+/// Whether batches of at least as many images as threads take the image-by-image path
+/// ([`super::x86_by_image`]); tests switch it off to run the batch-wide path on the same cases.
+pub(crate) static BY_IMAGE: AtomicBool = AtomicBool::new(true);
+
 /// `dy` of one image channels-last (see [`channels_last`]).
-fn to_channels_last<V: Simd>(
+pub(super) fn to_channels_last<V: Simd>(
     dy: &[V::S],
     mask: Option<&[V::S]>,
     co: usize,
@@ -88,9 +96,10 @@ unsafe fn channels_last_unchecked<V: Simd>(
     channels_last::<V>(dy, y, co, hw, co_l, dyt.as_mut_ptr());
 }
 
-/// `∂x += fold(∂xp)`, `∂xp` = full correlation of `dyz` with the flipped kernel. The
-/// interior of `∂xp` (one padded position per pixel) is accumulated straight into `∂x`;
-/// under reflect padding the border ring is added by [`ring`].
+/// `∂x (+)= fold(∂xp)` (added into `gx` when `add`, else overwriting it), `∂xp` = full
+/// correlation of `dyz` with the flipped kernel: per image, in parallel over images and
+/// channel groups (see [`GradX`]).
+#[allow(clippy::too_many_arguments)]
 fn grad_x<V: Simd>(
     g: Geometry,
     co: usize,
@@ -98,50 +107,78 @@ fn grad_x<V: Simd>(
     dyz: &[V::S],
     zstride: usize,
     gx: &mut [V::S],
+    add: bool,
 ) {
-    let (c, h, wd, wz) = (g.c, g.h, g.w, g.wz());
-    let hw = h * wd;
+    let (c, hw) = (g.c, g.h * g.w);
     let batch = gx.len() / (c * hw);
-    let mut wb = Scratch::<V::S>::take(c.div_ceil(MR) * co * 9 * MR);
-    pack(co, c, w, MR, true, &mut wb);
-    let reflect = g.mode == super::super::Padding::Reflect;
-    let cl = c + V::L;
-    let mut wr = Scratch::<V::S>::take(if reflect { 9 * co * cl } else { 0 });
-    if reflect {
-        pack_ring(co, c, w, cl, &mut wr);
-    }
+    let packed = GradX::new(g, co, w);
     let per_group = c.div_ceil(MR).div_ceil(groups(batch, c.div_ceil(MR))) * MR;
-    let nb = wd.div_ceil(V::L);
-    // Pixel (i, j) is padded position (i + p, j + p); its window starts at dyz row i + p,
-    // column j + p (`dyz` is padded by 2p).
-    let p = g.p();
-    let pos = |q: usize| {
-        let (i, j) = (q / nb, q % nb * V::L);
-        ((i + p) * wz + j + p, i * wd + j, (wd - j).min(V::L))
-    };
-    let (wb, wr) = (&*wb, &*wr);
     gx.par_chunks_mut(c * hw)
         .zip(dyz.par_chunks(zstride))
         .for_each(|(gx, z)| {
             gx.par_chunks_mut(per_group * hw)
                 .enumerate()
-                .for_each(|(gi, gxg)| {
-                    let channels = gxg.len() / hw;
-                    let job = Corr {
-                        inp: z,
-                        in_ch: g.plane_z(),
-                        cin: co,
-                        rw: wz,
-                        w: &wb[gi * per_group * co * 9..],
-                        out_ch: hw,
-                        store: Store::Add,
-                    };
-                    job.run::<V>(gxg, channels, h * nb, pos);
-                    if reflect {
-                        ring::<V>(g, co, z, wr, cl, gi * per_group, gxg);
-                    }
-                });
+                .for_each(|(gi, gxg)| packed.channels::<V>(z, gi * per_group, gxg, add));
         });
+}
+
+/// `∂x` of one image from its `dyz`, with the weights packed once per call: the interior of
+/// `∂xp` (one padded position per pixel) straight into `∂x` by [`Corr`]; under reflect
+/// padding the border ring is then added by [`ring`].
+pub(super) struct GradX<S: Float> {
+    g: Geometry,
+    co: usize,
+    /// Flipped weights in blocks of `MR` input channels (see `pack`).
+    wb: Scratch<S>,
+    /// Ring weights (see [`pack_ring`]), empty under zero padding.
+    wr: Scratch<S>,
+    /// Row length of `wr`.
+    cl: usize,
+}
+
+impl<S: Float> GradX<S> {
+    pub(super) fn new(g: Geometry, co: usize, w: &[S]) -> Self {
+        let c = g.c;
+        let mut wb = Scratch::<S>::take(c.div_ceil(MR) * co * 9 * MR);
+        pack(co, c, w, MR, true, &mut wb);
+        let reflect = g.mode == super::super::Padding::Reflect;
+        let cl = c + 16;
+        let mut wr = Scratch::<S>::take(if reflect { 9 * co * cl } else { 0 });
+        if reflect {
+            pack_ring(co, c, w, cl, &mut wr);
+        }
+        GradX { g, co, wb, wr, cl }
+    }
+
+    /// `∂x` of input channels `c0 ..` (as many as `gx` holds; `c0` a multiple of `MR`) of
+    /// the image whose padded `dy` is `z`: added into `gx` when `add`, else overwriting it.
+    pub(super) fn channels<V: Simd<S = S>>(&self, z: &[S], c0: usize, gx: &mut [S], add: bool) {
+        let g = self.g;
+        let (h, wd, wz, p) = (g.h, g.w, g.wz(), g.p());
+        let hw = h * wd;
+        debug_assert!(c0.is_multiple_of(MR) && V::L <= 16);
+        let nb = wd.div_ceil(V::L);
+        // Pixel (i, j) is padded position (i + p, j + p); its window starts at dyz row
+        // i + p, column j + p (`dyz` is padded by 2p).
+        let pos = |q: usize| {
+            let (i, j) = (q / nb, q % nb * V::L);
+            ((i + p) * wz + j + p, i * wd + j, (wd - j).min(V::L))
+        };
+        let job = Corr {
+            inp: z,
+            in_ch: g.plane_z(),
+            cin: self.co,
+            rw: wz,
+            w: &self.wb[c0 * self.co * 9..],
+            out_ch: hw,
+            // The ring (below) adds onto border pixels after this pass.
+            store: if add { Store::Add } else { Store::Set },
+        };
+        job.run::<V>(gx, gx.len() / hw, h * nb, pos);
+        if !self.wr.is_empty() {
+            ring::<V>(g, self.co, z, &self.wr, self.cl, c0, gx);
+        }
+    }
 }
 
 /// `wr[(t·Co + o)·cl + c] = w[o, c, 8 − t]`, zero for `c ≥ C` (`cl ≥ C + L`).
@@ -350,7 +387,7 @@ fn grad_w<V: Simd>(
 /// `∂w` of input channels `c0..` (as many as `part` holds) over all tiles of rows.
 #[target_feature(enable = "avx512f")]
 #[allow(clippy::too_many_arguments)]
-unsafe fn grad_w_group<V: Simd>(
+pub(super) unsafe fn grad_w_group<V: Simd>(
     xp: &[V::S],
     plane: usize,
     c0: usize,
