@@ -1,22 +1,29 @@
-//! One cortex training step at `quick` and `paper` (`cargo bench --bench cortex_step [quick|paper]
+//! One training step at `quick` and `paper` (`cargo bench --bench cortex_step [quick|paper]
 //! [--profile]`).
 //!
 //! Targets (issue 4): the whole quick step, retina batch included, ≤ 61 ms (anchor: PyTorch
-//! 2.15 CPU, 2 threads, a 16/32/64 U-Net alone, forward + backward + Adam at batch 8, 64²);
-//! this bench measures the **cortex part** (motion estimation, forward, backward, Adam) on a
-//! pre-generated synthetic batch, the retina's share is benchmarked in `benches/retina.rs`.
+//! 2.15 CPU, 2 threads, a 16/32/64 U-Net alone, forward + backward + Adam at batch 8, 64²).
+//! `quick` measures what `colorvision train` does per step — draw a batch from the LMS retina,
+//! then the cortex step (motion estimation, forward, backward, Adam) — for the quick preset
+//! with block-matching motion, the quick preset with the oracle motion (what the default run
+//! uses) and the sandbox preset, **interleaved step by step** so that the three see the same
+//! machine load (this VM's speed drifts by tens of per cent over minutes). `paper` runs the
+//! paper cortex on a synthetic batch (its retina is benchmarked in `benches/retina.rs`).
 //! Paper step: report time and peak memory (target ≤ 8 GiB).
 //!
-//! Output: median step time over the timed steps, and the median per-bucket split (forward +
-//! backward per bucket W, C, D, P, M, loss; Adam separately). Peak memory is the process's
-//! high-water mark of resident memory (`VmHWM` in /proc/self/status) after the paper steps.
-//! Plain timing loop (no criterion): a training step mutates the model, and the split per
-//! bucket is the point.
+//! Output: median whole step, batch and cortex times over the timed steps, the median
+//! per-bucket split (forward + backward per bucket W, C, D, P, M, loss; Adam separately), and
+//! with `--profile` the per-op table of the tape profiler (adds ≈ 50 ns per op). Peak memory
+//! is the process's high-water mark of resident memory (`VmHWM` in /proc/self/status) after
+//! the paper steps. Plain timing loop (no criterion): a training step mutates the model, and
+//! the split per bucket is the point.
 
+use colorvision::source::RetinaSource;
 use cortex::config::{CortexConfig, MMode};
 use cortex::model::{BUCKETS, BUCKET_NAMES};
 use cortex::synthetic::{SyntheticConfig, SyntheticSource};
 use cortex::{DataSource, StepStats, Trainer};
+use retina::Retina;
 
 fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(|a, b| a.partial_cmp(b).unwrap());
@@ -30,65 +37,159 @@ fn peak_rss_mib() -> Option<f64> {
     Some(kib / 1024.0)
 }
 
-fn bench(name: &str, cfg: CortexConfig, warmup: usize, timed: usize) {
-    let n = cfg.ons_size_px;
-    let bs = cfg.train.batch_size;
-    let mut src = SyntheticSource::new(SyntheticConfig::lms(n, 1));
-    let t0 = std::time::Instant::now();
-    let batch = src.next_batch(bs);
-    let gen_ms = t0.elapsed().as_secs_f64() * 1e3;
-    let mut trainer = Trainer::new(cfg).expect("preset is valid");
-    let mut stats: Vec<StepStats> = Vec::new();
-    let profile = std::env::args().any(|a| a == "--profile");
-    for k in 0..warmup + timed {
-        trainer.set_profiling(profile && k >= warmup);
-        let s = trainer.step(&batch).expect("step");
-        if k >= warmup {
-            stats.push(s);
+/// One configuration under measurement: its trainer, its data source and what it took.
+struct Case {
+    name: &'static str,
+    trainer: Trainer,
+    source: Box<dyn DataSource>,
+    /// Milliseconds to draw each timed batch from the source.
+    batch_ms: Vec<f64>,
+    /// Whether the source is the retina (its time counts in the whole step) or a synthetic
+    /// stand-in (reported apart).
+    retina: bool,
+    stats: Vec<StepStats>,
+}
+
+impl Case {
+    fn new(
+        name: &'static str,
+        cfg: CortexConfig,
+        source: Box<dyn DataSource>,
+        retina: bool,
+    ) -> Self {
+        Case {
+            name,
+            retina,
+            trainer: Trainer::new(cfg).expect("preset is valid"),
+            source,
+            batch_ms: Vec::new(),
+            stats: Vec::new(),
         }
     }
-    let total = median(stats.iter().map(|s| s.total_ms).collect());
-    println!(
-        "{name}: n = {n}, batch {bs}, {} params; median step {total:.1} ms over {timed} steps (loss {:.4} → {:.4}); synthetic batch generation {gen_ms:.0} ms (not included)",
-        trainer.cortex.params.numel(),
-        stats[0].loss,
-        stats[stats.len() - 1].loss
-    );
-    let mut line = String::new();
-    for (i, name) in BUCKET_NAMES.iter().enumerate().take(BUCKETS) {
-        let f = median(stats.iter().map(|s| s.forward_ms[i]).collect());
-        let b = median(stats.iter().map(|s| s.backward_ms[i]).collect());
-        line.push_str(&format!("{name} {f:.1}+{b:.1}  "));
+
+    /// One training step as `colorvision train` runs it: draw a batch, then step.
+    fn step(&mut self, timed: bool, profile: bool) {
+        let bs = self.trainer.config().train.batch_size;
+        self.trainer.set_profiling(profile && timed);
+        let t0 = std::time::Instant::now();
+        let batch = self.source.next_batch(bs);
+        let batch_ms = t0.elapsed().as_secs_f64() * 1e3;
+        let s = self.trainer.step(&batch).expect("step");
+        if timed {
+            self.batch_ms.push(batch_ms);
+            self.stats.push(s);
+        }
     }
-    let adam = median(stats.iter().map(|s| s.optimizer_ms).collect());
-    let credit = median(stats.iter().map(|s| s.credit_ms).collect());
-    println!(
-        "  per bucket, forward+backward ms: {line}adam {adam:.1}  (whole backward {credit:.1})"
-    );
-    if profile {
-        let p = trainer.take_profile().scaled(1.0 / timed as f64);
-        println!("  per op, ms per step (calls over all {timed} steps):\n{p}");
+
+    fn report(&mut self, profile: bool) {
+        let (stats, timed) = (&self.stats, self.stats.len());
+        let cortex = median(stats.iter().map(|s| s.total_ms).collect());
+        let whole = median(
+            stats
+                .iter()
+                .zip(&self.batch_ms)
+                .map(|(s, b)| s.total_ms + b)
+                .collect(),
+        );
+        let batch = median(self.batch_ms.clone());
+        let head = match self.retina {
+            true => {
+                format!("median whole step {whole:.1} ms = batch {batch:.1} + cortex {cortex:.1}")
+            }
+            false => format!(
+                "median cortex step {cortex:.1} ms (synthetic batch {batch:.0} ms, not counted)"
+            ),
+        };
+        println!(
+            "{}: n = {}, batch {}, {} params; {head} (medians of {timed} steps; loss {:.4} → {:.4})",
+            self.name,
+            self.trainer.config().ons_size_px,
+            self.trainer.config().train.batch_size,
+            self.trainer.cortex.params.numel(),
+            stats[0].loss,
+            stats[timed - 1].loss
+        );
+        let mut line = String::new();
+        for (i, name) in BUCKET_NAMES.iter().enumerate().take(BUCKETS) {
+            let f = median(stats.iter().map(|s| s.forward_ms[i]).collect());
+            let b = median(stats.iter().map(|s| s.backward_ms[i]).collect());
+            line.push_str(&format!("{name} {f:.1}+{b:.1}  "));
+        }
+        let adam = median(stats.iter().map(|s| s.optimizer_ms).collect());
+        let credit = median(stats.iter().map(|s| s.credit_ms).collect());
+        println!(
+            "  per bucket, forward+backward ms: {line}adam {adam:.1}  (whole backward {credit:.1})"
+        );
+        if profile {
+            let p = self.trainer.take_profile().scaled(1.0 / timed as f64);
+            println!("  per op, ms per step (calls over all {timed} steps):\n{p}");
+        }
     }
 }
 
+/// Runs the cases' steps interleaved (one step of each in turn), so that every case sees the
+/// same machine load, then reports each.
+fn bench(mut cases: Vec<Case>, warmup: usize, timed: usize, profile: bool) {
+    for k in 0..warmup + timed {
+        for case in &mut cases {
+            case.step(k >= warmup, profile);
+        }
+    }
+    for case in &mut cases {
+        case.report(profile);
+    }
+}
+
+/// The retina of `preset` (LMS) as a training data source, with the oracle motion if asked.
+fn retina_source(preset: &str, oracle_motion: bool) -> Box<dyn DataSource> {
+    let retina = Retina::preset(preset, "LMS").expect("retina preset");
+    Box::new(RetinaSource::new(retina, 1, oracle_motion))
+}
+
 fn main() {
-    // `--profile`: also print the per-op table of the tape profiler (adds ≈ 50 ns per op).
     let args: Vec<String> = std::env::args()
         .skip(1)
         .filter(|a| !a.starts_with('-'))
         .collect();
     let want = |p: &str| args.is_empty() || args.iter().any(|a| a == p);
+    let profile = std::env::args().any(|a| a == "--profile");
     println!("rayon threads: {}", rayon::current_num_threads());
     if want("quick") {
-        bench("quick", CortexConfig::quick(), 3, 15);
-        // The default `colorvision run` gives the quick cortex the oracle motion (M costs nothing).
+        // The whole step, retina batch included (the issue's target), three presets in turn.
         let mut oracle = CortexConfig::quick();
         oracle.m.mode = MMode::Oracle;
-        bench("quick, oracle motion (the default run)", oracle, 3, 15);
-        bench("sandbox", CortexConfig::sandbox(), 3, 15);
+        let cases = vec![
+            Case::new(
+                "quick (block-matching motion)",
+                CortexConfig::quick(),
+                retina_source("quick", false),
+                true,
+            ),
+            Case::new(
+                "quick, oracle motion (the default run)",
+                oracle,
+                retina_source("quick", true),
+                true,
+            ),
+            Case::new(
+                "sandbox",
+                CortexConfig::sandbox(),
+                retina_source("sandbox", true),
+                true,
+            ),
+        ];
+        bench(cases, 3, 30, profile);
     }
     if want("paper") {
-        bench("paper", CortexConfig::paper(), 1, 3);
+        // The paper cortex on a synthetic batch (its retina is benchmarked in `benches/retina.rs`).
+        let cfg = CortexConfig::paper();
+        let source = SyntheticSource::new(SyntheticConfig::lms(cfg.ons_size_px, 1));
+        bench(
+            vec![Case::new("paper", cfg, Box::new(source), false)],
+            1,
+            3,
+            profile,
+        );
         if let Some(mib) = peak_rss_mib() {
             println!("  peak resident memory of the process after the paper steps: {mib:.0} MiB");
         }
