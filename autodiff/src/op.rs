@@ -66,6 +66,23 @@ impl<'a, T: Float> GradTarget<'a, T> {
             GradTarget::Accumulate(g) => (g, true),
         }
     }
+
+    /// Writes `src` (same length) into a fresh buffer, or adds it into an accumulating one.
+    pub fn write(self, src: &[T]) {
+        let (g, add) = self.into_parts();
+        write_or_add(g, src, add);
+    }
+}
+
+/// `dst = src`, or `dst += src` when `add`: [`GradTarget::write`] for one chunk of a buffer
+/// split with [`GradTarget::into_parts`] (e.g. across rayon tasks).
+pub fn write_or_add<T: Float>(dst: &mut [T], src: &[T], add: bool) {
+    assert_eq!(dst.len(), src.len(), "write_or_add: lengths");
+    if add {
+        dst.iter_mut().zip(src).for_each(|(a, &v)| *a += v);
+    } else {
+        dst.copy_from_slice(src);
+    }
 }
 
 /// The gradient accumulators of one node's inputs, allocated lazily (zeroed) on first use.

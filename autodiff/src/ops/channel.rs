@@ -18,6 +18,8 @@
 //! touched yet is written in one pass instead of zero-filled and added to
 //! ([`GradSlots::target`]).
 
+use crate::op::write_or_add;
+use crate::ops::reduce::lane_sum;
 use crate::{BackwardCx, Float, GradSlots, Op, Shape, Tape, Tensor, Var};
 use rayon::prelude::*;
 
@@ -38,29 +40,6 @@ const MIN_TASK_ELEMS: usize = 1 << 15;
 /// How many `len`-element units make one parallel task of at least [`MIN_TASK_ELEMS`].
 fn units_per_task(len: usize) -> usize {
     (MIN_TASK_ELEMS / len.max(1)).max(1)
-}
-
-/// `dst = src` (`acc == false`) or `dst += src`.
-#[inline]
-fn write_or_add<T: Float>(dst: &mut [T], src: &[T], acc: bool) {
-    if acc {
-        dst.iter_mut().zip(src).for_each(|(a, &v)| *a += v);
-    } else {
-        dst.copy_from_slice(src);
-    }
-}
-
-/// `Σ v`, with 8 independent partial sums so the loop vectorises.
-fn sum<T: Float>(v: &[T]) -> T {
-    let mut acc = [T::zero(); 8];
-    let chunks = v.chunks_exact(8);
-    let tail = chunks.remainder().iter().fold(T::zero(), |s, &x| s + x);
-    for c in chunks {
-        for (a, &x) in acc.iter_mut().zip(c) {
-            *a += x;
-        }
-    }
-    acc.iter().fold(tail, |s, &x| s + x)
 }
 
 /// `(outer, channels, inner)` of a rank ≥ 2 shape; panics naming `op`.
@@ -261,7 +240,7 @@ impl<T: Float> Op<T> for AddChannelBias {
                 .zip(dy.par_chunks(inner * per))
                 .for_each(|(s, d)| {
                     for (a, plane) in s.iter_mut().zip(d.chunks_exact(inner)) {
-                        *a = sum(plane);
+                        *a = lane_sum(plane);
                     }
                 });
             for row in sums.chunks_exact(c) {

@@ -262,12 +262,8 @@ impl<T: Float> Op<T> for Conv2d {
             gx_add,
             gw: want_w.then_some(&mut gw[..]),
         });
-        match dx.target(1) {
-            Some(GradTarget::Fresh(slot)) => slot.copy_from_slice(&gw),
-            Some(GradTarget::Accumulate(slot)) => {
-                slot.iter_mut().zip(gw.iter()).for_each(|(a, &b)| *a += b)
-            }
-            None => {}
+        if let Some(slot) = dx.target(1) {
+            slot.write(&gw);
         }
     }
 

@@ -19,6 +19,20 @@ use crate::{Float, Shape, Tape, Tensor, Var};
 /// Names of the ops in this file (registry rule, see [`crate::ops`]).
 pub const OPS: &[&str] = &["sum", "mean", "sum_axes", "mean_axes", "max", "min"];
 
+/// `Σ v` in `T`, with 8 independent partial sums so the loop vectorises (the per-plane sums
+/// of bias gradients).
+pub(crate) fn lane_sum<T: Float>(v: &[T]) -> T {
+    let mut acc = [T::zero(); 8];
+    let chunks = v.chunks_exact(8);
+    let tail = chunks.remainder().iter().fold(T::zero(), |s, &x| s + x);
+    for c in chunks {
+        for (a, &x) in acc.iter_mut().zip(c) {
+            *a += x;
+        }
+    }
+    acc.iter().fold(tail, |s, &x| s + x)
+}
+
 /// Sum of all elements, in f64.
 fn total<T: Float>(x: &[T]) -> f64 {
     // Chunked so the inner loop vectorises; the chunk sums are exact enough in f64.

@@ -10,6 +10,8 @@
 //! `∂M += x_b · dZᵀ` and `∂b[o] += Σ_pixels dy[b,o,·,·]`, images in parallel.
 
 use super::lowering::Scratch;
+use crate::op::write_or_add;
+use crate::ops::reduce::lane_sum;
 use crate::{BackwardCx, Float, GradSlots, GradTarget, Op, Shape, Tape, Tensor, Var};
 use rayon::prelude::*;
 
@@ -84,31 +86,14 @@ fn unshuffle<T: Float>(y: &[T], z: &mut [T], co: usize, h: usize, w: usize) {
     debug_assert_eq!(y.len(), co * 4 * hw);
 }
 
-/// `Σ v`, with 8 independent partial sums so the loop vectorises.
-fn sum<T: Float>(v: &[T]) -> T {
-    let mut acc = [T::zero(); 8];
-    let chunks = v.chunks_exact(8);
-    let tail = chunks.remainder().iter().fold(T::zero(), |s, &x| s + x);
-    for c in chunks {
-        for (a, &x) in acc.iter_mut().zip(c) {
-            *a += x;
-        }
-    }
-    acc.iter().fold(tail, |s, &x| s + x)
-}
-
 /// Writes (fresh target) or adds (accumulating target) the sum of `parts` into `g`.
 fn reduce_into<'p, T: Float>(g: GradTarget<'_, T>, parts: impl Iterator<Item = &'p [T]>) {
-    let (g, mut acc) = g.into_parts();
+    let (g, mut add) = g.into_parts();
     for p in parts {
-        if acc {
-            g.iter_mut().zip(p).for_each(|(a, &v)| *a += v);
-        } else {
-            g.copy_from_slice(p);
-            acc = true;
-        }
+        write_or_add(g, p, add);
+        add = true;
     }
-    if !acc {
+    if !add {
         g.fill(T::zero());
     }
 }
@@ -184,7 +169,7 @@ impl<T: Float> Op<T> for ConvTranspose2x2 {
                             T::gemm(pw, true, xb, false, &dz, true, ci, co * 4, hw, T::one());
                         }
                         for (a, plane) in pb.iter_mut().zip(dyb.chunks_exact(4 * hw)) {
-                            *a += sum(plane);
+                            *a += lane_sum(plane);
                         }
                     }
                     (dz, part)

@@ -142,6 +142,7 @@ impl<S: Float> GradX<S> {
         let mut wb = Scratch::<S>::take(c.div_ceil(MR) * co * 9 * MR);
         pack(co, c, w, MR, true, &mut wb);
         let reflect = g.mode == super::super::Padding::Reflect;
+        // Room for one full vector past the last channel (16 lanes, the widest): `ring` reads it.
         let cl = c + 16;
         let mut wr = Scratch::<S>::take(if reflect { 9 * co * cl } else { 0 });
         if reflect {
