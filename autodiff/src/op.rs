@@ -156,6 +156,34 @@ impl<T: Float> GradSlots<'_, T> {
         Some(GradTarget::Fresh(slot.insert(fresh).data_mut()))
     }
 
+    /// Hands over `g` (same shape as input `i`) as input `i`'s gradient: when no gradient has
+    /// reached input `i` yet, `g` becomes it as is (no copy, no zero-fill); otherwise `g` is
+    /// added in and its buffer goes back to the tape's pool (as it does when input `i` wants
+    /// no gradient). For ops that produce a whole gradient in a tensor of their own.
+    #[track_caller]
+    pub fn give(&mut self, i: usize, g: Tensor<T>) {
+        if !self.wants(i) {
+            self.pool.put(g);
+            return;
+        }
+        assert_eq!(
+            g.shape(),
+            self.input_shapes[i],
+            "GradSlots::give: input {i} gradient shape"
+        );
+        let id = self.input_ids[i] as usize;
+        match &mut self.grads[id] {
+            Some(acc) => {
+                acc.data_mut()
+                    .iter_mut()
+                    .zip(g.data())
+                    .for_each(|(a, &b)| *a += b);
+                self.pool.put(g);
+            }
+            slot @ None => *slot = Some(g),
+        }
+    }
+
     /// The accumulator of input `i` as a flat slice: add into it.
     pub fn slot_data(&mut self, i: usize) -> Option<&mut [T]> {
         self.slot(i).map(|t| t.data_mut())

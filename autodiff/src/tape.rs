@@ -622,6 +622,37 @@ mod tests {
         assert_eq!(tape.pool().fresh_allocations, 1);
     }
 
+    /// An op that hands its input an owned gradient ([`GradSlots::give`]).
+    struct Give(Tensor<f32>);
+
+    impl Op<f32> for Give {
+        fn name(&self) -> &'static str {
+            "give"
+        }
+        fn output_shape(&self, _inputs: &[&Tensor<f32>]) -> Shape {
+            Shape::scalar()
+        }
+        fn forward(&mut self, _inputs: &[&Tensor<f32>], _out: &mut Tensor<f32>) {}
+        fn backward(&self, _cx: &crate::BackwardCx<'_, f32>, dx: &mut crate::GradSlots<'_, f32>) {
+            dx.give(0, self.0.clone());
+        }
+    }
+
+    /// The first gradient handed over becomes the accumulator as is; a second one is added.
+    #[test]
+    fn give_installs_then_adds() {
+        let mut tape = Tape::<f32>::new();
+        let x = tape.leaf(Tensor::full([3], 0.0));
+        let a = tape.apply(Give(Tensor::from_fn([3], |i| i as f32)), &[x]);
+        let b = tape.apply(Give(Tensor::full([3], 10.0)), &[x]);
+        let s = tape.add(a, b);
+        tape.backward(s);
+        assert_eq!(tape.grad(x).unwrap().data(), &[10.0, 11.0, 12.0]);
+        let one = tape.apply(Give(Tensor::from_fn([3], |i| i as f32)), &[x]);
+        tape.backward(one);
+        assert_eq!(tape.grad(x).unwrap().data(), &[0.0, 1.0, 2.0]);
+    }
+
     /// Repeated `backward` calls on one recording reuse the pooled seed and gradients: no
     /// fresh allocation after the first call (the seed used to be dropped, not returned).
     #[test]

@@ -1,9 +1,12 @@
 //! Helpers shared by the criterion benches: a fixed-cotangent "loss" and seeded noise tensors.
 
 use autodiff::{BackwardCx, GradSlots, Op, Shape, Tensor};
+use std::cell::RefCell;
 use std::sync::Arc;
 
-/// A scalar "loss" of value 0 whose backward adds a fixed cotangent `r` into its input.
+/// A scalar "loss" of value 0 whose backward hands a fixed cotangent `r` to its input (one
+/// copy into the gradient buffer, as a real loss writes its gradient once).
+#[allow(dead_code)] // not every bench uses it
 pub struct InjectGrad(pub Arc<Tensor<f32>>);
 
 impl Op<f32> for InjectGrad {
@@ -15,9 +18,28 @@ impl Op<f32> for InjectGrad {
     }
     fn forward(&mut self, _inputs: &[&Tensor<f32>], _out: &mut Tensor<f32>) {}
     fn backward(&self, _cx: &BackwardCx<'_, f32>, dx: &mut GradSlots<'_, f32>) {
-        if let Some(g) = dx.slot_data(0) {
-            g.copy_from_slice(self.0.data());
+        if let Some(g) = dx.target(0) {
+            g.write(self.0.data());
         }
+    }
+}
+
+/// Like [`InjectGrad`] but hands over an owned cotangent (made before the clock starts) with
+/// [`GradSlots::give`]: no copy, as PyTorch's `y.backward(r)` uses `r` as it is.
+#[allow(dead_code)] // not every bench uses it
+pub struct GiveGrad(pub RefCell<Option<Tensor<f32>>>);
+
+impl Op<f32> for GiveGrad {
+    fn name(&self) -> &'static str {
+        "give_grad_bench"
+    }
+    fn output_shape(&self, _inputs: &[&Tensor<f32>]) -> Shape {
+        Shape::scalar()
+    }
+    fn forward(&mut self, _inputs: &[&Tensor<f32>], _out: &mut Tensor<f32>) {}
+    fn backward(&self, _cx: &BackwardCx<'_, f32>, dx: &mut GradSlots<'_, f32>) {
+        let r = self.0.borrow_mut().take();
+        dx.give(0, r.expect("GiveGrad: one backward per recording"));
     }
 }
 

@@ -206,7 +206,12 @@ impl<T: Float> Op<T> for Conv2d {
         self.saved = None;
         let buf = match self.direct::<T>(g.k) {
             Some(table) => {
-                let mut xp = Scratch::<T>::take(batch * direct::xp_stride(&g));
+                let keep = direct::keeps_padded(batch);
+                let mut xp = Scratch::<T>::take(if keep {
+                    batch * direct::xp_stride(&g)
+                } else {
+                    0
+                });
                 (table.forward)(direct::FwdArgs {
                     g,
                     co,
@@ -214,9 +219,9 @@ impl<T: Float> Op<T> for Conv2d {
                     w: w.data(),
                     y: out.data_mut(),
                     relu: self.relu,
-                    xp: &mut xp,
+                    xp: keep.then_some(&mut xp[..]),
                 });
-                Some((xp, true))
+                keep.then_some((xp, true))
             }
             None => gemm_path::forward(g, batch, co, x, w, out, self.relu).map(|b| (b, false)),
         };

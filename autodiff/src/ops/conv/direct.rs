@@ -4,7 +4,10 @@
 //!
 //! Buffers (same layouts as [`super::lowering`]; `p = 1`, `rw` = its row width):
 //! - `xp`: every image padded once (`Geometry::pad`), one per `xp_stride` elements
-//!   (`padded_len` + [`SLACK`] zeros, so that full-vector loads near the end stay inside).
+//!   (`padded_len` + [`SLACK`] zeros, so that full-vector loads near the end stay inside) —
+//!   or, when there are at least as many images as threads (the usual case), only a row
+//!   strip of one image at a time (`Geometry::pad_rows`, see [`strips`]), in a buffer that
+//!   is reused for every strip and so stays in L2.
 //! - `dyz`: `dy` (masked by `y > 0` for the fused ReLU) zero-padded by `2p` on every side at
 //!   row width `Wz = W + 4p`, one per `dyz_stride` elements.
 //!
@@ -24,8 +27,13 @@
 //!   horizontal sums), in row tiles that stay in L2, in parallel over groups of input channels
 //!   (each task owns its rows of the `[c][t][o]` accumulator, so there are no partial sums).
 //!
-//! Parallelism: forward and `∂x` run one rayon task per image, split further into channel
-//! groups when there are fewer images than threads.
+//! Parallelism and memory: with at least as many images as threads, forward runs one rayon
+//! task per image and backward one per run of images, each going through its images in row
+//! strips of about half of L2 ([`strips`]): the strip's padded input (and in backward its
+//! padded and channels-last `dy`) is made right before the kernels read it, so `x` and `dy`
+//! are read from memory once per pass and no padded copy is written back. With fewer images
+//! than threads, each image is split into channel groups instead, forward keeps the padded
+//! images for backward, and backward works on the whole batch at once.
 //!
 //! Only `k = 3` on x86-64 CPUs with AVX-512F ([`kernels`] returns `None` otherwise and the op
 //! uses the GEMM lowering).
@@ -47,8 +55,9 @@ pub(crate) struct FwdArgs<'a, T> {
     /// `y (B, Co, H, W)`, overwritten.
     pub y: &'a mut [T],
     pub relu: bool,
-    /// `B · xp_stride(g)` elements: receives the padded images (kept for backward).
-    pub xp: &'a mut [T],
+    /// `B · xp_stride(g)` elements that receive the padded images, kept for backward, when
+    /// [`keeps_padded`]; else `None`.
+    pub xp: Option<&'a mut [T]>,
 }
 
 /// Arguments of the backward pass.
@@ -106,6 +115,33 @@ fn groups(batch: usize, blocks: usize) -> usize {
     } else {
         threads.div_ceil(batch.max(1)).min(blocks).max(1)
     }
+}
+
+/// Target working set of one row strip of an image, in elements (a tuning knob: about half
+/// of a 2 MiB L2 in f32; tests shrink it to cut small images into several strips; results do
+/// not depend on it).
+pub(crate) static STRIP_ELEMS: std::sync::atomic::AtomicUsize =
+    std::sync::atomic::AtomicUsize::new(1 << 18);
+
+/// Row strips `(r0, r1)` of an image of `h ≥ 1` rows whose buffers take `per_row` elements per
+/// row: about [`STRIP_ELEMS`] each, and at least 2 rows each but for a last odd one (the
+/// strip holding row 0 must hold row 1 too; see `GradX::rows`).
+fn strips(h: usize, per_row: usize) -> Vec<(usize, usize)> {
+    let target = STRIP_ELEMS.load(std::sync::atomic::Ordering::Relaxed);
+    let per = target.div_ceil(per_row.max(1)).max(2).min(h.max(1));
+    let per = h.div_ceil(h.div_ceil(per));
+    (0..h)
+        .step_by(per)
+        .map(|r0| (r0, (r0 + per).min(h)))
+        .collect()
+}
+
+/// Whether forward keeps the padded images for backward: only when the batch is split into
+/// channel groups (fewer images than threads). Otherwise forward pads each image in row
+/// strips that stay in L2, and backward pads them again the same way (one read of `x`
+/// instead of writing and reading back a padded copy).
+pub(crate) fn keeps_padded(batch: usize) -> bool {
+    batch < rayon::current_num_threads().max(2)
 }
 
 /// Repacks `w (Co, C, 3, 3)` into `⌈Co/MR⌉` blocks `[c][t][m]` (zero past `Co`): the forward

@@ -387,28 +387,29 @@ pub(crate) unsafe fn dw_block<V: Simd, const OV: usize, const CB: usize>(
     }
 }
 
-/// `dyt[p·co_l + o] = dy[o·hw + p]` for `p < hw`, `o < co` (times `[y > 0]` with `y` at the
-/// same index as `dy` when given), zero for `co ≤ o < co_l` (`co_l` a multiple of `L`):
-/// `dy` channels-last for [`dw_block`], by `L × L` register transposes.
+/// `dyt[p·co_l + o] = dy[o·stride + p]` for `p < npx`, `o < co` (times `[y > 0]` with `y` at
+/// the same index as `dy` when given), zero for `co ≤ o < co_l` (`co_l` a multiple of `L`):
+/// `npx` pixels of `dy` (channel stride `stride`) channels-last for [`dw_block`], by `L × L`
+/// register transposes.
 ///
-/// Reads `dy` (and `y`) at `o·hw + p`, `o < co`, `p < hw`; writes `dyt[.. hw·co_l]`.
+/// Reads `dy` (and `y`) at `o·stride + p`, `o < co`, `p < npx`; writes `dyt[.. npx·co_l]`.
 #[inline(always)]
 pub(crate) unsafe fn channels_last<V: Simd>(
     dy: *const V::S,
     y: Option<*const V::S>,
-    co: usize,
-    hw: usize,
+    (co, stride): (usize, usize),
+    npx: usize,
     co_l: usize,
     dyt: *mut V::S,
 ) {
     let mut block = [V::zero(); 16];
     let block = &mut block[..V::L];
-    for p in (0..hw).step_by(V::L) {
-        let np = (hw - p).min(V::L);
+    for p in (0..npx).step_by(V::L) {
+        let np = (npx - p).min(V::L);
         for o in (0..co_l).step_by(V::L) {
             for (k, row) in block.iter_mut().enumerate() {
                 *row = if o + k < co {
-                    let at = (o + k) * hw + p;
+                    let at = (o + k) * stride + p;
                     let v = V::load_n(dy.add(at), np);
                     match y {
                         Some(y) => v.where_positive(V::load_n(y.add(at), np)),

@@ -128,10 +128,31 @@ impl Geometry {
 
     /// Copies image `x` (`C·H·W`) into the padded buffer `xp` (see the module docs).
     pub fn pad<T: Float>(&self, x: &[T], xp: &mut [T]) {
-        let (h, w, p, wp) = (self.h, self.w, self.p(), self.wp());
         debug_assert_eq!(xp.len(), self.padded_len());
-        for (xc, pc) in x.chunks_exact(h * w).zip(xp.chunks_exact_mut(self.plane())) {
-            for (u, row) in pc.chunks_exact_mut(self.rw()).enumerate() {
+        self.pad_rows(x, (0, self.hp()), xp, self.plane());
+        xp[self.c * self.plane()..].fill(T::zero());
+    }
+
+    /// Padded rows `u0..u1` of image `x` (`C·H·W`) into `dst`: channel `c` from `c·plane`,
+    /// padded row `u` at `(u − u0)·rw` after that (`plane ≥ (u1 − u0)·rw`; elements past a
+    /// channel's last row are left as they are). A row strip of [`Geometry::pad`]'s buffer.
+    pub fn pad_rows<T: Float>(
+        &self,
+        x: &[T],
+        (u0, u1): (usize, usize),
+        dst: &mut [T],
+        plane: usize,
+    ) {
+        let (h, w, p, wp, rw) = (self.h, self.w, self.p(), self.wp(), self.rw());
+        assert!(
+            u1 <= self.hp()
+                && plane >= (u1 - u0) * rw
+                && dst.len() >= (self.c - 1) * plane + (u1 - u0) * rw,
+            "conv2d: padded rows {u0}..{u1} do not fit planes of {plane} in {}",
+            dst.len()
+        );
+        for (xc, pc) in x.chunks_exact(h * w).zip(dst.chunks_mut(plane)) {
+            for (u, row) in (u0..u1).zip(pc.chunks_exact_mut(rw)) {
                 let Some(i) = source(u as isize - p as isize, h, self.mode) else {
                     row.fill(T::zero());
                     continue;
@@ -145,18 +166,44 @@ impl Geometry {
                 row[wp..].fill(T::zero());
             }
         }
-        xp[self.c * self.plane()..].fill(T::zero());
     }
 
     /// Copies `dy` (`Co·H·W`, times `[y > 0]` when `mask` is the ReLU output `y`) into `dyz`,
     /// zero-padded by `2p` on every side (see the module docs).
     pub fn pad_dy<T: Float>(&self, co: usize, dy: &[T], mask: Option<&[T]>, dyz: &mut [T]) {
-        let (h, w, p2, wz) = (self.h, self.w, 2 * self.p(), self.wz());
         debug_assert_eq!(dyz.len(), self.dyz_len(co));
-        for (o, pc) in dyz.chunks_exact_mut(self.plane_z()).enumerate() {
-            pc[..p2 * wz].fill(T::zero());
-            pc[(p2 + h) * wz..].fill(T::zero());
-            for (i, row) in pc[p2 * wz..(p2 + h) * wz].chunks_exact_mut(wz).enumerate() {
+        let rows = (0, self.h + 4 * self.p());
+        self.pad_dy_rows(co, dy, mask, rows, dyz, self.plane_z());
+        dyz[co * self.plane_z()..].fill(T::zero());
+    }
+
+    /// Rows `z0..z1` of [`Geometry::pad_dy`]'s `dyz` into `dst`: channel `o` from `o·plane`,
+    /// row `z` at `(z − z0)·Wz` after that (`plane ≥ (z1 − z0)·Wz`; elements past a channel's
+    /// last row are left as they are).
+    pub fn pad_dy_rows<T: Float>(
+        &self,
+        co: usize,
+        dy: &[T],
+        mask: Option<&[T]>,
+        (z0, z1): (usize, usize),
+        dst: &mut [T],
+        plane: usize,
+    ) {
+        let (h, w, p2, wz) = (self.h, self.w, 2 * self.p(), self.wz());
+        assert!(
+            z1 <= h + 2 * p2
+                && plane >= (z1 - z0) * wz
+                && dst.len() >= (co - 1) * plane + (z1 - z0) * wz,
+            "conv2d: dy rows {z0}..{z1} do not fit planes of {plane} in {}",
+            dst.len()
+        );
+        for (o, pc) in dst.chunks_mut(plane).take(co).enumerate() {
+            for (z, row) in (z0..z1).zip(pc.chunks_exact_mut(wz)) {
+                if z < p2 || z >= p2 + h {
+                    row.fill(T::zero());
+                    continue;
+                }
+                let i = z - p2;
                 row[..p2].fill(T::zero());
                 row[p2 + w..].fill(T::zero());
                 let src = &dy[(o * h + i) * w..][..w];
@@ -172,7 +219,6 @@ impl Geometry {
                 }
             }
         }
-        dyz[co * self.plane_z()..].fill(T::zero());
     }
 
     /// Rows `r0..r1` of `dy` (masked like [`Geometry::pad_dy_cl`]) as a padded-width tile

@@ -5,6 +5,7 @@
 use super::*;
 use crate::check::{check_gradients, strategies as st, CheckConfig};
 use proptest::prelude::*;
+use std::sync::atomic::Ordering;
 
 /// Direct convolution with an explicitly built padded image (independent of `lowering`).
 fn naive_conv(x: &Tensor<f64>, w: &Tensor<f64>, mode: Padding) -> Tensor<f64> {
@@ -428,17 +429,25 @@ fn direct_kernels_match_direct_loops_f64_and_f32() {
                         assert!(d < tol, "{dtype} {case}: {name} off by {d:e} (relative)");
                     }
                 };
-                // Backward both batch-wide and image by image (for batches of ≥ 2 images).
-                for by_image in [false, true] {
+                // Backward both batch-wide and image by image (for batches of ≥ 2 images),
+                // and (batches of ≥ 2 images, forward and backward) with the default row
+                // strips — one per image here — and with strips of 2 rows (and a last one
+                // of 1 row for odd heights).
+                let default_strip = direct::STRIP_ELEMS.load(Ordering::Relaxed);
+                for (by_image, strip) in [(false, default_strip), (true, default_strip), (true, 1)]
+                {
                     #[cfg(target_arch = "x86_64")]
-                    direct::BY_IMAGE.store(by_image, std::sync::atomic::Ordering::Relaxed);
+                    direct::BY_IMAGE.store(by_image, Ordering::Relaxed);
+                    direct::STRIP_ELEMS.store(strip, Ordering::Relaxed);
+                    let how = format!("by image {by_image}, strip elements {strip}");
                     let f64s = run_kernel::<f64>(ConvKernel::Direct, &x, &w, &r, mode, relu);
-                    check(&f64s, 1e-13, &format!("f64 by image {by_image}"));
+                    check(&f64s, 1e-13, &format!("f64 {how}"));
                     let f32s = run_kernel::<f32>(ConvKernel::Direct, &x, &w, &r, mode, relu);
-                    check(&f32s, 1e-5, &format!("f32 by image {by_image}"));
+                    check(&f32s, 1e-5, &format!("f32 {how}"));
+                    direct::STRIP_ELEMS.store(default_strip, Ordering::Relaxed);
                 }
                 #[cfg(target_arch = "x86_64")]
-                direct::BY_IMAGE.store(true, std::sync::atomic::Ordering::Relaxed);
+                direct::BY_IMAGE.store(true, Ordering::Relaxed);
             }
         }
     }

@@ -130,13 +130,45 @@ fn forward<V: Simd>(a: FwdArgs<'_, V::S>) {
     avx512();
     let (g, co) = (a.g, a.co);
     let (c, h, w, rw) = (g.c, g.h, g.w, g.rw());
-    let (hw, stride) = (h * w, xp_stride(&g));
+    let hw = h * w;
     let batch = a.x.len() / (c * hw);
-    assert_eq!(a.xp.len(), batch * stride, "conv2d direct: xp length");
     let mut wf = Scratch::<V::S>::take(co.div_ceil(MR) * c * 9 * MR);
     pack(co, c, a.w, MR, false, &mut wf);
-    let per_group = co.div_ceil(MR).div_ceil(groups(batch, co.div_ceil(MR))) * MR;
     let nb = w.div_ceil(V::L);
+    let store = if a.relu { Store::SetRelu } else { Store::Set };
+    let Some(xp) = a.xp else {
+        // One task per image, row strip by row strip through one L2-sized padded buffer.
+        let strips = strips(h, c * rw + co * w);
+        let tall = strips.iter().map(|&(r0, r1)| r1 - r0).max().unwrap_or(0);
+        let plane = (tall + 2 * g.p()) * rw;
+        let wf = &*wf;
+        a.y.par_chunks_mut(co * hw)
+            .zip(a.x.par_chunks(c * hw))
+            .for_each(|(y, x)| {
+                let mut xs = Scratch::<V::S>::take(c * plane + SLACK);
+                xs[c * plane..].fill(zero());
+                for &(r0, r1) in &strips {
+                    g.pad_rows(x, (r0, r1 + 2 * g.p()), &mut xs, plane);
+                    let job = Corr {
+                        inp: &xs,
+                        in_ch: plane,
+                        cin: c,
+                        rw,
+                        w: wf,
+                        out_ch: hw,
+                        store,
+                    };
+                    job.run::<V>(y, co, (r1 - r0) * nb, |p| {
+                        let (i, j) = (p / nb, p % nb * V::L);
+                        (i * rw + j, (r0 + i) * w + j, (w - j).min(V::L))
+                    });
+                }
+            });
+        return;
+    };
+    let stride = xp_stride(&g);
+    assert_eq!(xp.len(), batch * stride, "conv2d direct: xp length");
+    let per_group = co.div_ceil(MR).div_ceil(groups(batch, co.div_ceil(MR))) * MR;
     let pos = |p: usize| {
         let (i, j) = (p / nb, p % nb * V::L);
         (i * rw + j, i * w + j, (w - j).min(V::L))
@@ -145,7 +177,7 @@ fn forward<V: Simd>(a: FwdArgs<'_, V::S>) {
     // Each image is padded right before it is convolved, by the same task, so the padded
     // copy is still in L2 when the kernel reads it.
     a.y.par_chunks_mut(co * hw)
-        .zip(a.xp.par_chunks_mut(stride))
+        .zip(xp.par_chunks_mut(stride))
         .zip(a.x.par_chunks(c * hw))
         .for_each(|((y, xp), x)| {
             let (img, slack) = xp.split_at_mut(g.padded_len());
@@ -162,7 +194,7 @@ fn forward<V: Simd>(a: FwdArgs<'_, V::S>) {
                         rw,
                         w: &wf[gi * per_group * c * 9..],
                         out_ch: hw,
-                        store: if a.relu { Store::SetRelu } else { Store::Set },
+                        store,
                     };
                     job.run::<V>(yg, yg.len() / hw, h * nb, pos);
                 });

@@ -14,7 +14,7 @@ pub(super) fn backward<V: Simd>(a: BwdArgs<'_, V::S>) {
     let (c, h, w) = (g.c, g.h, g.w);
     let hw = h * w;
     let batch = a.x.len() / (c * hw);
-    if batch >= rayon::current_num_threads().max(2) && BY_IMAGE.load(Ordering::Relaxed) {
+    if !keeps_padded(batch) && BY_IMAGE.load(Ordering::Relaxed) {
         return super::x86_by_image::backward::<V>(a);
     }
     let mask = |b: usize| a.mask.map(|y| &y[b * co * hw..][..co * hw]);
@@ -37,7 +37,7 @@ pub(super) fn backward<V: Simd>(a: BwdArgs<'_, V::S>) {
         dyt.par_chunks_mut(hw * co_l)
             .zip(a.dy.par_chunks(co * hw))
             .enumerate()
-            .for_each(|(b, (t, dy))| to_channels_last::<V>(dy, mask(b), co, co_l, t));
+            .for_each(|(b, (t, dy))| to_channels_last::<V>(dy, mask(b), co, (0, hw), co_l, t));
         let stride = xp_stride(&g);
         let mut own = Scratch::<V::S>::take(if a.xp.is_some() { 0 } else { batch * stride });
         let xp: &[V::S] = match a.xp {
@@ -61,26 +61,31 @@ pub(super) fn backward<V: Simd>(a: BwdArgs<'_, V::S>) {
 /// ([`super::x86_by_image`]); tests switch it off to run the batch-wide path on the same cases.
 pub(crate) static BY_IMAGE: AtomicBool = AtomicBool::new(true);
 
-/// `dy` of one image channels-last (see [`channels_last`]).
+/// Pixels `px0..px1` of one image's `dy` (`Co·HW`) channels-last into `dyt[..(px1 − px0)·co_l]`
+/// (see [`channels_last`]).
 pub(super) fn to_channels_last<V: Simd>(
     dy: &[V::S],
     mask: Option<&[V::S]>,
     co: usize,
+    (px0, px1): (usize, usize),
     co_l: usize,
     dyt: &mut [V::S],
 ) {
     let hw = dy.len() / co;
     assert!(
-        dyt.len() == hw * co_l
+        px0 <= px1
+            && px1 <= hw
+            && dyt.len() >= (px1 - px0) * co_l
             && mask.is_none_or(|y| y.len() == dy.len())
             && co_l.is_multiple_of(V::L)
             && co_l >= co,
         "conv2d direct: channels-last buffer sizes"
     );
     // SAFETY: AVX-512F was checked by `backward`; the asserts bound every index
-    // `channels_last` touches.
+    // `channels_last` touches (`o·hw + px0 + p < co·hw` for `p < px1 − px0`).
     unsafe {
-        channels_last_unchecked::<V>(dy.as_ptr(), mask.map(|y| y.as_ptr()), co, hw, co_l, dyt)
+        let (dy, y) = (dy.as_ptr().add(px0), mask.map(|y| y.as_ptr().add(px0)));
+        channels_last_unchecked::<V>(dy, y, (co, hw), px1 - px0, co_l, dyt)
     }
 }
 
@@ -88,12 +93,12 @@ pub(super) fn to_channels_last<V: Simd>(
 unsafe fn channels_last_unchecked<V: Simd>(
     dy: *const V::S,
     y: Option<*const V::S>,
-    co: usize,
-    hw: usize,
+    channels: (usize, usize),
+    npx: usize,
     co_l: usize,
     dyt: &mut [V::S],
 ) {
-    channels_last::<V>(dy, y, co, hw, co_l, dyt.as_mut_ptr());
+    channels_last::<V>(dy, y, channels, npx, co_l, dyt.as_mut_ptr());
 }
 
 /// `∂x (+)= fold(∂xp)` (added into `gx` when `add`, else overwriting it), `∂xp` = full
@@ -154,20 +159,39 @@ impl<S: Float> GradX<S> {
     /// `∂x` of input channels `c0 ..` (as many as `gx` holds; `c0` a multiple of `MR`) of
     /// the image whose padded `dy` is `z`: added into `gx` when `add`, else overwriting it.
     pub(super) fn channels<V: Simd<S = S>>(&self, z: &[S], c0: usize, gx: &mut [S], add: bool) {
+        let z = ZRows {
+            z,
+            plane: self.g.plane_z(),
+            rows: (0, self.g.h),
+        };
+        self.rows::<V>(z, c0, gx, add);
+    }
+
+    /// [`GradX::channels`] for the image rows `z.rows` only, from a row strip of `dyz`: the
+    /// rows of `gx` outside the strip are not touched, except that under reflect padding the
+    /// strip holding image row 0 also folds the top border onto row 1 (so a strip that starts
+    /// at row 0 must hold row 1 too, when the image has one).
+    pub(super) fn rows<V: Simd<S = S>>(&self, z: ZRows<'_, S>, c0: usize, gx: &mut [S], add: bool) {
         let g = self.g;
-        let (h, wd, wz, p) = (g.h, g.w, g.wz(), g.p());
-        let hw = h * wd;
+        let (wd, wz, p) = (g.w, g.wz(), g.p());
+        let hw = g.h * wd;
+        let (r0, r1) = z.rows;
         debug_assert!(c0.is_multiple_of(MR) && V::L <= 16);
+        assert!(
+            r0 < r1 && r1 <= g.h && (r1 - r0 >= 2 || r0 > 0 || g.h == 1),
+            "conv2d direct: ∂x rows {r0}..{r1} of {}",
+            g.h
+        );
         let nb = wd.div_ceil(V::L);
         // Pixel (i, j) is padded position (i + p, j + p); its window starts at dyz row
-        // i + p, column j + p (`dyz` is padded by 2p).
+        // i + p, column j + p (`dyz` is padded by 2p), i.e. strip row i − r0 + p.
         let pos = |q: usize| {
             let (i, j) = (q / nb, q % nb * V::L);
-            ((i + p) * wz + j + p, i * wd + j, (wd - j).min(V::L))
+            ((i + p) * wz + j + p, (r0 + i) * wd + j, (wd - j).min(V::L))
         };
         let job = Corr {
-            inp: z,
-            in_ch: g.plane_z(),
+            inp: z.z,
+            in_ch: z.plane,
             cin: self.co,
             rw: wz,
             w: &self.wb[c0 * self.co * 9..],
@@ -175,11 +199,20 @@ impl<S: Float> GradX<S> {
             // The ring (below) adds onto border pixels after this pass.
             store: if add { Store::Add } else { Store::Set },
         };
-        job.run::<V>(gx, gx.len() / hw, h * nb, pos);
+        job.run::<V>(gx, gx.len() / hw, (r1 - r0) * nb, pos);
         if !self.wr.is_empty() {
             ring::<V>(g, self.co, z, &self.wr, self.cl, c0, gx);
         }
     }
+}
+
+/// Rows `rows.0..rows.1` of an image's `∂x` read `dyz` rows `rows.0 .. rows.1 + 4p`: here
+/// held in `z`, channel `o` from `o·plane`, `dyz` row `rows.0 + k` at `k·Wz` after that.
+#[derive(Clone, Copy)]
+pub(super) struct ZRows<'a, S> {
+    pub(super) z: &'a [S],
+    pub(super) plane: usize,
+    pub(super) rows: (usize, usize),
 }
 
 /// `wr[(t·Co + o)·cl + c] = w[o, c, 8 − t]`, zero for `c ≥ C` (`cl ≥ C + L`).
@@ -199,11 +232,13 @@ fn pack_ring<S: Float>(co: usize, c: usize, w: &[S], cl: usize, wr: &mut [S]) {
 /// Reflect padding: adds the folded gradient of the border ring of `∂xp` (padded rows 0
 /// and `Hp − 1`, padded columns 0 and `Wp − 1`) into `∂x` for input channels
 /// `c0..c0 + channels` (`gx` holds those channels of one image), vectorised over channels
-/// with the weights of [`pack_ring`]. Only the taps that read inside `dy` are summed.
+/// with the weights of [`pack_ring`]. Only the taps that read inside `dy` are summed. Of a
+/// strip of image rows `z.rows`, only the ring positions of those rows: the side columns of
+/// padded rows `r0 + p .. r1 + p`, the top row when `r0 = 0`, the bottom row when `r1 = H`.
 fn ring<V: Simd>(
     g: Geometry,
     co: usize,
-    z: &[V::S],
+    z: ZRows<'_, V::S>,
     wr: &[V::S],
     cl: usize,
     c0: usize,
@@ -211,44 +246,52 @@ fn ring<V: Simd>(
 ) {
     let hw = g.h * g.w;
     let channels = gx.len() / hw;
+    let (r0, r1) = z.rows;
     assert!(
-        z.len() >= co * g.plane_z() && wr.len() >= 9 * co * cl && c0 + channels + V::L <= cl,
+        r1 <= g.h
+            && z.z.len() >= (co - 1) * z.plane + (r1 - r0 + 4 * g.p()) * g.wz()
+            && wr.len() >= 9 * co * cl
+            && c0 + channels + V::L <= cl,
         "conv2d direct: ring buffer sizes"
     );
     // SAFETY: AVX-512F was checked by `backward`; the reads of `z` stay inside the `co`
-    // planes of `dyz` (rows `u + a < Hp + 2`, columns `v + b < Wz`), those of `wr` end
-    // before `(t·Co + o)·cl + c0 + channels + L ≤ 9·Co·cl` (checked above), and the writes
-    // of `gx` are bounds-checked.
-    unsafe { ring_unchecked::<V>(g, co, z.as_ptr(), wr.as_ptr(), cl, c0, gx) }
+    // strip planes (strip rows `u − r0 + a < r1 − r0 + 4p`, columns `v + b < Wz`), those of
+    // `wr` end before `(t·Co + o)·cl + c0 + channels + L ≤ 9·Co·cl` (checked above), and the
+    // writes of `gx` are bounds-checked.
+    unsafe { ring_unchecked::<V>(g, co, z, wr.as_ptr(), cl, c0, gx) }
 }
 
 #[target_feature(enable = "avx512f")]
 unsafe fn ring_unchecked<V: Simd>(
     g: Geometry,
     co: usize,
-    z: *const V::S,
+    z: ZRows<'_, V::S>,
     wr: *const V::S,
     cl: usize,
     c0: usize,
     gx: &mut [V::S],
 ) {
-    let (h, p, hp, wp, wz) = (g.h, g.p(), g.hp(), g.wp(), g.wz());
+    let (h, p, hp, wp) = (g.h, g.p(), g.hp(), g.wp());
+    let (r0, r1) = z.rows;
     // Straight segments of the ring: start (u, v), step, length, and the kernel rows `a`
     // and columns `b` that can read inside `dy` (`dyz` row `u + a` and column `v + b`
     // within `2p .. 2p + H` and `2p .. 2p + W`; the other taps read zeros).
+    let top = if r0 == 0 { wp } else { 0 };
+    let bottom = if r1 == h { wp } else { 0 };
     let segments = [
-        ((0, 0), (0, 1), wp, 2 * p..3, 0..3),
-        ((hp - 1, 0), (0, 1), wp, 0..1, 0..3),
-        ((p, 0), (1, 0), h, 0..3, 2 * p..3),
-        ((p, wp - 1), (1, 0), h, 0..3, 0..1),
+        ((0, 0), (0, 1), top, 2 * p..3, 0..3),
+        ((hp - 1, 0), (0, 1), bottom, 0..1, 0..3),
+        ((p + r0, 0), (1, 0), r1 - r0, 0..3, 2 * p..3),
+        ((p + r0, wp - 1), (1, 0), r1 - r0, 0..3, 0..1),
     ];
     for ((u0, v0), (du, dv), len, ta, tb) in segments {
         let seg = Segment {
-            z,
+            z: z.z.as_ptr(),
+            row0: r0,
             dir: (du, dv),
             co,
-            pz: g.plane_z(),
-            wz,
+            pz: z.plane,
+            wz: g.wz(),
             wr,
             cl,
             c0,
@@ -274,7 +317,9 @@ const RING_BLOCK: usize = 8;
 
 /// One straight segment of the border ring of `∂xp` (see [`ring_unchecked`]).
 struct Segment<S> {
+    /// `dyz` row `row0` (the strip's first).
     z: *const S,
+    row0: usize,
     /// Padded `(Δu, Δv)` between consecutive positions.
     dir: (usize, usize),
     co: usize,
@@ -300,7 +345,7 @@ impl<S: Float> Segment<S> {
         use super::super::lowering::source;
         let (hw, p) = (g.h * g.w, g.p() as isize);
         let channels = gx.len() / hw;
-        let base = self.z.add(u * self.wz + v);
+        let base = self.z.add((u - self.row0) * self.wz + v);
         let step = self.dir.0 * self.wz + self.dir.1;
         let mut lanes = [zero::<S>(); 16];
         for cv in (0..channels).step_by(V::L) {
