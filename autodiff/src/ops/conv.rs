@@ -206,7 +206,7 @@ impl<T: Float> Op<T> for Conv2d {
         self.saved = None;
         let buf = match self.direct::<T>(g.k) {
             Some(table) => {
-                let keep = direct::keeps_padded(batch);
+                let keep = direct::keeps_padded(&g, co, batch);
                 let mut xp = Scratch::<T>::take(if keep {
                     batch * direct::xp_stride(&g)
                 } else {

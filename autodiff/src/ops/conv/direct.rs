@@ -136,12 +136,26 @@ fn strips(h: usize, per_row: usize) -> Vec<(usize, usize)> {
         .collect()
 }
 
-/// Whether forward keeps the padded images for backward: only when the batch is split into
-/// channel groups (fewer images than threads). Otherwise forward pads each image in row
-/// strips that stay in L2, and backward pads them again the same way (one read of `x`
-/// instead of writing and reading back a padded copy).
-pub(crate) fn keeps_padded(batch: usize) -> bool {
-    batch < rayon::current_num_threads().max(2)
+/// Whether the image-by-image backward is used: at least as many images as threads.
+pub(crate) fn by_image(batch: usize) -> bool {
+    batch >= rayon::current_num_threads().max(2)
+}
+
+/// The row strips of the image-by-image backward (per row: `dyz`, channels-last `dy` with
+/// `co_l` lanes, the padded input, and the rows of `dy` and `∂x`).
+fn backward_strips(g: &Geometry, co: usize, co_l: usize) -> Vec<(usize, usize)> {
+    let per_row = co * g.wz() + co_l * g.w + g.c * g.rw() + (g.c + co) * g.w;
+    strips(g.h, per_row)
+}
+
+/// Whether forward pads whole images into a buffer kept for backward (`FwdArgs::xp`): when
+/// the batch is split into channel groups (fewer images than threads), and when backward
+/// takes each image in one strip anyway (small images: the padded copy is then read back
+/// instead of padding again). Otherwise forward pads each image in row strips that stay in
+/// L2, and backward pads them again the same way (one more read of `x` instead of writing
+/// and reading back a padded copy of every image).
+pub(crate) fn keeps_padded(g: &Geometry, co: usize, batch: usize) -> bool {
+    !by_image(batch) || backward_strips(g, co, co.next_multiple_of(16)).len() == 1
 }
 
 /// Repacks `w (Co, C, 3, 3)` into `⌈Co/MR⌉` blocks `[c][t][m]` (zero past `Co`): the forward

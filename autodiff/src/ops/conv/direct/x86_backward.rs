@@ -14,7 +14,7 @@ pub(super) fn backward<V: Simd>(a: BwdArgs<'_, V::S>) {
     let (c, h, w) = (g.c, g.h, g.w);
     let hw = h * w;
     let batch = a.x.len() / (c * hw);
-    if !keeps_padded(batch) && BY_IMAGE.load(Ordering::Relaxed) {
+    if by_image(batch) && BY_IMAGE.load(Ordering::Relaxed) {
         return super::x86_by_image::backward::<V>(a);
     }
     let mask = |b: usize| a.mask.map(|y| &y[b * co * hw..][..co * hw]);

@@ -19,8 +19,9 @@ use rayon::prelude::*;
 /// Number of image runs (and partial `∂w` sums); fixed so results do not depend on threads.
 const DW_PARTS: usize = 4;
 
-/// The backward pass, image by image and strip by strip (see the module docs). A saved
-/// padded input is not needed (forward does not keep one for such batches).
+/// The backward pass, image by image and strip by strip (see the module docs). A padded
+/// input saved by forward is used when each image is one strip (its layout is then the
+/// strip's); otherwise, and when none was saved, each strip of the input is padded here.
 pub(super) fn backward<V: Simd>(a: BwdArgs<'_, V::S>) {
     let BwdArgs {
         g,
@@ -29,10 +30,10 @@ pub(super) fn backward<V: Simd>(a: BwdArgs<'_, V::S>) {
         w,
         dy,
         mask,
+        xp,
         gx,
         gx_add,
         gw,
-        ..
     } = a;
     let (c, h, wd, rw, wz, p) = (g.c, g.h, g.w, g.rw(), g.wz(), g.p());
     let hw = h * wd;
@@ -43,11 +44,13 @@ pub(super) fn backward<V: Simd>(a: BwdArgs<'_, V::S>) {
     let np = c * 9 * co_l;
     let want_w = gw.is_some();
     let packed = gx.is_some().then(|| GradX::new(g, co, w));
-    // Per strip row: `dyz` (Co rows of Wz), `dyt`, padded `x`, and the `dy` and `∂x` rows.
-    let strips = strips(h, co * wz + co_l * wd + c * rw + (c + co) * wd);
+    let strips = backward_strips(&g, co, co_l);
     let tall = strips.iter().map(|&(r0, r1)| r1 - r0).max().unwrap_or(0);
     // Strip planes: `dyz` rows r0 .. r1 + 4p, padded rows r0 .. r1 + 2p.
     let (zplane, xplane) = ((tall + 4 * p) * wz, (tall + 2 * p) * rw);
+    // With one strip per image, a padded image saved by forward has the strip's layout.
+    let saved = xp.filter(|_| strips.len() == 1);
+    let stride = xp_stride(&g);
     let gx_runs: Vec<Option<&mut [V::S]>> = match gx {
         Some(gx) => gx.chunks_mut(per * c * hw).map(Some).collect(),
         None => (0..runs).map(|_| None).collect(),
@@ -74,7 +77,11 @@ pub(super) fn backward<V: Simd>(a: BwdArgs<'_, V::S>) {
                 s
             };
             let mut zs = with_slack(if packed.is_some() { co * zplane } else { 0 });
-            let mut xs = with_slack(if want_w { c * xplane } else { 0 });
+            let mut xs = with_slack(if want_w && saved.is_none() {
+                c * xplane
+            } else {
+                0
+            });
             let mut dyt = Scratch::<V::S>::take(if want_w { tall * wd * co_l } else { 0 });
             for b in run * per..((run + 1) * per).min(batch) {
                 let dy_b = &dy[b * co * hw..][..co * hw];
@@ -95,7 +102,13 @@ pub(super) fn backward<V: Simd>(a: BwdArgs<'_, V::S>) {
                         continue;
                     };
                     to_channels_last::<V>(dy_b, mask_b, co, (r0 * wd, r1 * wd), co_l, &mut dyt);
-                    g.pad_rows(x_b, (r0, r1 + 2 * p), &mut xs, xplane);
+                    let xs: &[V::S] = match saved {
+                        Some(xp) => &xp[b * stride..][..stride],
+                        None => {
+                            g.pad_rows(x_b, (r0, r1 + 2 * p), &mut xs, xplane);
+                            &xs
+                        }
+                    };
                     let rows = Rows {
                         x_rows: &x_rows[..r1 - r0],
                         dy_rows: &dy_rows[..r1 - r0],
@@ -106,7 +119,7 @@ pub(super) fn backward<V: Simd>(a: BwdArgs<'_, V::S>) {
                     // the `r1 − r0 + 2p` padded rows of plane `c'`) and `dyt` at
                     // `(i·W + j)·co_l + o`, `o < co_l` (inside the strip's `(r1 − r0)·W·co_l`
                     // elements); the partial is written at `c'·9·co_l + t·co_l + o < np`.
-                    unsafe { grad_w_group::<V>(&xs, xplane, 0, &dyt, co_l, &[rows], part, rw) };
+                    unsafe { grad_w_group::<V>(xs, xplane, 0, &dyt, co_l, &[rows], part, rw) };
                 }
             }
         });
