@@ -29,7 +29,7 @@
 //!
 //! Parallelism and memory: with at least as many images as threads, forward runs one rayon
 //! task per image and backward one per run of images, each going through its images in row
-//! strips of about the size of L2 ([`strips`]): the strip's padded input (and in backward its
+//! strips of about half of L2 ([`strips`]): the strip's padded input (and in backward its
 //! padded and channels-last `dy`) is made right before the kernels read it, so `x` and `dy`
 //! are read from memory once per pass and no padded copy is written back. With fewer images
 //! than threads, each image is split into channel groups instead, forward keeps the padded
@@ -117,19 +117,23 @@ fn groups(batch: usize, blocks: usize) -> usize {
     }
 }
 
-/// Target working set of one row strip of an image, in elements (a tuning knob: 2 MiB in
-/// f32, this machine's L2, so that the U-Net's images — up to 64² with 16 channels or 32²
-/// with 32 — are one strip each; at 256² × 16 channels, strips of 8 to 64 rows measured the
-/// same. Tests shrink it to cut small images into several strips; results do not depend on
-/// it beyond float rounding).
+/// Target working set of one row strip of an image, in elements (a tuning knob: 1 MiB in
+/// f32, half of this machine's 2 MiB L2; at 256² × 16 channels strips of 8 to 64 rows measured
+/// within noise of each other). An image up to twice this size is one strip, so the U-Net's
+/// images (64² with 16 channels, 32² with 32) stay whole. Tests shrink it to cut small images
+/// into several strips; results do not depend on it beyond float rounding.
 pub(crate) static STRIP_ELEMS: std::sync::atomic::AtomicUsize =
-    std::sync::atomic::AtomicUsize::new(1 << 19);
+    std::sync::atomic::AtomicUsize::new(1 << 18);
 
 /// Row strips `(r0, r1)` of an image of `h ≥ 1` rows whose buffers take `per_row` elements per
-/// row: about [`STRIP_ELEMS`] each, and at least 2 rows each but for a last odd one (the
-/// strip holding row 0 must hold row 1 too; see `GradX::rows`).
+/// row: one strip when the image takes at most twice [`STRIP_ELEMS`], else strips of about
+/// [`STRIP_ELEMS`], at least 2 rows each but for a last odd one (the strip holding row 0 must
+/// hold row 1 too; see `GradX::rows`).
 fn strips(h: usize, per_row: usize) -> Vec<(usize, usize)> {
     let target = STRIP_ELEMS.load(std::sync::atomic::Ordering::Relaxed);
+    if h * per_row <= 2 * target {
+        return vec![(0, h)];
+    }
     let per = target.div_ceil(per_row.max(1)).max(2).min(h.max(1));
     let per = h.div_ceil(h.div_ceil(per));
     (0..h)

@@ -1,7 +1,7 @@
 //! Backward image by image and row strip by row strip (used by
 //! [`super::x86_backward::backward`] when there are at least as many images as threads): each
 //! task takes a run of consecutive images and, for one strip of rows of one image at a time
-//! ([`strips`], about the size of L2), pads the strip's `dy` rows, computes their `∂x`, lays them
+//! ([`strips`], about half of L2), pads the strip's `dy` rows, computes their `∂x`, lays them
 //! out channels-last, pads the input rows they read and adds their `∂w` into the task's own
 //! partial sum. The strip buffers are reused for every strip, so they stay in L2: `dy` and `x`
 //! are read from memory once and only `∂x` is written back, instead of each product writing
