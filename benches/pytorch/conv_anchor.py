@@ -1,0 +1,38 @@
+"""PyTorch anchor for benches/conv.rs: conv 3x3 forward + backward (dx and dw), f32, 2 threads.
+
+Times `y = conv(x); y.backward(r)` with x (requires_grad), w and r made beforehand, like
+benches/conv.rs `timed`, for zero and reflect padding, contiguous (NCHW) and channels-last.
+Prints the median of `reps` timed repetitions (after 5 untimed) per case.
+
+Not part of the build or the tests. To compare in one sitting (this VM's speed drifts):
+    python3 -m venv venv && venv/bin/pip install torch==2.15.0
+    venv/bin/python benches/pytorch/conv_anchor.py 30
+    cargo bench --bench conv -- "fwd_bwd/.*direct"
+"""
+import sys, time, statistics
+import torch
+
+torch.set_num_threads(2)
+reps = int(sys.argv[1]) if len(sys.argv) > 1 else 30
+shapes = [(8, 16, 64, 16), (8, 64, 16, 64), (4, 16, 256, 16)]
+for (b, ci, h, co) in shapes:
+    for pad in ["zeros", "reflect"]:
+        for layout in ["contiguous", "channels_last"]:
+            fmt = torch.channels_last if layout == "channels_last" else torch.contiguous_format
+            conv = torch.nn.Conv2d(ci, co, 3, padding=1, bias=False, padding_mode=pad)
+            conv = conv.to(memory_format=fmt)
+            x = torch.randn(b, ci, h, h).to(memory_format=fmt).requires_grad_(True)
+            r = torch.randn(b, co, h, h).to(memory_format=fmt)
+            ts = []
+            for i in range(reps + 5):
+                x.grad = None
+                conv.weight.grad = None
+                t0 = time.perf_counter()
+                y = conv(x)
+                y.backward(r)
+                t1 = time.perf_counter()
+                if i >= 5:
+                    ts.append(t1 - t0)
+            med = statistics.median(ts) * 1e3
+            print(f"torch conv ({b},{ci},{h},{h})->{co} {pad} {layout}: median {med:.2f} ms")
+            sys.stdout.flush()

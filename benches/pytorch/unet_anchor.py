@@ -1,0 +1,48 @@
+"""PyTorch anchor for benches/conv.rs unet_step: the quick U-Net 8 -> 16/32/64 -> 8 on (8,8,64,64),
+bias-free reflect-padded 3x3 convs + ReLU, max-pool, transposed-conv 2x2 up (with bias), skip
+concat, 1x1 out conv with bias; forward + MSE + backward + Adam step, f32, 2 threads, contiguous (NCHW) and channels-last.
+Prints the median of `reps` steps (after 5 untimed). Run beside
+`cargo bench --bench conv -- unet_step` (see conv_anchor.py for the setup)."""
+import sys, time, statistics
+import torch, torch.nn as nn
+torch.set_num_threads(2)
+
+def dconv(ci, co):
+    return nn.Sequential(nn.Conv2d(ci, co, 3, padding=1, bias=False, padding_mode="reflect"), nn.ReLU(),
+                         nn.Conv2d(co, co, 3, padding=1, bias=False, padding_mode="reflect"), nn.ReLU())
+
+class UNet(nn.Module):
+    def __init__(s, cin=8, widths=(16, 32, 64), cout=8):
+        super().__init__()
+        s.inc = dconv(cin, widths[0])
+        s.downs = nn.ModuleList([dconv(widths[i - 1], widths[i]) for i in range(1, len(widths))])
+        s.ups = nn.ModuleList([nn.ConvTranspose2d(widths[i], widths[i - 1], 2, stride=2) for i in range(len(widths) - 1, 0, -1)])
+        s.upc = nn.ModuleList([dconv(2 * widths[i - 1], widths[i - 1]) for i in range(len(widths) - 1, 0, -1)])
+        s.out = nn.Conv2d(widths[0], cout, 1)
+    def forward(s, x):
+        h = s.inc(x); skips = []
+        for d in s.downs:
+            skips.append(h); h = d(nn.functional.max_pool2d(h, 2))
+        for u, c, sk in zip(s.ups, s.upc, reversed(skips)):
+            h = c(torch.cat([sk, u(h)], 1))
+        return s.out(h)
+
+reps = int(sys.argv[1]) if len(sys.argv) > 1 else 30
+for layout in ["contiguous", "channels_last"]:
+    fmt = torch.channels_last if layout == "channels_last" else torch.contiguous_format
+    net = UNet().to(memory_format=fmt)
+    opt = torch.optim.Adam(net.parameters())
+    x = torch.randn(8, 8, 64, 64).to(memory_format=fmt)
+    t = torch.randn(8, 8, 64, 64).to(memory_format=fmt)
+    ts = []
+    for i in range(reps + 5):
+        t0 = time.perf_counter()
+        opt.zero_grad(set_to_none=True)
+        loss = nn.functional.mse_loss(net(x), t)
+        loss.backward()
+        opt.step()
+        t1 = time.perf_counter()
+        if i >= 5:
+            ts.append(t1 - t0)
+    print(f"torch unet quick (8,8,64,64) {layout}: median {statistics.median(ts) * 1e3:.2f} ms")
+    sys.stdout.flush()
