@@ -9,8 +9,9 @@ Not part of the build or the tests. To compare in one sitting (this VM's speed d
     venv/bin/python benches/pytorch/conv_anchor.py 30
     cargo bench --bench conv -- "fwd_bwd/.*direct"
 """
-import sys, time, statistics
+import sys
 import torch
+from timing import median_ms
 
 torch.set_num_threads(2)
 reps = int(sys.argv[1]) if len(sys.argv) > 1 else 30
@@ -23,16 +24,12 @@ for (b, ci, h, co) in shapes:
             conv = conv.to(memory_format=fmt)
             x = torch.randn(b, ci, h, h).to(memory_format=fmt).requires_grad_(True)
             r = torch.randn(b, co, h, h).to(memory_format=fmt)
-            ts = []
-            for i in range(reps + 5):
+
+            def step():
                 x.grad = None
                 conv.weight.grad = None
-                t0 = time.perf_counter()
-                y = conv(x)
-                y.backward(r)
-                t1 = time.perf_counter()
-                if i >= 5:
-                    ts.append(t1 - t0)
-            med = statistics.median(ts) * 1e3
+                conv(x).backward(r)
+
+            med = median_ms(step, reps)
             print(f"torch conv ({b},{ci},{h},{h})->{co} {pad} {layout}: median {med:.2f} ms")
             sys.stdout.flush()
