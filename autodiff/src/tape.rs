@@ -34,7 +34,9 @@ impl Var {
     }
 }
 
-/// Reusable buffers keyed by exact length. Buffers handed out by [`BufferPool::zeros`] are zeroed.
+/// Reusable buffers keyed by tensor length. Buffers handed out by [`BufferPool::zeros`] are
+/// zeroed. Every tensor the pool makes starts on a 64-byte boundary (its buffer is a few
+/// elements longer than the tensor; see [`Tensor`]), and tensors put back keep their buffer.
 #[derive(Default)]
 pub struct BufferPool<T> {
     free: HashMap<usize, Vec<Vec<T>>>,
@@ -43,32 +45,32 @@ pub struct BufferPool<T> {
 }
 
 impl<T: Float> BufferPool<T> {
-    /// A zeroed tensor of `shape`, reusing a buffer of the same length when one is free.
-    pub fn zeros(&mut self, shape: Shape) -> Tensor<T> {
+    /// A tensor of `shape` in a recycled buffer (contents stale), or in a fresh one of zeros.
+    fn recycled(&mut self, shape: Shape) -> (Tensor<T>, bool) {
         let n = shape.numel();
         match self.free.get_mut(&n).and_then(|v| v.pop()) {
-            Some(mut buf) => {
-                buf.fill(T::zero());
-                Tensor::from_parts(shape, buf)
-            }
+            Some(buf) => (Tensor::in_buffer(shape, buf), true),
             None => {
                 self.fresh_allocations += 1;
-                Tensor::from_parts(shape, vec![T::zero(); n])
+                let buf = vec![T::zero(); n + crate::tensor::align_slack::<T>()];
+                (Tensor::in_buffer(shape, buf), false)
             }
         }
+    }
+
+    /// A zeroed tensor of `shape`, reusing a buffer of the same length when one is free.
+    pub fn zeros(&mut self, shape: Shape) -> Tensor<T> {
+        let (mut t, stale) = self.recycled(shape);
+        if stale {
+            t.fill_zero();
+        }
+        t
     }
 
     /// A tensor of `shape` whose contents are unspecified (stale values of a recycled buffer, or
     /// zeros when freshly allocated): for callers that overwrite every element.
     pub fn uninit(&mut self, shape: Shape) -> Tensor<T> {
-        let n = shape.numel();
-        match self.free.get_mut(&n).and_then(|v| v.pop()) {
-            Some(buf) => Tensor::from_parts(shape, buf),
-            None => {
-                self.fresh_allocations += 1;
-                Tensor::from_parts(shape, vec![T::zero(); n])
-            }
-        }
+        self.recycled(shape).0
     }
 
     /// A tensor of `shape` holding a copy of `data`.
@@ -80,24 +82,17 @@ impl<T: Float> BufferPool<T> {
             "BufferPool::copy_of: {shape:?} vs {} values",
             data.len()
         );
-        let n = data.len();
-        match self.free.get_mut(&n).and_then(|v| v.pop()) {
-            Some(mut buf) => {
-                buf.copy_from_slice(data);
-                Tensor::from_parts(shape, buf)
-            }
-            None => {
-                self.fresh_allocations += 1;
-                Tensor::from_parts(shape, data.to_vec())
-            }
-        }
+        let mut t = self.recycled(shape).0;
+        t.data_mut().copy_from_slice(data);
+        t
     }
 
-    /// Returns a buffer for reuse.
+    /// Returns a tensor's buffer for reuse.
     pub fn put(&mut self, t: Tensor<T>) {
-        let buf = t.into_vec();
-        if !buf.is_empty() {
-            self.free.entry(buf.len()).or_default().push(buf);
+        let n = t.numel();
+        let buf = t.into_buffer();
+        if n > 0 {
+            self.free.entry(n).or_default().push(buf);
         }
     }
 }
@@ -620,6 +615,38 @@ mod tests {
         }
         // First iteration allocates two 16-element buffers; later iterations reuse them.
         assert_eq!(tape.pool().fresh_allocations, 1);
+    }
+
+    /// Pooled tensors start on a cache line whatever their length, keep their values through
+    /// `put` and reuse, compare and clone by their elements only, and `into_vec` hands back
+    /// exactly their elements.
+    #[test]
+    fn pooled_tensors_are_cache_line_aligned() {
+        fn check<T: Float>() {
+            let aligned = |t: &Tensor<T>| (t.data().as_ptr() as usize).is_multiple_of(64);
+            let mut pool = BufferPool::<T>::default();
+            for n in [1, 3, 17, 1000] {
+                let shape = Shape::new(&[n]);
+                let src: Vec<T> = (0..n).map(|i| T::of(i as f64 + 1.0)).collect();
+                let a = pool.copy_of(shape, &src);
+                assert!(aligned(&a) && a.data() == &src[..], "copy_of, n = {n}");
+                pool.put(a);
+                let z = pool.zeros(shape);
+                assert!(aligned(&z), "zeros, n = {n}");
+                assert!(z.data().iter().all(|&v| v == T::zero()));
+                let b = pool.copy_of(shape, &src);
+                assert_eq!(b.clone(), Tensor::from_vec([n], src.clone()));
+                assert_eq!(b.into_vec(), src);
+            }
+            // A tensor made from a caller's Vec (no room to align) is pooled and reused too.
+            pool.put(Tensor::from_vec([5], vec![T::one(); 5]));
+            let before = pool.fresh_allocations;
+            let u = pool.zeros(Shape::new(&[5]));
+            assert_eq!(pool.fresh_allocations, before);
+            assert_eq!(u.data(), &[T::zero(); 5][..]);
+        }
+        check::<f32>();
+        check::<f64>();
     }
 
     /// An op that hands its input an owned gradient ([`GradSlots::give`]).

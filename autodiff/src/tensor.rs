@@ -103,11 +103,54 @@ impl<const N: usize> From<[usize; N]> for Shape {
     }
 }
 
+/// Where the tape's buffers start: on a 64-byte boundary, a cache line and the width of an
+/// AVX-512 register, so that whole-vector loads and stores along a row split no cache line
+/// where the row itself is aligned (PyTorch's CPU allocator aligns to 64 bytes for the same
+/// reason). The system allocator places large blocks 16 bytes past a page boundary; the conv
+/// bench at (4,16,256,256) ran 0.93–0.95× the time with every large block aligned (session 8,
+/// README "Benchmarks").
+pub(crate) const ALIGN_BYTES: usize = 64;
+
+/// Extra elements a buffer needs so that an aligned run of `n` fits inside it.
+pub(crate) fn align_slack<T>() -> usize {
+    ALIGN_BYTES / std::mem::size_of::<T>().max(1)
+}
+
+/// Index of the first element of `buf` that lies on an [`ALIGN_BYTES`] boundary, when an
+/// aligned run of `n` elements fits in `buf` from there; else `0` (the run is then unaligned,
+/// which is correct, only slower).
+pub(crate) fn aligned_start<T>(buf: &[T], n: usize) -> usize {
+    match buf.as_ptr().align_offset(ALIGN_BYTES) {
+        off if off <= buf.len() && buf.len() - off >= n => off,
+        _ => 0,
+    }
+}
+
 /// A dense row-major tensor that owns its buffer.
-#[derive(Clone, PartialEq)]
+///
+/// The elements are `buf[start..start + numel]`: tensors made by the tape's
+/// [`BufferPool`](crate::BufferPool) sit in a slightly longer buffer so that they start on an
+/// [`ALIGN_BYTES`] boundary; every other constructor has `start == 0` and no extra elements.
 pub struct Tensor<T> {
     shape: Shape,
-    data: Vec<T>,
+    buf: Vec<T>,
+    start: usize,
+}
+
+impl<T: Clone> Clone for Tensor<T> {
+    fn clone(&self) -> Self {
+        Tensor {
+            shape: self.shape,
+            buf: self.data().to_vec(),
+            start: 0,
+        }
+    }
+}
+
+impl<T: PartialEq> PartialEq for Tensor<T> {
+    fn eq(&self, other: &Self) -> bool {
+        self.shape == other.shape && self.data() == other.data()
+    }
 }
 
 impl<T: Float> Tensor<T> {
@@ -116,7 +159,8 @@ impl<T: Float> Tensor<T> {
         let shape = shape.into();
         Tensor {
             shape,
-            data: vec![T::zero(); shape.numel()],
+            buf: vec![T::zero(); shape.numel()],
+            start: 0,
         }
     }
 
@@ -125,7 +169,8 @@ impl<T: Float> Tensor<T> {
         let shape = shape.into();
         Tensor {
             shape,
-            data: vec![value; shape.numel()],
+            buf: vec![value; shape.numel()],
+            start: 0,
         }
     }
 
@@ -133,7 +178,8 @@ impl<T: Float> Tensor<T> {
     pub fn scalar(value: T) -> Self {
         Tensor {
             shape: Shape::scalar(),
-            data: vec![value],
+            buf: vec![value],
+            start: 0,
         }
     }
 
@@ -147,7 +193,11 @@ impl<T: Float> Tensor<T> {
             "Tensor::from_vec: {} values for shape {shape:?}",
             data.len()
         );
-        Tensor { shape, data }
+        Tensor {
+            shape,
+            buf: data,
+            start: 0,
+        }
     }
 
     /// Element `i` (row-major flat index) is `f(i)`.
@@ -155,7 +205,8 @@ impl<T: Float> Tensor<T> {
         let shape = shape.into();
         Tensor {
             shape,
-            data: (0..shape.numel()).map(f).collect(),
+            buf: (0..shape.numel()).map(f).collect(),
+            start: 0,
         }
     }
 
@@ -163,7 +214,8 @@ impl<T: Float> Tensor<T> {
     pub fn cast<U: Float>(&self) -> Tensor<U> {
         Tensor {
             shape: self.shape,
-            data: self.data.iter().map(|&x| U::of(x.as_f64())).collect(),
+            buf: self.data().iter().map(|&x| U::of(x.as_f64())).collect(),
+            start: 0,
         }
     }
 
@@ -171,31 +223,31 @@ impl<T: Float> Tensor<T> {
     #[track_caller]
     pub fn item(&self) -> T {
         assert_eq!(
-            self.data.len(),
+            self.numel(),
             1,
             "Tensor::item: tensor of shape {:?}",
             self.shape
         );
-        self.data[0]
+        self.data()[0]
     }
 
     /// Sets every element to zero without reallocating.
     pub fn fill_zero(&mut self) {
-        self.data.fill(T::zero());
+        self.data_mut().fill(T::zero());
     }
 
     /// Sum of squares, in f64.
     pub fn sum_sq(&self) -> f64 {
-        self.data.iter().map(|&x| x.as_f64() * x.as_f64()).sum()
+        self.data().iter().map(|&x| x.as_f64() * x.as_f64()).sum()
     }
 
     /// Largest absolute element-wise difference to `other` (same shape), in f64.
     #[track_caller]
     pub fn max_abs_diff(&self, other: &Tensor<T>) -> f64 {
         assert_eq!(self.shape, other.shape, "max_abs_diff: shapes differ");
-        self.data
+        self.data()
             .iter()
-            .zip(&other.data)
+            .zip(other.data())
             .map(|(a, b)| (a.as_f64() - b.as_f64()).abs())
             .fold(0.0, f64::max)
     }
@@ -214,22 +266,30 @@ impl<T> Tensor<T> {
 
     /// Number of elements.
     pub fn numel(&self) -> usize {
-        self.data.len()
+        self.shape.numel()
     }
 
     /// The row-major buffer.
     pub fn data(&self) -> &[T] {
-        &self.data
+        &self.buf[self.start..self.start + self.shape.numel()]
     }
 
     /// The row-major buffer, mutable.
     pub fn data_mut(&mut self) -> &mut [T] {
-        &mut self.data
+        let n = self.shape.numel();
+        &mut self.buf[self.start..self.start + n]
     }
 
-    /// Gives up the buffer.
+    /// Gives up the buffer: the `Vec` a tensor was made from is returned as it was; a pooled
+    /// (aligned) tensor's elements are first moved to the front of its buffer (a copy within
+    /// it, no allocation).
     pub fn into_vec(self) -> Vec<T> {
-        self.data
+        let (n, start, mut buf) = (self.shape.numel(), self.start, self.buf);
+        if start > 0 {
+            buf.drain(..start);
+        }
+        buf.truncate(n);
+        buf
     }
 
     /// Same buffer, new shape with the same number of elements.
@@ -238,7 +298,7 @@ impl<T> Tensor<T> {
         let shape = shape.into();
         assert_eq!(
             shape.numel(),
-            self.data.len(),
+            self.numel(),
             "Tensor::reshape: {:?} cannot become {shape:?}",
             self.shape
         );
@@ -246,10 +306,20 @@ impl<T> Tensor<T> {
         self
     }
 
-    /// Rebuilds from a pooled buffer; used by the tape. `data.len()` must equal `shape.numel()`.
-    pub(crate) fn from_parts(shape: Shape, data: Vec<T>) -> Self {
-        debug_assert_eq!(shape.numel(), data.len());
-        Tensor { shape, data }
+    /// A tensor of `shape` in `buf` (at least `shape.numel()` elements; contents kept), from
+    /// its first [`ALIGN_BYTES`]-aligned element when it has room for that: used by the tape's
+    /// pool, which makes buffers [`align_slack`] elements longer than the tensors they hold.
+    pub(crate) fn in_buffer(shape: Shape, buf: Vec<T>) -> Self {
+        let n = shape.numel();
+        debug_assert!(buf.len() >= n);
+        let start = aligned_start(&buf, n);
+        Tensor { shape, buf, start }
+    }
+
+    /// Gives up the whole buffer, extra elements included (for the pool; see
+    /// [`Tensor::in_buffer`]).
+    pub(crate) fn into_buffer(self) -> Vec<T> {
+        self.buf
     }
 }
 
@@ -257,14 +327,14 @@ impl<T: fmt::Debug> fmt::Debug for Tensor<T> {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         const SHOWN: usize = 8;
         write!(f, "Tensor{:?} [", self.shape)?;
-        for (i, x) in self.data.iter().take(SHOWN).enumerate() {
+        for (i, x) in self.data().iter().take(SHOWN).enumerate() {
             if i > 0 {
                 write!(f, ", ")?;
             }
             write!(f, "{x:?}")?;
         }
-        if self.data.len() > SHOWN {
-            write!(f, ", … {} more", self.data.len() - SHOWN)?;
+        if self.data().len() > SHOWN {
+            write!(f, ", … {} more", self.data().len() - SHOWN)?;
         }
         write!(f, "]")
     }

@@ -25,6 +25,7 @@
 //! padding: reflect borders fold onto the interior; zero borders are dropped).
 
 use crate::gemm::MatView;
+use crate::tensor::{align_slack, aligned_start};
 use crate::Float;
 use std::any::Any;
 use std::sync::Mutex;
@@ -403,9 +404,12 @@ static STASH: Mutex<Vec<Box<dyn Any + Send>>> = Mutex::new(Vec::new());
 const STASH_MAX: usize = 64;
 
 /// A scratch vector borrowed from the stash; returned on drop. Contents are unspecified
-/// unless taken with [`Scratch::zeroed`].
+/// unless taken with [`Scratch::zeroed`]. The slice starts on a 64-byte boundary (its vector
+/// is [`align_slack`] elements longer; see [`crate::Tensor`]), so the strips the kernels read
+/// whole vectors from are cache-line aligned like the tensors.
 pub(crate) struct Scratch<T: Float> {
     buf: Vec<T>,
+    start: usize,
     len: usize,
 }
 
@@ -415,14 +419,16 @@ impl<T: Float> Scratch<T> {
         if len == 0 {
             return Scratch {
                 buf: Vec::new(),
+                start: 0,
                 len,
             };
         }
+        let want = len + align_slack::<T>();
         let mut stash = STASH.lock().unwrap_or_else(|e| e.into_inner());
         let mut best: Option<(usize, usize)> = None;
         for (i, b) in stash.iter().enumerate() {
             if let Some(v) = b.downcast_ref::<Vec<T>>() {
-                if v.len() >= len && best.is_none_or(|(_, l)| v.len() < l) {
+                if v.len() >= want && best.is_none_or(|(_, l)| v.len() < l) {
                     best = Some((i, v.len()));
                 }
             }
@@ -432,9 +438,10 @@ impl<T: Float> Scratch<T> {
                 .swap_remove(i)
                 .downcast::<Vec<T>>()
                 .expect("type checked"),
-            None => vec![T::zero(); len],
+            None => vec![T::zero(); want],
         };
-        Scratch { buf, len }
+        let start = aligned_start(&buf, len);
+        Scratch { buf, start, len }
     }
 
     /// A scratch slice of `len` zeros.
@@ -448,13 +455,13 @@ impl<T: Float> Scratch<T> {
 impl<T: Float> std::ops::Deref for Scratch<T> {
     type Target = [T];
     fn deref(&self) -> &[T] {
-        &self.buf[..self.len]
+        &self.buf[self.start..self.start + self.len]
     }
 }
 
 impl<T: Float> std::ops::DerefMut for Scratch<T> {
     fn deref_mut(&mut self) -> &mut [T] {
-        &mut self.buf[..self.len]
+        &mut self.buf[self.start..self.start + self.len]
     }
 }
 
@@ -481,6 +488,20 @@ mod tests {
                 .wrapping_mul(6364136223846793005)
                 .wrapping_add(1442695040888963407);
             (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+        }
+    }
+
+    /// Scratch slices start on a cache line, also when the stash hands back a longer buffer.
+    #[test]
+    fn scratch_slices_are_cache_line_aligned() {
+        for len in [1, 15, 4096, 100_003, 7] {
+            let a = Scratch::<f32>::take(len);
+            let b = Scratch::<f64>::zeroed(len);
+            assert_eq!((a.len(), b.len()), (len, len));
+            assert!(b.iter().all(|&v| v == 0.0));
+            for p in [a.as_ptr() as usize, b.as_ptr() as usize] {
+                assert!(p.is_multiple_of(64), "scratch of {len} at {p:#x}");
+            }
         }
     }
 
