@@ -38,13 +38,15 @@ mod kernels;
 mod direct;
 mod gemm_path;
 mod lowering;
+mod scratch;
 mod transpose;
 
 pub use lowering::Padding;
 pub use transpose::ConvTranspose2x2;
 
 use crate::{BackwardCx, Float, GradSlots, GradTarget, Op, Shape, Tape, Tensor, Var};
-use lowering::{Geometry, Scratch};
+use lowering::Geometry;
+use scratch::Scratch;
 use std::any::Any;
 use std::sync::atomic::{AtomicU8, Ordering};
 

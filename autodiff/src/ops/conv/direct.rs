@@ -38,7 +38,8 @@
 //! Only `k = 3` on x86-64 CPUs with AVX-512F ([`kernels`] returns `None` otherwise and the op
 //! uses the GEMM lowering).
 
-use super::lowering::{tiles, Geometry, Scratch};
+use super::lowering::{tiles, Geometry};
+use super::scratch::Scratch;
 use crate::Float;
 
 /// Zeros after each padded image / padded `dy` (at least the widest lane count, 16 × f32).

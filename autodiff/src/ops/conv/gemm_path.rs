@@ -12,7 +12,8 @@
 //! parallel on rayon with sequential GEMMs inside; a single image runs on the calling thread so
 //! faer may thread its GEMMs. Layouts: see [`super::lowering`].
 
-use super::lowering::{tiles, Geometry, Scratch};
+use super::lowering::{tiles, Geometry};
+use super::scratch::Scratch;
 use crate::gemm::MatView;
 use crate::{BackwardCx, Float, GradSlots, Tensor};
 use rayon::prelude::*;

@@ -9,7 +9,7 @@
 //! also adds the bias. Backward un-shuffles `dy` into `dZ`, then `∂x_b += M · dZ`,
 //! `∂M += x_b · dZᵀ` and `∂b[o] += Σ_pixels dy[b,o,·,·]`, images in parallel.
 
-use super::lowering::Scratch;
+use super::scratch::Scratch;
 use crate::op::write_or_add;
 use crate::ops::reduce::lane_sum;
 use crate::{BackwardCx, Float, GradSlots, GradTarget, Op, Shape, Tape, Tensor, Var};
