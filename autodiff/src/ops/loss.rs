@@ -10,9 +10,13 @@
 //!   `∂L/∂target` is its negative.
 //! - `mse(pred, target)`: `mean((pred − target)²)` over all elements, same shapes.
 //!
-//! Both return a rank-0 scalar. Sums run in f64 for accuracy with f32 tensors.
+//! Both return a rank-0 scalar. Sums run in f64 for accuracy with f32 tensors; `mse` sums
+//! large tensors in parallel over fixed chunks ([`crate::ops::reduce`]), so its value does not
+//! depend on the thread count.
 
-use crate::{BackwardCx, Float, GradSlots, Op, Shape, Tape, Tensor, Var};
+use crate::ops::reduce::{chunked_total, lanes_total, TASK_ELEMS};
+use crate::{BackwardCx, Float, GradSlots, GradTarget, Op, Shape, Tape, Tensor, Var};
+use rayon::prelude::*;
 
 /// Op names of this file (registry rule, see [`crate::ops`]).
 pub const OPS: &[&str] = &["masked_sq_error", "mse"];
@@ -153,21 +157,34 @@ impl<T: Float> Op<T> for Mse {
     }
     fn forward(&mut self, inputs: &[&Tensor<T>], out: &mut Tensor<T>) {
         let (p, t) = (inputs[0].data(), inputs[1].data());
-        let s: f64 = p
-            .iter()
-            .zip(t)
-            .map(|(&a, &b)| (a - b).as_f64().powi(2))
-            .sum();
+        let s = chunked_total(p.len(), |r| {
+            let (p, t) = (&p[r.clone()], &t[r]);
+            lanes_total(p.len(), |i| (p[i] - t[i]).as_f64().powi(2))
+        });
         out.data_mut()[0] = T::of(s / p.len().max(1) as f64);
     }
     fn backward(&self, cx: &BackwardCx<'_, T>, dx: &mut GradSlots<'_, T>) {
         let (p, t) = (cx.inputs[0].data(), cx.inputs[1].data());
         let scale = T::of(2.0 * cx.dy.data()[0].as_f64() / p.len().max(1) as f64);
         for (slot, sign) in [(0, scale), (1, -scale)] {
-            if let Some(g) = dx.slot_data(slot) {
+            let Some((g, add)) = dx.target(slot).map(GradTarget::into_parts) else {
+                continue;
+            };
+            // g (=|+=) sign·(p − t), in parallel chunks for large tensors.
+            let run = |((g, p), t): ((&mut [T], &[T]), &[T])| {
                 for ((a, &x), &y) in g.iter_mut().zip(p).zip(t) {
-                    *a += sign * (x - y);
+                    *a = if add {
+                        *a + sign * (x - y)
+                    } else {
+                        sign * (x - y)
+                    };
                 }
+            };
+            if g.len() <= TASK_ELEMS {
+                run(((g, p), t));
+            } else {
+                let chunks = g.par_chunks_mut(TASK_ELEMS).zip(p.par_chunks(TASK_ELEMS));
+                chunks.zip(t.par_chunks(TASK_ELEMS)).for_each(run);
             }
         }
     }
@@ -245,6 +262,50 @@ mod tests {
         assert!((tp.value(l2).item() - 2.0).abs() < 1e-15);
         let e = tp.mse(p, t);
         assert!((tp.value(e).item() - (16.0 * 81.0 + 4.0 + 9.0) / 18.0).abs() < 1e-12);
+    }
+
+    /// Past one task (`TASK_ELEMS`), `mse` runs in parallel chunks: the same bits with 1
+    /// thread as with 3, the exact value, and gradients written fresh then added (the loss
+    /// counted twice) on both inputs.
+    #[test]
+    fn large_mse_is_exact_deterministic_and_writes_every_gradient() {
+        let n = 3 * crate::ops::reduce::TASK_ELEMS + 5;
+        let pred = |i: usize| (i % 1000) as f32 - 499.75;
+        let target = |i: usize| (i % 7) as f32;
+        let run = |threads: usize| {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            pool.install(|| {
+                let mut tp = Tape::<f32>::new();
+                let p = tp.leaf(Tensor::from_fn([n], pred));
+                let t = tp.leaf(Tensor::from_fn([n], target));
+                let (a, b) = (tp.mse(p, t), tp.mse(p, t));
+                let l = tp.add(a, b);
+                tp.backward(l);
+                let (gp, gt) = (tp.grad(p).unwrap().clone(), tp.grad(t).unwrap().clone());
+                (tp.value(a).item(), gp, gt)
+            })
+        };
+        let (one, gp1, gt1) = run(1);
+        let (three, gp3, gt3) = run(3);
+        assert_eq!(one.to_bits(), three.to_bits());
+        assert!(
+            gp1 == gp3 && gt1 == gt3,
+            "gradients depend on the thread count"
+        );
+        let exact: f64 = (0..n).map(|i| ((pred(i) - target(i)) as f64).powi(2)).sum();
+        assert_eq!(one, (exact / n as f64) as f32);
+        let scale = (2.0 / n as f64) as f32;
+        for i in (0..n).step_by(997).chain([n - 1]) {
+            let d = scale * (pred(i) - target(i));
+            assert_eq!(
+                (gp1.data()[i], gt1.data()[i]),
+                (2.0 * d, -2.0 * d),
+                "element {i}"
+            );
+        }
     }
 
     #[test]

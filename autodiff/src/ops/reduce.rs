@@ -35,31 +35,46 @@ pub(crate) fn lane_sum<T: Float>(v: &[T]) -> T {
     acc.iter().fold(tail, |s, &x| s + x)
 }
 
-/// Elements per parallel task of [`total`] and of the whole-tensor backward fill: a fixed
-/// size, so that the sum's rounding does not depend on the thread count.
-const TASK_ELEMS: usize = 1 << 16;
+/// Elements per parallel task of the whole-tensor sums here and in [`crate::ops::loss`], and
+/// of their backward fills: a fixed size, so that a sum's rounding does not depend on the
+/// thread count.
+pub(crate) const TASK_ELEMS: usize = 1 << 16;
 
-/// Sum of all elements, in f64: per [`TASK_ELEMS`] chunk (in parallel) with 8 independent
-/// partial sums (element `i` into sum `i mod 8`) so that the loop vectorises, where one running
-/// sum waits for each addition in turn; then the chunk sums in order. (`sum` forward + backward
-/// over 4.2 M f32 took 6.1–6.4 ms with one running sum, 2.4–2.8 ms so; README, session 8.)
-fn total<T: Float>(x: &[T]) -> f64 {
-    fn chunk_total<T: Float>(x: &[T]) -> f64 {
-        let mut acc = [0.0f64; 8];
-        let lanes = x.chunks_exact(8);
-        let tail: f64 = lanes.remainder().iter().map(|v| v.as_f64()).sum();
-        for c in lanes {
-            for (a, &v) in acc.iter_mut().zip(c) {
-                *a += v.as_f64();
-            }
+/// `Σ_{i < n} term(i)` in f64 with 8 independent partial sums (term `i` into sum `i mod 8`,
+/// then the 8 in order), so that the additions do not wait for each other as one running sum
+/// does. (`sum` forward + backward over 4.2 M f32 took 6.1–6.4 ms with one running sum,
+/// 2.4–2.8 ms so, in parallel chunks; README, session 8.)
+pub(crate) fn lanes_total(n: usize, term: impl Fn(usize) -> f64) -> f64 {
+    let mut acc = [0.0f64; 8];
+    let full = n - n % 8;
+    for i in (0..full).step_by(8) {
+        for (l, a) in acc.iter_mut().enumerate() {
+            *a += term(i + l);
         }
-        acc.iter().sum::<f64>() + tail
     }
-    if x.len() <= TASK_ELEMS {
-        return chunk_total(x);
+    let tail: f64 = (full..n).map(&term).sum();
+    acc.iter().sum::<f64>() + tail
+}
+
+/// `Σ part(range)` over the [`TASK_ELEMS`] chunks of `0..n`, chunks in parallel, their sums
+/// added in order (one call for `n ≤ TASK_ELEMS`).
+pub(crate) fn chunked_total(n: usize, part: impl Fn(std::ops::Range<usize>) -> f64 + Sync) -> f64 {
+    if n <= TASK_ELEMS {
+        return part(0..n);
     }
-    let parts: Vec<f64> = x.par_chunks(TASK_ELEMS).map(chunk_total).collect();
+    let parts: Vec<f64> = (0..n.div_ceil(TASK_ELEMS))
+        .into_par_iter()
+        .map(|k| part(k * TASK_ELEMS..((k + 1) * TASK_ELEMS).min(n)))
+        .collect();
     parts.iter().sum()
+}
+
+/// Sum of all elements, in f64 ([`chunked_total`] of [`lanes_total`]).
+fn total<T: Float>(x: &[T]) -> f64 {
+    chunked_total(x.len(), |r| {
+        let x = &x[r];
+        lanes_total(x.len(), |i| x[i].as_f64())
+    })
 }
 
 /// `g = d` (`add == false`) or `g += d` for every element, in parallel for large tensors.
