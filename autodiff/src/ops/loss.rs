@@ -273,11 +273,7 @@ mod tests {
         let pred = |i: usize| (i % 1000) as f32 - 499.75;
         let target = |i: usize| (i % 7) as f32;
         let run = |threads: usize| {
-            let pool = rayon::ThreadPoolBuilder::new()
-                .num_threads(threads)
-                .build()
-                .unwrap();
-            pool.install(|| {
+            crate::ops::reduce::tests::on_threads(threads, || {
                 let mut tp = Tape::<f32>::new();
                 let p = tp.leaf(Tensor::from_fn([n], pred));
                 let t = tp.leaf(Tensor::from_fn([n], target));

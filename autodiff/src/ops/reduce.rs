@@ -313,7 +313,7 @@ impl<T: Float> Tape<T> {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::check::{check_gradients, strategies as st, CheckConfig};
     use proptest::prelude::*;
@@ -386,6 +386,13 @@ mod tests {
         assert!((t.value(s).item() as f64 - want).abs() < 1e-6 * want);
     }
 
+    /// `f()` on a rayon pool of `threads` threads: for tests that results do not depend on
+    /// the thread count.
+    pub(crate) fn on_threads<R: Send>(threads: usize, f: impl FnOnce() -> R + Send) -> R {
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build();
+        pool.expect("a rayon pool").install(f)
+    }
+
     /// Past one task (`TASK_ELEMS`), the sum runs in parallel: the same bits with 1 thread
     /// as with 3, equal to an exact integer sum, and the backward fill covers every element
     /// (fresh) and adds (accumulating).
@@ -393,11 +400,7 @@ mod tests {
     fn large_sums_are_exact_deterministic_and_fill_every_gradient() {
         let n = 3 * TASK_ELEMS + 5;
         let run = |threads: usize| {
-            let pool = rayon::ThreadPoolBuilder::new()
-                .num_threads(threads)
-                .build()
-                .unwrap();
-            pool.install(|| {
+            on_threads(threads, || {
                 let mut t = Tape::<f32>::new();
                 let x = t.leaf(Tensor::from_fn([n], |i| (i % 1000) as f32 - 499.75));
                 let (s, m) = (t.sum(x), t.mean(x));
