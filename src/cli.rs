@@ -30,8 +30,9 @@ pub enum Command {
     Simulate(CommonOptions),
     /// Train the cortex (no CMF-SIM): progress bar, metrics.csv, checkpoints, pictures.
     Train(CommonOptions),
-    /// Run CMF-SIM on a trained run folder (`--run DIR`) or on an analytic cone observer
-    /// (`--analytic`, with `--cones`), and write cmf_sim.json and SVG plots.
+    /// Run CMF-SIM on a trained run folder (`--run DIR`) or on an observer whose answer is
+    /// known (`--observer identity|cones|oracle|oracle-mosaic|analytic`, with `--cones`), and
+    /// write cmf_sim.json and SVG plots.
     CmfSim(CmfSimOptions),
     /// Fit Neural Scope on held-out scenes for a trained run and write percept pictures.
     Scope(RunDirOptions),
@@ -67,18 +68,57 @@ pub struct CommonOptions {
 /// Options of `cmf-sim`.
 #[derive(Debug, Clone, Args)]
 pub struct CmfSimOptions {
-    /// A run folder written by `run`, `train` or `experiment` (its last checkpoint is tested).
+    /// A run folder written by `run`, `train` or `experiment` (its last checkpoint is tested
+    /// with the run's own settings).
     #[arg(long)]
     pub run: Option<PathBuf>,
-    /// Test an analytic observer whose percept is the cone excitations of `--cones`.
+    /// Which observer: `cortex` (the run's learned cortex; the default with `--run`), or one
+    /// whose answer is known, through the eye of `--preset`/`--cones`: `identity` (the percept
+    /// is the optic nerve signal: no colour constancy), `cones` (the cone activations: 1),
+    /// `oracle` (each kind of cone interpolated across the mosaic: as many dimensions as
+    /// independent kinds), `oracle-mosaic` (the oracle without interpolation), `analytic` (the
+    /// cone excitations of an ideal eye, no mosaic).
+    #[arg(long, value_enum)]
+    pub observer: Option<ObserverKind>,
+    /// How the patch percept is read: `resolved` (point by point, the default) or
+    /// `patch-mean` (kept to show why it is not the default).
+    #[arg(long, value_enum)]
+    pub readout: Option<ReadoutArg>,
+    /// Seed of CMF-SIM's draws (locations, primaries) without changing the eye's seeds.
     #[arg(long)]
-    pub analytic: bool,
+    pub location_seed: Option<u64>,
     /// Primary sets tried per K before K is declared failed (the paper used 500).
     #[arg(long)]
     pub sets_per_k: Option<usize>,
     /// Shared options (`--cones`, `--seed`, `--out`, ...).
     #[command(flatten)]
     pub common: CommonOptions,
+}
+
+/// The observers `cmf-sim` can test.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum ObserverKind {
+    /// The learned cortex of `--run`.
+    Cortex,
+    /// Φ = identity: the optic nerve signal is the percept.
+    Identity,
+    /// The cone activations are the percept (lateral inhibition omitted).
+    Cones,
+    /// Oracle decoder with per-kind interpolation.
+    Oracle,
+    /// Oracle decoder, each cell keeping only its own kind.
+    OracleMosaic,
+    /// Ideal cone excitations, no eye.
+    Analytic,
+}
+
+/// `--readout` values.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum ReadoutArg {
+    /// Point by point in patch-relative coordinates.
+    Resolved,
+    /// The patch mean.
+    PatchMean,
 }
 
 /// Options of commands that read a run folder.

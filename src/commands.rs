@@ -1,12 +1,13 @@
 //! What each subcommand does. `main.rs` only parses and dispatches here.
 
-use crate::cli::{CmfSimOptions, CommonOptions, ExperimentOptions, RunDirOptions};
+use crate::cli::{
+    CmfSimOptions, CommonOptions, ExperimentOptions, ObserverKind, ReadoutArg, RunDirOptions,
+};
 use crate::config::RunConfig;
 use crate::experiments;
-use crate::observer::LearnedObserver;
+use crate::observer::ReadoutMode;
 use crate::run::{self, RunError, RunMode};
-use colorimetry::analytic::ConeObserver;
-use colorimetry::{run_cmf_sim, CmfSimResult};
+use colorimetry::CmfSimResult;
 use cortex::Trainer;
 use retina::Retina;
 use std::path::{Path, PathBuf};
@@ -86,66 +87,98 @@ pub fn load_run(dir: &Path) -> Result<(RunConfig, Trainer, PathBuf), RunError> {
     Ok((config, trainer, checkpoint))
 }
 
-/// `colorvision cmf-sim`: on a run folder or an analytic observer.
+/// `colorvision cmf-sim`: on a run folder's cortex or on an observer whose answer is known.
 pub fn cmf_sim(options: &CmfSimOptions) -> Result<(), RunError> {
-    let result: (CmfSimResult, PathBuf) = match (&options.run, options.analytic) {
-        (Some(dir), _) => {
-            let (mut config, trainer, checkpoint) = load_run(dir)?;
-            if let Some(k) = options.sets_per_k {
-                config.cmf_sim.sets_per_k = k;
-            }
+    let kind = options.observer.unwrap_or(if options.run.is_some() {
+        ObserverKind::Cortex
+    } else {
+        ObserverKind::Oracle
+    });
+    let (mut config, trainer, out) = match (&options.run, kind) {
+        (Some(dir), ObserverKind::Cortex) => {
+            let (config, trainer, checkpoint) = load_run(dir)?;
             println!(
                 "colorvision cmf-sim: {} (checkpoint {})",
                 dir.display(),
                 checkpoint.display()
             );
-            let retina = Retina::new(config.retina.clone())?;
-            let observer = LearnedObserver::new(&retina, &trainer.cortex, config.observer.clone());
-            (run_cmf_sim(&observer, &config.cmf_sim)?, dir.clone())
+            let out = options
+                .common
+                .out
+                .clone()
+                .unwrap_or_else(|| dir.join("cmf-sim"));
+            (config, Some(trainer), out)
         }
-        (None, true) => {
+        (None, ObserverKind::Cortex) => {
+            return Err(invalid_option(
+                "--observer",
+                "`cortex` needs --run DIR (a trained run)",
+            ))
+        }
+        (Some(_), _) => {
+            return Err(invalid_option(
+                "--run",
+                "only the `cortex` observer reads a run folder; the others take --preset/--cones",
+            ))
+        }
+        (None, _) => {
             let config = RunConfig::resolve(&options.common, "quick")?;
-            let mosaic = retina::mosaic::Mosaic::from_spec_str(&config.cones, 8, 0)?;
-            let grid = config.retina.grid.grid()?;
-            let observer = ConeObserver::new(&mosaic.classes, &config.retina.template, &grid)?;
-            let mut settings = config.cmf_sim.clone();
-            if let Some(k) = options.sets_per_k {
-                settings.sets_per_k = k;
-            }
-            let out = run::out_dir(&config, options.common.out.as_ref(), "cmf-sim-analytic");
-            (run_cmf_sim(&observer, &settings)?, out)
-        }
-        (None, false) => {
-            return Err(RunError::Config(crate::config::ConfigError::Invalid {
-                field: "cmf-sim".into(),
-                reason: "give --run DIR (a trained run) or --analytic (with --cones)".into(),
-            }))
+            let value = clap::ValueEnum::to_possible_value(&kind).expect("every kind has a name");
+            let name = format!("cmf-sim-{}", value.get_name());
+            let out = run::out_dir(&config, options.common.out.as_ref(), &name);
+            (config, None, out)
         }
     };
-    let (r, out) = result;
-    r.save(&out)?;
-    println!(
-        "dimension = {}  ({}; {} shows in {:.1} s)",
-        r.dimension, r.verdict, r.shows, r.seconds
-    );
-    for k in &r.per_k {
-        println!(
-            "  K = {}: {} of {} sets tried, {}",
-            k.n_primaries,
-            k.sets_tried,
-            r.settings.sets_per_k,
-            if k.passed {
-                "a set passed"
-            } else {
-                "all failed"
-            }
-        );
+    if let Some(k) = options.sets_per_k {
+        config.cmf_sim.sets_per_k = k;
     }
+    if let Some(seed) = options.location_seed {
+        config.cmf_sim.seed = seed;
+    }
+    if let Some(r) = options.readout {
+        config.observer.readout = match r {
+            ReadoutArg::Resolved => ReadoutMode::Resolved,
+            ReadoutArg::PatchMean => ReadoutMode::PatchMean,
+        };
+    }
+    config.validate()?;
+    let r = crate::ladder::measure_observer(&config, kind, trainer.as_ref())?;
+    r.save(&out)?;
+    print_cmf_sim(&r);
     println!(
         "wrote {}/cmf_sim.json and cmf_sim_errors.svg",
         out.display()
     );
     Ok(())
+}
+
+/// The verdict, the base error against the energy, and each K's converged margin, in words.
+pub fn print_cmf_sim(r: &CmfSimResult) {
+    let (base, energy): (f64, f64) = (r.base_error.iter().sum(), r.energy.iter().sum());
+    println!(
+        "{}: dimension {} — {} ({} shows in {:.1} s)",
+        r.observer, r.dimension, r.verdict, r.shows, r.seconds
+    );
+    println!(
+        "  base error (the same light at two locations) summed over wavelengths = {:.3} of the percept energy{}",
+        base / energy.max(f64::MIN_POSITIVE),
+        if r.no_colour_constancy {
+            " (≥ 1: no colour constancy)"
+        } else {
+            ""
+        }
+    );
+    let nw = r.test_wavelengths_nm.len();
+    for k in &r.per_k {
+        println!("  {}", k.describe(nw));
+    }
+}
+
+fn invalid_option(option: &str, reason: &str) -> RunError {
+    RunError::Config(crate::config::ConfigError::Invalid {
+        field: option.into(),
+        reason: reason.into(),
+    })
 }
 
 /// `colorvision scope`: Neural Scope pictures and invariants of a trained run.

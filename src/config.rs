@@ -114,7 +114,11 @@ impl RunConfig {
             cortex.m.mode = cortex::config::MMode::Oracle;
         }
         let (steps, cmf_every, sets_per_k, wavelengths, pairs) = match name {
-            "tiny" => (300, 0, 8, 30, 2),
+            // tiny: the calibration ladder (crate::ladder) returns every known answer up to
+            // 3-D on this eye with 4 location pairs and 20 sets per K (with 2 pairs and 8
+            // sets an LMS cone-activation observer measured 2-D); the 32² eye cannot carry a
+            // fourth class (its tetrachromat oracles fail K = 4 at 3–4 of 5 seeds).
+            "tiny" => (300, 0, 20, 30, 4),
             "sandbox" => (3000, 1000, 20, 50, 4),
             "paper" => (100_000, 10_000, 100, 100, 8),
             // quick: CMF-SIM at the end with a paper-like budget (100 wavelengths, 8 pairs as
@@ -156,7 +160,12 @@ impl RunConfig {
             retina,
             cortex,
             cmf_sim,
-            observer: ObserverSettings::default(),
+            observer: ObserverSettings {
+                // The 32-cone eye needs a larger patch for enough cones inside it (radius
+                // 12.8 px of 64, about 6 cones) — the ladder's S-cone rungs fail at 1/8.
+                patch_radius_fraction: if name == "tiny" { 0.2 } else { 0.125 },
+                ..ObserverSettings::default()
+            },
             schedule: Schedule {
                 cmf_every_steps: cmf_every,
                 cmf_extra_steps: extra_steps,
@@ -286,6 +295,23 @@ impl RunConfig {
         }
         if self.steps == 0 {
             return Err(invalid("steps", "must be at least 1".into()));
+        }
+        self.observer.validate()?;
+        let grid = self
+            .retina
+            .grid
+            .grid()
+            .map_err(|e| invalid("retina.grid", e.to_string()))?;
+        for (what, s) in [
+            ("cmf_sim", self.cmf_sim.clone()),
+            ("schedule.checkpoint_cmf", self.cmf_settings(false)),
+        ] {
+            colorimetry::cmf_sim::validate_settings(&s, &grid).map_err(|e| match e {
+                colorimetry::ColorimetryError::InvalidSetting { name, message } => {
+                    invalid(&format!("{what}.{name}"), message)
+                }
+                other => invalid(what, other.to_string()),
+            })?;
         }
         // Every value is written to config.toml, whose integers are signed 64-bit.
         for (field, v) in [

@@ -13,10 +13,11 @@
 //! | `boost` | LMS trained, then LMSQ, training continued | Fig. 6.2 |
 //! | `robustness` | L:M 1:1 and 1:2, three seeds | RS-08 |
 //! | `stiles-burch` | fixed primaries 444.4/526.3/645.2 nm vs Stiles & Burch 1955 (analytic and trained) | RS-08, Fig. 11 |
+//! | `cmf-ladder` | CMF-SIM's known-answer observers through the real eye ([`crate::ladder`]) | S-04, S-05 |
 
 use crate::cli::CommonOptions;
 use crate::config::RunConfig;
-use crate::observer::LearnedObserver;
+use crate::observer::EyeObserver;
 use crate::run::{self, RunError, RunMode, Summary};
 use colorimetry::analytic::ConeObserver;
 use colorimetry::{compare_stiles_burch, run_cmf_sim, StilesBurchSettings};
@@ -50,6 +51,10 @@ pub const EXPERIMENTS: &[(&str, &str)] = &[
     (
         "stiles-burch",
         "CMFs with primaries 444.4/526.3/645.2 nm vs Stiles & Burch 1955",
+    ),
+    (
+        "cmf-ladder",
+        "CMF-SIM on observers whose answer is known (calibration), 5 location seeds",
     ),
 ];
 
@@ -101,7 +106,11 @@ fn cone_sweep(options: &CommonOptions, out: &Path, cones: &[&str]) -> Result<(),
 /// CMF-SIM on the untrained "percept = the eye's output" observer (Φ = identity, N = 1).
 fn identity_percept(config: &RunConfig, dir: &Path, name: &str) -> Result<usize, RunError> {
     let retina = Retina::new(config.retina.clone())?;
-    let observer = LearnedObserver::ons_identity(&retina, config.observer.clone());
+    let observer = EyeObserver::new(
+        &retina,
+        crate::observer::Decoder::Ons,
+        config.observer.clone(),
+    );
     let r = run_cmf_sim(&observer, &config.cmf_sim)?;
     r.save(dir)?;
     println!("baseline {name}: dimension {} ({})", r.dimension, r.verdict);
@@ -197,7 +206,7 @@ fn stiles_burch(options: &CommonOptions, out: &Path) -> Result<(), RunError> {
     )?;
     let (_, trainer, _) = crate::commands::load_run(&trained)?;
     let retina = Retina::new(config.retina.clone())?;
-    let observer = LearnedObserver::new(&retina, &trainer.cortex, config.observer.clone());
+    let observer = EyeObserver::cortex(&retina, &trainer.cortex, config.observer.clone());
     let r = compare_stiles_burch(&observer, &StilesBurchSettings::default())?;
     r.save(&trained)?;
     println!("trained LMS cortex: {}", summary_line(&r));
@@ -253,6 +262,17 @@ pub fn run_named(name: &str, options: &CommonOptions) -> Result<(), RunError> {
         ),
         "boost" => continued(options, &out, "LMS", &["LMSQ,Q:506"]),
         "stiles-burch" => stiles_burch(options, &out),
+        "cmf-ladder" => {
+            let config = RunConfig::resolve(options, "quick")?;
+            let rows = crate::ladder::run_ladder(&config, &out)?;
+            let calibrated = rows.iter().filter(|r| r.calibrated()).count();
+            println!(
+                "{calibrated} of {} rows return their known answer; wrote {}/ladder.md",
+                rows.len(),
+                out.display()
+            );
+            Ok(())
+        }
         other => Err(RunError::Config(crate::config::ConfigError::Invalid {
             field: "experiment".into(),
             reason: format!(

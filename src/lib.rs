@@ -10,6 +10,7 @@ pub mod commands;
 pub mod config;
 pub mod experiments;
 pub mod io;
+pub mod ladder;
 pub mod observer;
 pub mod pictures;
 pub mod run;

@@ -11,7 +11,7 @@
 //! - `summary.json` — `dimension`, `steps`, `wall_seconds`, the config, the dimension over steps.
 
 use crate::config::RunConfig;
-use crate::observer::LearnedObserver;
+use crate::observer::EyeObserver;
 use crate::pictures;
 use crate::source::RetinaSource;
 use colorimetry::cmf_sim::CmfSimSettings;
@@ -98,10 +98,12 @@ pub struct Summary {
     pub heldout_motion_error_px: Option<f64>,
     /// CMF-SIM verdict at the end.
     pub verdict: String,
-    /// Per K tried at the end: `(K, closest max-error/threshold ratio over its sets)`; < 1
-    /// passed. How far the verdict is from the threshold (a lower bound for failed K, see
-    /// [`colorimetry::cmf_sim::KSummary::closest_ratio`]).
-    pub closest_ratio_per_k: Vec<(usize, f64)>,
+    /// Per K tried at the end, in words: the converged margin of its reported set (see
+    /// [`colorimetry::cmf_sim::KSummary::describe`]).
+    pub cmf_sim_per_k: Vec<String>,
+    /// Per K tried at the end: `(K, converged max error / threshold over every wavelength)`;
+    /// < 1 passes.
+    pub converged_ratio_per_k: Vec<(usize, f64)>,
     /// Learned invariants against the truth (evaluation only).
     pub invariants: Option<pictures::Invariants>,
     /// The resolved config.
@@ -387,10 +389,14 @@ pub fn run_with_trainer(
         verdict: last_cmf
             .as_ref()
             .map_or_else(|| "not measured".to_string(), |r| r.verdict.clone()),
-        closest_ratio_per_k: last_cmf.as_ref().map_or_else(Vec::new, |r| {
+        cmf_sim_per_k: last_cmf.as_ref().map_or_else(Vec::new, |r| {
+            let nw = r.test_wavelengths_nm.len();
+            r.per_k.iter().map(|k| k.describe(nw)).collect()
+        }),
+        converged_ratio_per_k: last_cmf.as_ref().map_or_else(Vec::new, |r| {
             r.per_k
                 .iter()
-                .filter_map(|k| Some((k.n_primaries, k.closest_ratio()?)))
+                .map(|k| (k.n_primaries, k.converged_worst_ratio))
                 .collect()
         }),
         invariants,
@@ -407,7 +413,7 @@ pub fn measure(
     retina: &Retina,
     trainer: &Trainer,
 ) -> Result<CmfSimResult, RunError> {
-    let observer = LearnedObserver::new(retina, &trainer.cortex, config.observer.clone());
+    let observer = EyeObserver::cortex(retina, &trainer.cortex, config.observer.clone());
     Ok(run_cmf_sim(&observer, settings)?)
 }
 
@@ -482,16 +488,8 @@ pub fn print_outcome(out: &Path, summary: &Summary) {
         "  cmf_sim.json/svg  CMF-SIM errors per wavelength for 0..K primaries; {}",
         summary.verdict
     );
-    if !summary.closest_ratio_per_k.is_empty() {
-        let margins: Vec<String> = summary
-            .closest_ratio_per_k
-            .iter()
-            .map(|(k, r)| format!("K={k} {r:.3}"))
-            .collect();
-        println!(
-            "  closest set per K, max error / threshold (< 1 passes): {}",
-            margins.join(", ")
-        );
+    for line in &summary.cmf_sim_per_k {
+        println!("    {line}");
     }
     println!("  dimension.svg     dimension over training;  loss.svg  training loss");
     println!("  pictures/         ONS, Neural-Scope percept beside the truth, learned C, P positions, W kernel");

@@ -41,17 +41,22 @@ use rand::{Rng, RngCore, SeedableRng};
 
 use crate::error::{ColorimetryError, Result};
 use crate::grid::WavelengthGrid;
-use crate::matching::{FrontEndJacobians, KnownAtZero, MatchOptions, MatchProblem, TestPercepts};
+use crate::matching::{FrontEndJacobians, TestPercepts};
 use crate::observer::Observer;
 
 mod base;
+mod search;
 pub mod sets;
 mod types;
 
 pub use types::{CmfSimProgress, CmfSimResult, CmfSimSettings, ErrorCurve, KSummary, SetRecord};
 
 use base::base_errors;
-use sets::{evaluate_early, evaluate_fully, FrontEnd, SetOutcome, WavelengthOrder};
+use search::Search;
+use sets::{FrontEnd, SetOutcome, WavelengthOrder};
+
+/// Largest number of primaries CMF-SIM tries (the sets per K grow as bands multiply).
+pub const MAX_PRIMARIES: usize = 8;
 
 /// Trapezoid ∫ y dx.
 pub fn trapezoid(xs: &[f64], ys: &[f64]) -> f64 {
@@ -84,30 +89,47 @@ pub fn stratified_primaries(
     ))
 }
 
-fn check(settings: &CmfSimSettings, grid: &WavelengthGrid) -> Result<()> {
+/// Check every setting against the observer's grid (errors name the field).
+pub fn validate_settings(settings: &CmfSimSettings, grid: &WavelengthGrid) -> Result<()> {
     let s = settings;
     let bad = |n: &str, m: String| Err(ColorimetryError::setting(n, m));
-    if s.n_test_wavelengths < 2 {
+    for (name, v, least) in [
+        ("n_test_wavelengths", s.n_test_wavelengths, 2),
+        ("location_pairs", s.location_pairs, 1),
+        ("sets_per_k", s.sets_per_k, 1),
+        ("max_primaries", s.max_primaries, 1),
+        ("first_round_wavelengths", s.first_round_wavelengths, 1),
+        ("converged_sets", s.converged_sets, 1),
+        ("solver.max_iterations", s.solver.max_iterations, 1),
+    ] {
+        if v < least {
+            return bad(name, format!("{v} (must be ≥ {least})"));
+        }
+    }
+    if s.max_primaries > MAX_PRIMARIES {
         return bad(
-            "n_test_wavelengths",
-            format!("{} (need ≥ 2)", s.n_test_wavelengths),
+            "max_primaries",
+            format!("{} (at most {MAX_PRIMARIES})", s.max_primaries),
         );
     }
-    if s.location_pairs == 0
-        || s.sets_per_k == 0
-        || s.max_primaries == 0
-        || s.first_round_wavelengths == 0
-    {
-        return bad(
-            "location_pairs / sets_per_k / max_primaries / first_round_wavelengths",
-            "must be ≥ 1".into(),
-        );
+    for (name, v) in [
+        ("pass_ratio", s.pass_ratio),
+        ("solver.fd_step", s.solver.fd_step),
+        ("intensity", s.intensity.unwrap_or(1.0)),
+    ] {
+        if !(v > 0.0 && v.is_finite()) {
+            return bad(name, format!("{v} (must be positive and finite)"));
+        }
     }
-    if !(s.pass_ratio > 0.0) || !(s.base_error_floor_rel >= 0.0) || !(s.solver.fd_step > 0.0) {
-        return bad(
-            "pass_ratio / base_error_floor_rel / solver.fd_step",
-            "must be positive".into(),
-        );
+    for (name, v) in [
+        ("base_error_floor_rel", s.base_error_floor_rel),
+        ("min_primary_separation_nm", s.min_primary_separation_nm),
+        ("solver.rel_tolerance", s.solver.rel_tolerance),
+        ("solver.exact_match_rel", s.solver.exact_match_rel),
+    ] {
+        if !(v >= 0.0 && v.is_finite()) {
+            return bad(name, format!("{v} (must be ≥ 0 and finite)"));
+        }
     }
     for (name, (lo, hi)) in [
         ("test_range_nm", s.test_range_nm),
@@ -132,13 +154,16 @@ pub fn run_cmf_sim(observer: &dyn Observer, settings: &CmfSimSettings) -> Result
     run_cmf_sim_with_progress(observer, settings, &mut |_| {})
 }
 
+/// Location pairs per test wavelength.
+pub type WavelengthPairs = Vec<Vec<[[f64; 2]; 2]>>;
+
 /// [`run_cmf_sim`] with a progress callback (called after every primary set).
 pub fn run_cmf_sim_with_progress(
     observer: &dyn Observer,
     settings: &CmfSimSettings,
     progress: &mut dyn FnMut(&CmfSimProgress),
 ) -> Result<CmfSimResult> {
-    check(settings, observer.grid())?;
+    validate_settings(settings, observer.grid())?;
     let start = Instant::now();
     let s = settings;
     let mut rng = rand::rngs::StdRng::seed_from_u64(s.seed);
@@ -147,7 +172,7 @@ pub fn run_cmf_sim_with_progress(
     let tests = tests.as_slice().to_vec();
     let nw = tests.len();
     let intensity = s.intensity.unwrap_or_else(|| observer.stimulus_intensity());
-    let draw_pairs = |rng: &mut rand::rngs::StdRng| -> Vec<Vec<[[f64; 2]; 2]>> {
+    let draw_pairs = |rng: &mut dyn RngCore| -> WavelengthPairs {
         (0..nw)
             .map(|_| {
                 (0..s.location_pairs)
@@ -161,7 +186,6 @@ pub fn run_cmf_sim_with_progress(
     let base_pairs = draw_pairs(&mut rng);
     let base_seed: u64 = rng.random();
     let base = base_errors(observer, &tests, intensity, base_pairs, base_seed);
-    let (mut calls, mut n_shows) = (1usize, nw * s.location_pairs * 3);
     let max_energy = base.energy.iter().copied().fold(0.0, f64::max);
     let floor = s.base_error_floor_rel * max_energy;
     let threshold: Vec<f64> = base
@@ -170,186 +194,51 @@ pub fn run_cmf_sim_with_progress(
         .map(|&b| s.pass_ratio * b.max(floor))
         .collect();
     let no_cc = base.error.iter().sum::<f64>() >= base.energy.iter().sum::<f64>();
-    let energy_curve = ErrorCurve {
-        n_primaries: 0,
-        primaries_nm: vec![],
-        alphas: vec![vec![]; nw],
-        area: trapezoid(&tests, &base.energy),
-        worst_ratio: ratio(&base.energy, &threshold),
-        passed: base.energy.iter().zip(&threshold).all(|(e, t)| e < t),
-        errors: base.energy.clone(),
-        set_index: 0,
-        fully_evaluated: true,
+    let mut curves = vec![energy_curve(&tests, &base.energy, &threshold)];
+
+    // 2. K = 1, 2, … until a set passes.
+    let search = Search {
+        observer,
+        settings: s,
+        tests: &tests,
+        intensity,
+        base: &base,
+        threshold: &threshold,
     };
-    let mut curves = vec![energy_curve];
-    let mut per_k = Vec::new();
-    let mut dimension = 0;
     let mut order = WavelengthOrder::by_energy_ratio(&base.energy, &threshold);
-    let known = KnownAtZero {
-        side_a: &base.at_a,
-        side_b: &base.black_b,
-    };
-    let mut front = if s.reuse_base_pairs && s.front_end_jacobians {
-        FrontEndJacobians::new(observer, nw, intensity, s.solver.fd_step).map(|jacobians| {
-            FrontEnd {
-                jacobians,
-                test: TestPercepts {
-                    at_a: &base.at_a,
-                    at_b: &base.test_b,
-                },
-            }
-        })
-    } else {
-        None
-    };
-    if !no_cc {
-        for k in 1..=s.max_primaries {
-            let t0 = Instant::now();
-            let mut summary = KSummary {
-                n_primaries: k,
-                sets_tried: 0,
-                passed: false,
-                sets_rejected_early: 0,
-                wavelength_solves: 0,
-                observer_calls: 0,
-                shows: 0,
-                reported_curve_shows: 0,
-                seconds: 0.0,
-                sets: Vec::new(),
-            };
-            // (worst ratio solved, set index, primaries, pairs, seed, outcome) of the best set
-            type Best = (
-                f64,
-                usize,
-                Vec<f64>,
-                Option<Vec<Vec<[[f64; 2]; 2]>>>,
-                u64,
-                SetOutcome,
-            );
-            let mut best: Option<Best> = None;
-            let mut reported: Option<ErrorCurve> = None;
-            for set in 1..=s.sets_per_k {
-                let prim = stratified_primaries(
-                    k,
-                    s.primary_range_nm,
-                    s.min_primary_separation_nm,
-                    &mut rng,
-                )?;
-                let fresh = (!s.reuse_base_pairs).then(|| draw_pairs(&mut rng));
-                let fresh_seed: u64 = rng.random();
-                let seed = if s.reuse_base_pairs {
-                    base.seed
-                } else {
-                    fresh_seed
-                };
-                let pb = MatchProblem {
-                    observer,
-                    test_wavelengths_nm: &tests,
-                    primaries_nm: &prim,
-                    intensity,
-                    pairs: fresh.as_ref().unwrap_or(&base.pairs),
-                    seed,
-                };
-                let options = MatchOptions {
-                    stop_below: None,
-                    known_at_zero: s.reuse_base_pairs.then_some(known),
-                    resume: None,
-                    front_end: None,
-                };
-                let out = if s.early_rejection {
-                    evaluate_early(
-                        &pb,
-                        &s.solver,
-                        &threshold,
-                        &options,
-                        &order,
-                        s.first_round_wavelengths,
-                        front.as_mut(),
-                    )
-                } else {
-                    evaluate_fully(&pb, &s.solver, &threshold, &options, front.as_mut())
-                };
-                account(&mut summary, &out);
-                let worst = out.worst_ratio(&threshold);
-                let (passed, solved) = (out.passed, out.matches.len());
-                summary.sets_tried = set;
-                if solved < nw {
-                    summary.sets_rejected_early += 1;
-                }
-                summary.sets.push(SetRecord {
-                    primaries_nm: prim.clone(),
-                    wavelengths_solved: solved,
-                    worst_ratio_solved: worst,
-                    passed,
-                });
-                order.move_to_front(&out.failed);
-                if best.as_ref().is_none_or(|b| worst < b.0) {
-                    if out.fully_evaluated {
-                        reported = Some(curve(k, set, &prim, &tests, &threshold, &out));
-                    }
-                    best = Some((worst, set, prim, fresh, seed, out));
-                }
-                progress(&CmfSimProgress {
-                    n_primaries: k,
-                    sets_tried: set,
-                    sets_per_k: s.sets_per_k,
-                    best_worst_ratio: best.as_ref().map_or(f64::INFINITY, |b| b.0),
-                    wavelengths_solved: solved,
-                });
-                if passed {
-                    summary.passed = true;
-                    break;
-                }
-            }
-            // The reported curve: solved at every wavelength to convergence (continuing the
-            // wavelengths solved so far).
-            let (_, set, prim, fresh, seed, early) = best.expect("at least one set per K");
-            if reported.as_ref().is_none_or(|c| c.set_index != set) {
-                let pb = MatchProblem {
-                    observer,
-                    test_wavelengths_nm: &tests,
-                    primaries_nm: &prim,
-                    intensity,
-                    pairs: fresh.as_ref().unwrap_or(&base.pairs),
-                    seed,
-                };
-                let options = MatchOptions {
-                    stop_below: None,
-                    known_at_zero: s.reuse_base_pairs.then_some(known),
-                    resume: Some(&early.matches),
-                    front_end: None,
-                };
-                let out = evaluate_fully(&pb, &s.solver, &threshold, &options, front.as_mut());
-                summary.reported_curve_shows = out.shows;
-                account(&mut summary, &out);
-                reported = Some(curve(k, set, &prim, &tests, &threshold, &out));
-            }
-            calls += summary.observer_calls;
-            n_shows += summary.shows;
-            curves.push(reported.expect("set above"));
-            summary.seconds = t0.elapsed().as_secs_f64();
-            let passed = summary.passed;
-            per_k.push(summary);
-            if passed {
-                dimension = k;
-                break;
-            }
+    let mut front = (s.reuse_base_pairs && s.front_end_jacobians)
+        .then(|| FrontEndJacobians::new(observer, nw, intensity, s.solver.fd_step))
+        .flatten()
+        .map(|jacobians| FrontEnd {
+            jacobians,
+            test: TestPercepts {
+                at_a: &base.at_a,
+                at_b: &base.test_b,
+            },
+        });
+    let (mut per_k, mut dimension) = (Vec::new(), 0);
+    for k in (1..=s.max_primaries).take_while(|_| !no_cc) {
+        let (summary, reported) = search.search_k(
+            k,
+            &mut rng,
+            &mut order,
+            front.as_mut(),
+            &draw_pairs,
+            progress,
+        )?;
+        curves.push(reported);
+        let passed = summary.passed;
+        per_k.push(summary);
+        if passed {
+            dimension = k;
+            break;
         }
     }
-    let verdict = if no_cc {
-        "no colour constancy: base errors exceed the percept energy; dimension undefined"
-            .to_string()
-    } else if dimension == 0 {
-        format!(
-            "no primary set passed for K ≤ {} ({} sets per K); dimension undefined",
-            s.max_primaries, s.sets_per_k
-        )
-    } else {
-        format!("colour dimensionality {dimension}")
-    };
+    let calls = 1 + per_k.iter().map(|k| k.observer_calls).sum::<usize>();
+    let n_shows = nw * s.location_pairs * 3 + per_k.iter().map(|k| k.shows).sum::<usize>();
     Ok(CmfSimResult {
         dimension,
-        verdict,
+        verdict: verdict(no_cc, dimension, s),
         no_colour_constancy: no_cc,
         observer: observer.name(),
         settings: s.clone(),
@@ -367,10 +256,32 @@ pub fn run_cmf_sim_with_progress(
     })
 }
 
-fn account(summary: &mut KSummary, out: &SetOutcome) {
-    summary.wavelength_solves += out.matches.len();
-    summary.observer_calls += out.observer_calls;
-    summary.shows += out.shows;
+/// The 0-primary curve: the percept energy against the thresholds.
+fn energy_curve(tests: &[f64], energy: &[f64], threshold: &[f64]) -> ErrorCurve {
+    ErrorCurve {
+        n_primaries: 0,
+        primaries_nm: vec![],
+        alphas: vec![vec![]; tests.len()],
+        area: trapezoid(tests, energy),
+        worst_ratio: ratio(energy, threshold),
+        passed: energy.iter().zip(threshold).all(|(e, t)| e < t),
+        errors: energy.to_vec(),
+        set_index: 0,
+        fully_evaluated: true,
+    }
+}
+
+fn verdict(no_cc: bool, dimension: usize, s: &CmfSimSettings) -> String {
+    if no_cc {
+        "no colour constancy: base errors exceed the percept energy; dimension undefined".into()
+    } else if dimension == 0 {
+        format!(
+            "no primary set passed for K ≤ {} ({} sets per K); dimension undefined",
+            s.max_primaries, s.sets_per_k
+        )
+    } else {
+        format!("colour dimensionality {dimension}")
+    }
 }
 
 /// The error curve of a fully evaluated set.

@@ -257,6 +257,93 @@ impl LateralInhibition {
     }
 }
 
+impl LateralInhibition {
+    /// The exact inverse of [`LateralInhibition::compute_direct`]: the activations `out (n, n)`
+    /// whose LI output is `ons (n, n)`, by conjugate gradients in f64 on the normal equations
+    /// `AᵀA x = Aᵀ y` (A is the zero-padded "same" convolution; its kernel is point-symmetric,
+    /// so `Aᵀ = A`). Stops when `‖A x − y‖ ≤ rel_tolerance · ‖y‖` or after `max_iterations`;
+    /// returns the relative residual reached. A is well conditioned (its symbol lies between
+    /// the DC gain, 0.09 officially, and ≈ 1), so a few tens of iterations reach 1e-7.
+    pub fn invert(
+        &self,
+        ons: &[f32],
+        out: &mut [f32],
+        rel_tolerance: f64,
+        max_iterations: usize,
+    ) -> f64 {
+        self.check(ons, out);
+        let y: Vec<f64> = ons.iter().map(|&v| v as f64).collect();
+        let y_norm = y.iter().map(|v| v * v).sum::<f64>().sqrt();
+        if y_norm == 0.0 {
+            out.fill(0.0);
+            return 0.0;
+        }
+        let apply = |x: &[f64], dst: &mut [f64]| self.apply_f64(x, dst);
+        let nn = y.len();
+        let mut x = vec![0.0; nn];
+        let mut residual = y.clone(); // y − A x
+        let mut r = vec![0.0; nn]; // Aᵀ (y − A x)
+        apply(&residual, &mut r);
+        let mut p = r.clone();
+        let (mut q, mut ap) = (vec![0.0; nn], vec![0.0; nn]);
+        let mut rr: f64 = r.iter().map(|v| v * v).sum();
+        let mut rel = 1.0;
+        for _ in 0..max_iterations {
+            apply(&p, &mut ap);
+            apply(&ap, &mut q);
+            let denom: f64 = ap.iter().map(|v| v * v).sum();
+            if denom == 0.0 {
+                break;
+            }
+            let step = rr / denom;
+            for i in 0..nn {
+                x[i] += step * p[i];
+                residual[i] -= step * ap[i];
+                r[i] -= step * q[i];
+            }
+            rel = residual.iter().map(|v| v * v).sum::<f64>().sqrt() / y_norm;
+            if rel <= rel_tolerance {
+                break;
+            }
+            let rr_next: f64 = r.iter().map(|v| v * v).sum();
+            let beta = rr_next / rr;
+            rr = rr_next;
+            for i in 0..nn {
+                p[i] = r[i] + beta * p[i];
+            }
+        }
+        for (o, v) in out.iter_mut().zip(&x) {
+            *o = *v as f32;
+        }
+        rel
+    }
+
+    /// [`LateralInhibition::compute_direct`] in f64.
+    fn apply_f64(&self, input: &[f64], out: &mut [f64]) {
+        let (n, size) = (self.n, self.size);
+        let r = (size / 2) as isize;
+        out.fill(0.0);
+        for y in 0..n as isize {
+            for ky in 0..size as isize {
+                let yy = y + ky - r;
+                if yy < 0 || yy >= n as isize {
+                    continue;
+                }
+                for kx in 0..size as isize {
+                    let k = self.kernel[(ky * size as isize + kx) as usize];
+                    let dx = kx - r;
+                    let x0 = (-dx).max(0);
+                    let x1 = (n as isize - dx).min(n as isize);
+                    for x in x0..x1 {
+                        out[(y * n as isize + x) as usize] +=
+                            k * input[(yy * n as isize + x + dx) as usize];
+                    }
+                }
+            }
+        }
+    }
+}
+
 /// `x ← x · (1 + scale · r · ε)` in place (module docs).
 pub fn add_multiplicative_noise<R: Rng + ?Sized>(rng: &mut R, x: &mut [f32], scale: f32, r: f32) {
     if r == 0.0 || scale == 0.0 {
@@ -285,6 +372,44 @@ mod tests {
         assert!((k[3 * 7 + 3] - 0.821).abs() < 1e-3, "centre {}", k[24]);
         assert!((k[3 * 7 + 4] + 0.0965).abs() < 1e-3, "neighbour {}", k[25]);
         assert!((k[2 * 7 + 2] + 0.052).abs() < 1e-3, "diagonal {}", k[16]);
+    }
+
+    #[test]
+    fn invert_recovers_the_activations_and_fails_for_another_kernel() {
+        let mut rng = StdRng::seed_from_u64(5);
+        for n in [7usize, 32, 64] {
+            let li = LateralInhibition::new(DogConfig::default(), n);
+            let x: Vec<f32> = (0..n * n).map(|_| rng.random::<f32>() * 1.1).collect();
+            let mut ons = vec![0.0; n * n];
+            li.compute_direct(&x, &mut ons);
+            let mut back = vec![0.0; n * n];
+            let residual = li.invert(&ons, &mut back, 1e-9, 500);
+            assert!(residual <= 1e-9, "n = {n}: residual {residual}");
+            let worst = x
+                .iter()
+                .zip(&back)
+                .map(|(a, b)| (a - b).abs())
+                .fold(0f32, f32::max);
+            assert!(worst < 1e-5, "n = {n}: max |x − invert(LI x)| = {worst}");
+            // The inverse of a different DoG does not recover x: the test can fail.
+            let other = LateralInhibition::new(
+                DogConfig {
+                    surround_weight: 0.5,
+                    ..DogConfig::default()
+                },
+                n,
+            );
+            other.invert(&ons, &mut back, 1e-9, 500);
+            let worst = x
+                .iter()
+                .zip(&back)
+                .map(|(a, b)| (a - b).abs())
+                .fold(0f32, f32::max);
+            assert!(
+                worst > 1e-2,
+                "n = {n}: a wrong kernel inverted too well ({worst})"
+            );
+        }
     }
 
     #[test]

@@ -16,6 +16,7 @@
 //! | spikes (optional) | [`spikes`], [`movie`] | bipolar → ON/OFF LIF spikes, time averages |
 //! | the eye | [`retina`] | [`Retina::batch`] → [`OnsBatch`] `(B, 2, n, n)` + oracle shift |
 //! | pictures | [`pictures`] | PNGs of every stage, ONS under eye motion |
+//! | stimuli | [`stimulus`] | a disc of light on black → activations and ONS (psychophysics) |
 //!
 //! Conventions: arrays are row-major f32 (`(n, n)` lattice arrays are indexed `[row·n + col]`,
 //! lattice row i / column j); positions are `[x, y]` = `[column, row]` in pixels of the
@@ -41,6 +42,7 @@ pub mod pictures;
 pub mod retina;
 pub mod scene;
 pub mod spikes;
+pub mod stimulus;
 
 pub use config::RetinaConfig;
 pub use error::{Result, RetinaError};
@@ -49,3 +51,4 @@ pub use movie::{Movie, MovieConfig, SpikeTrain};
 pub use pictures::write_stage_pictures;
 pub use retina::{OnsBatch, Retina};
 pub use scene::SpectralImage;
+pub use stimulus::{Disc, NoiseDraw};

@@ -58,7 +58,7 @@ impl WavelengthOrder {
 }
 
 /// The outcome of one set.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, Default, PartialEq)]
 pub struct SetOutcome {
     /// Whether every wavelength matched below its threshold.
     pub passed: bool,

@@ -72,16 +72,27 @@ fn cone_observers_have_dimension_k() {
             assert!(!ks.passed && ks.sets_tried == 20, "{}: {ks:?}", r.observer);
         }
         assert!(r.per_k[k - 1].passed);
-        // the margins agree with the verdicts: ≥ 1 for every failed K, < 1 for K
+        // the margins agree with the verdicts: ≥ 1 for every failed K, < 1 for K; a converged
+        // margin is never below the lower bound early rejection saw
         for ks in &r.per_k {
-            let closest = ks.closest_ratio().expect("sets were tried");
+            let bound = ks.lower_bound_ratio().expect("sets were tried");
+            let margin = ks.converged_worst_ratio;
             assert_eq!(
-                closest < 1.0,
+                margin < 1.0,
                 ks.passed,
-                "{}: K={} {closest}",
+                "{}: K={} {margin}",
                 r.observer,
                 ks.n_primaries
             );
+            assert_eq!(ks.failing_wavelengths == 0, ks.passed, "{ks:?}");
+            if !ks.passed {
+                assert!(
+                    margin >= bound,
+                    "K={}: {margin} < bound {bound}",
+                    ks.n_primaries
+                );
+                assert!(ks.sets_fully_evaluated >= 1);
+            }
         }
         assert_eq!(r.curves.len(), k + 1);
         // areas shrink from the energy curve down to the passing set

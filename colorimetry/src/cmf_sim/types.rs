@@ -34,6 +34,10 @@ pub struct CmfSimSettings {
     pub early_rejection: bool,
     /// Wavelengths in the first round of early rejection (later rounds double).
     pub first_round_wavelengths: usize,
+    /// At a failed K, how many rejected sets (those with the lowest worst ratio over the
+    /// wavelengths they were solved at) are then solved at every wavelength; the margin
+    /// reported is the best of them (see [`super::search`]).
+    pub converged_sets: usize,
     /// With `reuse_base_pairs`, measure the α = 0 Jacobians once per location pair through the
     /// observer's linear front end, if it has one ([`crate::matching::FrontEndJacobians`]).
     pub front_end_jacobians: bool,
@@ -61,6 +65,7 @@ impl Default for CmfSimSettings {
             base_error_floor_rel: 1e-8,
             early_rejection: true,
             first_round_wavelengths: 1,
+            converged_sets: 5,
             front_end_jacobians: true,
             min_primary_separation_nm: 5.0,
             intensity: None,
@@ -128,19 +133,96 @@ pub struct KSummary {
     pub reported_curve_shows: usize,
     /// Wall time, s.
     pub seconds: f64,
+    /// Sets solved at every wavelength to convergence (the passing set, or the best rejected
+    /// sets of a failed K).
+    pub sets_fully_evaluated: usize,
+    /// The reported set's `max error / threshold` over every test wavelength, after
+    /// convergence (< 1: the set passes).
+    pub converged_worst_ratio: f64,
+    /// Test wavelengths at which the reported set fails (error ≥ threshold).
+    pub failing_wavelengths: usize,
+    /// Where the reported set's ratio is worst, nm.
+    pub worst_wavelength_nm: f64,
     /// Every set tried, in order.
     pub sets: Vec<SetRecord>,
 }
 
 impl KSummary {
-    /// How close this K came to passing: the smallest `max error / threshold` over the sets
-    /// tried (< 1 for a passing set). For a set rejected early the maximum is over the
-    /// wavelengths solved, so for a failed K this is a lower bound on the true margin.
-    pub fn closest_ratio(&self) -> Option<f64> {
+    /// An empty summary for `k` primaries.
+    pub fn new(k: usize) -> Self {
+        KSummary {
+            n_primaries: k,
+            sets_tried: 0,
+            passed: false,
+            sets_rejected_early: 0,
+            wavelength_solves: 0,
+            observer_calls: 0,
+            shows: 0,
+            reported_curve_shows: 0,
+            seconds: 0.0,
+            sets_fully_evaluated: 0,
+            converged_worst_ratio: f64::INFINITY,
+            failing_wavelengths: 0,
+            worst_wavelength_nm: f64::NAN,
+            sets: Vec::new(),
+        }
+    }
+
+    /// Add the solves, calls and shows of one evaluation.
+    pub fn account(&mut self, out: &super::sets::SetOutcome) {
+        self.wavelength_solves += out.matches.len();
+        self.observer_calls += out.observer_calls;
+        self.shows += out.shows;
+    }
+
+    /// Take the margin of the reported (converged) curve.
+    pub fn set_margin(&mut self, reported: &ErrorCurve, tests_nm: &[f64], threshold: &[f64]) {
+        let ratios: Vec<f64> = reported
+            .errors
+            .iter()
+            .zip(threshold)
+            .map(|(e, t)| e / t)
+            .collect();
+        self.converged_worst_ratio = reported.worst_ratio;
+        self.failing_wavelengths = ratios.iter().filter(|r| !(**r < 1.0)).count();
+        self.worst_wavelength_nm = ratios
+            .iter()
+            .zip(tests_nm)
+            .max_by(|a, b| a.0.total_cmp(b.0))
+            .map_or(f64::NAN, |(_, &w)| w);
+    }
+
+    /// The smallest worst ratio over the wavelengths each set was solved at: a lower bound on
+    /// the converged margin of a failed K (early rejection stops at the first failure).
+    pub fn lower_bound_ratio(&self) -> Option<f64> {
         self.sets
             .iter()
             .map(|s| s.worst_ratio_solved)
             .min_by(f64::total_cmp)
+    }
+
+    /// What this K found, in words, e.g. "K = 2: all 100 sets fail; the best of 5 solved at
+    /// every wavelength fails at 23 of 100 wavelengths, worst 4.90× the threshold (452 nm)".
+    pub fn describe(&self, n_wavelengths: usize) -> String {
+        let k = self.n_primaries;
+        if self.passed {
+            format!(
+                "K = {k}: set {} of {} tried passes at every wavelength; its worst error is {:.2}× the threshold ({:.0} nm)",
+                self.sets_tried,
+                self.sets_tried,
+                self.converged_worst_ratio,
+                self.worst_wavelength_nm
+            )
+        } else {
+            format!(
+                "K = {k}: all {} sets fail; the best of {} solved at every wavelength fails at {} of {n_wavelengths} wavelengths, worst {:.2}× the threshold ({:.0} nm)",
+                self.sets_tried,
+                self.sets_fully_evaluated,
+                self.failing_wavelengths,
+                self.converged_worst_ratio,
+                self.worst_wavelength_nm
+            )
+        }
     }
 }
 

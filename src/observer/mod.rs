@@ -1,0 +1,404 @@
+//! The black-box colour observers CMF-SIM probes: the simulated eye followed by a decoder (paper
+//! S-04: "the retina model plus learned cortical model as a black-box color observer").
+//!
+//! One show (a spectral stimulus at a location) goes through:
+//! - **Stimulus.** A disc of radius `patch_radius_fraction × field side` on a black background,
+//!   centred at the show's location (`[-1, 1]²` over the field, x to the right, y down), rendered
+//!   by [`Retina::encode_disc`] at an intensity that puts the largest single-class response to
+//!   an equal-energy monochromatic light at `peak_response`.
+//! - **Eye.** One frame, no eye motion: cone sampling at the true positions, lateral inhibition,
+//!   noise with ratio `noise_ratio` (0: noise-free), seeded by the show's `noise_seed`.
+//! - **Decoder** ([`Decoder`]): the learned cortex Φ; or a known-answer decoder that calibrates
+//!   CMF-SIM — the ONS itself (paper S-05 baseline 1), the cone activations before lateral
+//!   inhibition (baseline 2), or an oracle built from the true eye ([`oracle`]).
+//! - **Readout** ([`readout`]): the percept compared point by point in patch-relative
+//!   coordinates (default), or its patch mean. Evaluation may use ground truth (true cone
+//!   positions pick the cones read); learning never does.
+//!
+//! **Speed.** Without noise the eye is linear ([`retina::stimulus`], a tested property), so the
+//! ONS of a stimulus at a location is `Σ_c v_c · B_c` with `v` its class-plane values and `B_c`
+//! the ONS of a unit disc on plane c there. Each location keeps its `B_c` (for the cortex) or,
+//! for the decoders that are linear too, the readouts of `B_c` themselves; CMF-SIM shows every
+//! location many times. With noise every show is rendered and decoded. The cortex decodes in
+//! rayon jobs of at most `decode_batch` shows, split evenly over the threads.
+
+pub mod oracle;
+pub mod readout;
+mod settings;
+#[cfg(test)]
+mod tests;
+
+pub use oracle::OracleDecoder;
+pub use readout::{Readout, ReadoutMode};
+pub use settings::ObserverSettings;
+
+use autodiff::Tape;
+use colorimetry::observer::{Observer, Show};
+use colorimetry::WavelengthGrid;
+use cortex::model::Marks;
+use cortex::Cortex;
+use rand::RngCore;
+use rayon::prelude::*;
+use retina::{Disc, NoiseDraw, Retina};
+use std::collections::HashMap;
+use std::sync::{Arc, Mutex};
+
+/// Largest total size of the per-location cache, bytes (beyond it, shows render directly).
+const CACHE_LIMIT_BYTES: usize = 1 << 30;
+
+/// What turns one ONS frame into a percept image.
+pub enum Decoder<'a> {
+    /// The learned cortex's decoder Φ (N channels).
+    Cortex(&'a Cortex),
+    /// Φ = identity: the percept is the ONS (1 channel; paper S-05 baseline 1).
+    Ons,
+    /// The percept is the cone activations, lateral inhibition omitted (1 channel; S-05
+    /// baseline 2).
+    Cones,
+    /// An oracle built from the true eye ([`oracle`]).
+    Oracle(OracleDecoder),
+}
+
+impl Decoder<'_> {
+    /// Channels of the percept image.
+    pub fn dim(&self) -> usize {
+        match self {
+            Decoder::Cortex(c) => c.percept_dim(),
+            Decoder::Ons | Decoder::Cones => 1,
+            Decoder::Oracle(_) => oracle::ORACLE_PERCEPT_DIM,
+        }
+    }
+
+    /// Whether the percept is linear in the ONS (every decoder but the cortex).
+    fn is_linear(&self) -> bool {
+        !matches!(self, Decoder::Cortex(_))
+    }
+
+    fn describe(&self) -> String {
+        match self {
+            Decoder::Cortex(_) => "learned cortex".into(),
+            Decoder::Ons => "identity (percept = ONS)".into(),
+            Decoder::Cones => "cone activations (no lateral inhibition)".into(),
+            Decoder::Oracle(o) => format!(
+                "oracle, {} kinds of cone{}",
+                o.kinds(),
+                if o.interpolates() {
+                    ", interpolated"
+                } else {
+                    ", each cell its own kind"
+                }
+            ),
+        }
+    }
+}
+
+/// Entries by location (bit patterns of x, y) and the bytes they hold.
+#[derive(Default)]
+struct LocationCache {
+    entries: HashMap<[u64; 2], Arc<LocationEntry>>,
+    bytes: usize,
+}
+
+/// What the observer keeps per patch location.
+struct LocationEntry {
+    /// The cones read.
+    cells: Vec<usize>,
+    /// Noise-free, per cone-read plane: the ONS of a unit disc `(k × n·n)` for the cortex, the
+    /// readout of its percept `(k × readout length)` for linear decoders; empty with noise.
+    ons_basis: Vec<f32>,
+    readout_basis: Vec<f64>,
+}
+
+thread_local! {
+    /// Each thread's decoding tape (with its buffer pool), kept between calls: CMF-SIM makes
+    /// many small calls, and fresh pages per call would dominate them. (A tape holds `dyn Op`s
+    /// and is not `Send`, so it lives in the rayon worker threads.)
+    static TAPE: std::cell::Cell<Option<Tape<f32>>> = const { std::cell::Cell::new(None) };
+}
+
+/// The eye + a decoder as a CMF-SIM observer (module docs).
+pub struct EyeObserver<'a> {
+    retina: &'a Retina,
+    decoder: Decoder<'a>,
+    settings: ObserverSettings,
+    readout: Readout,
+    intensity: f64,
+    cache: Mutex<LocationCache>,
+}
+
+impl<'a> EyeObserver<'a> {
+    /// The eye followed by `decoder`.
+    pub fn new(retina: &'a Retina, decoder: Decoder<'a>, settings: ObserverSettings) -> Self {
+        // Equal-energy monochromatic lights: find the largest class response over the grid.
+        let (g, k) = (retina.grid().len(), retina.classes_read());
+        let mut peak = 0f64;
+        for i in 0..g {
+            let mut spectrum = vec![0.0; g];
+            spectrum[i] = 1.0;
+            peak = peak.max(
+                retina.class_values(&spectrum)[..k]
+                    .iter()
+                    .cloned()
+                    .fold(0.0, f64::max),
+            );
+        }
+        let readout = Readout::new(
+            settings.readout,
+            &retina.layout,
+            settings.patch_radius_fraction * retina.layout.field_px as f64,
+            settings.fringe_cones,
+            settings.sample_spacing_cones,
+        );
+        EyeObserver {
+            retina,
+            decoder,
+            intensity: settings.peak_response / peak.max(1e-12),
+            settings,
+            readout,
+            cache: Mutex::new(LocationCache::default()),
+        }
+    }
+
+    /// The eye followed by the learned cortex.
+    pub fn cortex(retina: &'a Retina, cortex: &'a Cortex, settings: ObserverSettings) -> Self {
+        Self::new(retina, Decoder::Cortex(cortex), settings)
+    }
+
+    /// The readout geometry.
+    pub fn readout(&self) -> &Readout {
+        &self.readout
+    }
+
+    fn disc(&self, location: [f64; 2]) -> Disc {
+        let f = self.retina.layout.field_px as f64;
+        let (mid, half) = ((f - 1.0) / 2.0, f / 2.0);
+        Disc {
+            centre_px: [mid + location[0] * half, mid + location[1] * half],
+            radius_px: self.settings.patch_radius_fraction * f,
+        }
+    }
+
+    fn noise(&self, seed: u64) -> Option<NoiseDraw> {
+        (self.settings.noise_ratio > 0.0).then_some(NoiseDraw {
+            ratio: self.settings.noise_ratio,
+            seed,
+        })
+    }
+
+    /// The activations and ONS `(n·n)` each of one show, rendered directly.
+    pub fn render(&self, show: &Show) -> (Vec<f32>, Vec<f32>) {
+        let values = self
+            .retina
+            .class_values(&show.stimulus.to_grid(self.retina.grid()));
+        self.render_values(&values, show.location, self.noise(show.noise_seed))
+    }
+
+    fn render_values(
+        &self,
+        values: &[f64],
+        location: [f64; 2],
+        noise: Option<NoiseDraw>,
+    ) -> (Vec<f32>, Vec<f32>) {
+        let nn = self.retina.n() * self.retina.n();
+        let (mut act, mut ons) = (vec![0f32; nn], vec![0f32; nn]);
+        self.retina
+            .encode_disc(self.disc(location), values, noise, &mut act, &mut ons);
+        (act, ons)
+    }
+
+    /// The percept image `(dim, n·n)` of linear decoders, from a frame's activations and ONS
+    /// (`noise_free`: the activations are exactly those behind the ONS).
+    fn linear_percept(&self, act: &[f32], ons: &[f32], noise_free: bool) -> Vec<f32> {
+        match &self.decoder {
+            Decoder::Ons => ons.to_vec(),
+            Decoder::Cones => act.to_vec(),
+            Decoder::Oracle(o) => {
+                let a = OracleDecoder::activations(self.retina, ons, noise_free.then_some(act));
+                let mut out = vec![0f32; oracle::ORACLE_PERCEPT_DIM * act.len()];
+                o.decode(&a, &mut out);
+                out
+            }
+            Decoder::Cortex(_) => unreachable!("the cortex is decoded in batches"),
+        }
+    }
+
+    /// The cached entry of `location` (computed on first use).
+    fn location_entry(&self, location: [f64; 2]) -> Arc<LocationEntry> {
+        let key = [location[0].to_bits(), location[1].to_bits()];
+        if let Some(e) = self.cache.lock().expect("cache lock").entries.get(&key) {
+            return e.clone();
+        }
+        let cells = self
+            .readout
+            .cells(&self.retina.layout, self.disc(location).centre_px);
+        let (mut ons_basis, mut readout_basis) = (Vec::new(), Vec::new());
+        if self.settings.noise_ratio == 0.0 {
+            let (k, dim) = (self.retina.classes_read(), self.decoder.dim());
+            for c in 0..k {
+                let mut unit = vec![0.0; c + 1];
+                unit[c] = 1.0;
+                let (act, ons) = self.render_values(&unit, location, None);
+                if self.decoder.is_linear() {
+                    let planes = self.linear_percept(&act, &ons, true);
+                    let mut r = vec![0.0; self.readout.len(dim)];
+                    self.readout.read(&planes, dim, &cells, &mut r);
+                    readout_basis.extend(r);
+                } else {
+                    ons_basis.extend(ons);
+                }
+            }
+        }
+        let entry = Arc::new(LocationEntry {
+            cells,
+            ons_basis,
+            readout_basis,
+        });
+        let bytes = entry.ons_basis.len() * 4 + entry.readout_basis.len() * 8;
+        let mut cache = self.cache.lock().expect("cache lock");
+        if cache.bytes + bytes <= CACHE_LIMIT_BYTES {
+            cache.bytes += bytes;
+            cache.entries.insert(key, entry.clone());
+        }
+        entry
+    }
+
+    /// Class-plane values of a show's stimulus (the planes the cones read).
+    fn values(&self, show: &Show) -> Vec<f64> {
+        let mut v = self
+            .retina
+            .class_values(&show.stimulus.to_grid(self.retina.grid()));
+        v.truncate(self.retina.classes_read());
+        v
+    }
+
+    /// The readouts of `shows` into `out (shows × readout length)`, for one rayon job.
+    fn percepts_job(&self, shows: &[Show], out: &mut [f64]) {
+        let (dim, nn) = (self.decoder.dim(), self.retina.n() * self.retina.n());
+        let len = self.readout.len(dim);
+        let noise_free = self.settings.noise_ratio == 0.0;
+        let entries: Vec<Arc<LocationEntry>> = shows
+            .iter()
+            .map(|s| self.location_entry(s.location))
+            .collect();
+        if noise_free && self.decoder.is_linear() {
+            for ((show, entry), o) in shows.iter().zip(&entries).zip(out.chunks_exact_mut(len)) {
+                o.fill(0.0);
+                for (c, &v) in self.values(show).iter().enumerate() {
+                    let basis = &entry.readout_basis[c * len..(c + 1) * len];
+                    o.iter_mut().zip(basis).for_each(|(x, b)| *x += v * b);
+                }
+            }
+            return;
+        }
+        if let Decoder::Cortex(cortex) = &self.decoder {
+            let mut ons = vec![0f32; shows.len() * nn];
+            for ((show, entry), o) in shows.iter().zip(&entries).zip(ons.chunks_exact_mut(nn)) {
+                if noise_free {
+                    for (c, &v) in self.values(show).iter().enumerate() {
+                        let b = &entry.ons_basis[c * nn..(c + 1) * nn];
+                        o.iter_mut().zip(b).for_each(|(x, b)| *x += v as f32 * b);
+                    }
+                } else {
+                    o.copy_from_slice(&self.render(show).1);
+                }
+            }
+            let mut tape = TAPE.take().unwrap_or_default();
+            tape.clear();
+            let n = self.retina.n();
+            let o = tape.constant_from([shows.len(), 1, n, n], &ons);
+            let (v, _, _) = cortex.record_decode(&mut tape, o, &mut Marks::default());
+            let percept = tape.value(v).data();
+            for (s, (entry, o)) in entries.iter().zip(out.chunks_exact_mut(len)).enumerate() {
+                let planes = &percept[s * dim * nn..(s + 1) * dim * nn];
+                self.readout.read(planes, dim, &entry.cells, o);
+            }
+            tape.clear();
+            TAPE.set(Some(tape));
+            return;
+        }
+        for ((show, entry), o) in shows.iter().zip(&entries).zip(out.chunks_exact_mut(len)) {
+            let (act, ons) = self.render(show);
+            let planes = self.linear_percept(&act, &ons, false);
+            self.readout.read(&planes, dim, &entry.cells, o);
+        }
+    }
+}
+
+impl Observer for EyeObserver<'_> {
+    fn name(&self) -> String {
+        format!(
+            "retina {} + {}",
+            self.retina.mosaic.spec_text,
+            self.decoder.describe()
+        )
+    }
+
+    fn grid(&self) -> &WavelengthGrid {
+        self.retina.grid()
+    }
+
+    fn percept_dim(&self) -> usize {
+        self.readout.len(self.decoder.dim())
+    }
+
+    fn percepts(&self, shows: &[Show], out: &mut [f64]) {
+        let len = self.percept_dim();
+        assert_eq!(
+            out.len(),
+            shows.len() * len,
+            "EyeObserver::percepts: out has {} values for {} shows of {len}",
+            out.len(),
+            shows.len()
+        );
+        if shows.is_empty() {
+            return;
+        }
+        // Even jobs over the threads, none larger than decode_batch.
+        let threads = rayon::current_num_threads().max(1);
+        let jobs = shows
+            .len()
+            .div_ceil(self.settings.decode_batch.max(1))
+            .max(threads);
+        let chunk = shows.len().div_ceil(jobs).max(1);
+        out.par_chunks_mut(chunk * len)
+            .zip(shows.par_chunks(chunk))
+            .for_each(|(out, shows)| self.percepts_job(shows, out));
+    }
+
+    fn stimulus_intensity(&self) -> f64 {
+        self.intensity
+    }
+
+    /// The class planes the cones read: the eye sees a spectrum only through them (with or
+    /// without noise, whose seed is the show's).
+    fn linear_front_end(&self) -> Option<Vec<Vec<f64>>> {
+        let (g, k) = (self.retina.grid().len(), self.retina.classes_read());
+        let mut rows = vec![vec![0.0; g]; k];
+        for i in 0..g {
+            let mut spectrum = vec![0.0; g];
+            spectrum[i] = 1.0;
+            for (row, v) in rows.iter_mut().zip(self.retina.class_values(&spectrum)) {
+                row[i] = v;
+            }
+        }
+        Some(rows)
+    }
+
+    fn location_pair(&self, rng: &mut dyn RngCore) -> [[f64; 2]; 2] {
+        use rand::Rng;
+        // Keep the whole disc (plus a lateral-inhibition margin) inside the field, and the two
+        // patches at least two diameters apart when the field allows it.
+        let margin = 2.0 * self.settings.patch_radius_fraction * 1.25;
+        let lim = (1.0 - margin).max(0.05);
+        let min_distance = (4.0 * self.settings.patch_radius_fraction * 2.0).min(lim);
+        let mut draw = || [rng.random_range(-lim..lim), rng.random_range(-lim..lim)];
+        let a = draw();
+        for _ in 0..1000 {
+            let b = draw();
+            if ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2)).sqrt() >= min_distance {
+                return [a, b];
+            }
+        }
+        [a, [-a[0], -a[1]]]
+    }
+}

@@ -1,0 +1,113 @@
+use super::*;
+use crate::config::RunConfig;
+use colorimetry::observer::Stimulus;
+
+fn tiny() -> (Retina, Cortex) {
+    let config = RunConfig::preset("tiny", "LMS").unwrap();
+    let retina = Retina::new(config.retina.clone()).unwrap();
+    let cortex = Cortex::new(config.cortex.clone()).unwrap();
+    (retina, cortex)
+}
+
+fn shows() -> Vec<Show> {
+    let lines = [
+        Stimulus::monochromatic(455.5, 0.8),
+        Stimulus::Lines(vec![(530.0, 0.3), (612.7, 1.1)]),
+        Stimulus::black(),
+        Stimulus::Lines(vec![(401.0, 2.0), (560.0, 0.05), (699.0, 0.7)]),
+    ];
+    let locations = [[0.1, -0.2], [-0.35, 0.3], [0.1, -0.2], [0.0, 0.0]];
+    lines
+        .into_iter()
+        .zip(locations)
+        .map(|(stimulus, location)| Show {
+            stimulus,
+            location,
+            noise_seed: 7,
+        })
+        .collect()
+}
+
+/// Builds a fresh observer.
+type Maker = Box<dyn Fn() -> EyeObserver<'static>>;
+
+/// Percepts of `shows`, one call per show on a fresh observer (cold cache, no batching).
+fn one_by_one(make: &dyn Fn() -> EyeObserver<'static>, shows: &[Show]) -> Vec<f64> {
+    let o = make();
+    let dim = o.percept_dim();
+    let mut all = vec![0.0; shows.len() * dim];
+    for (s, show) in shows.iter().enumerate() {
+        let fresh = make();
+        fresh.percepts(std::slice::from_ref(show), &mut all[s * dim..(s + 1) * dim]);
+    }
+    all
+}
+
+fn assert_close(a: &[f64], b: &[f64], what: &str) {
+    let scale = a.iter().fold(0f64, |m, v| m.max(v.abs())).max(1e-12);
+    for (i, (x, y)) in a.iter().zip(b).enumerate() {
+        assert!(
+            (x - y).abs() <= 1e-5 * scale,
+            "{what}: value {i}: {x} vs {y}"
+        );
+    }
+}
+
+#[test]
+fn cached_percepts_equal_direct_renders_for_every_decoder() {
+    let (retina, cortex) = tiny();
+    let (retina, cortex): (&'static Retina, &'static Cortex) =
+        (Box::leak(Box::new(retina)), Box::leak(Box::new(cortex)));
+    let shows = shows();
+    let oracle = || OracleDecoder::new(retina, true, 1).unwrap();
+    let makers: Vec<(&str, Maker)> = vec![
+        (
+            "cortex",
+            Box::new(|| EyeObserver::cortex(retina, cortex, ObserverSettings::default())),
+        ),
+        (
+            "ons",
+            Box::new(|| EyeObserver::new(retina, Decoder::Ons, ObserverSettings::default())),
+        ),
+        (
+            "cones",
+            Box::new(|| EyeObserver::new(retina, Decoder::Cones, ObserverSettings::default())),
+        ),
+        (
+            "oracle",
+            Box::new(move || {
+                EyeObserver::new(
+                    retina,
+                    Decoder::Oracle(oracle()),
+                    ObserverSettings::default(),
+                )
+            }),
+        ),
+    ];
+    for (name, make) in &makers {
+        let o = make();
+        let dim = o.percept_dim();
+        let mut batched = vec![0.0; shows.len() * dim];
+        o.percepts(&shows, &mut batched);
+        assert_close(&batched, &one_by_one(make.as_ref(), &shows), name);
+        // The cached linear combination equals the direct render through the decoder.
+        let direct: Vec<f64> = shows
+            .iter()
+            .flat_map(|show| {
+                let (act, ons) = o.render(show);
+                let cells = o
+                    .readout
+                    .cells(&retina.layout, o.disc(show.location).centre_px);
+                let d = o.decoder.dim();
+                let planes = match &o.decoder {
+                    Decoder::Cortex(c) => c.decode_frames(&ons, 1),
+                    _ => o.linear_percept(&act, &ons, false),
+                };
+                let mut r = vec![0.0; o.readout.len(d)];
+                o.readout.read(&planes, d, &cells, &mut r);
+                r
+            })
+            .collect();
+        assert_close(&batched, &direct, name);
+    }
+}
