@@ -374,6 +374,8 @@ mod tests {
             steps: None,
             out: None,
             config,
+            resume: false,
+            force: false,
         }
     }
 
