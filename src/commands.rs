@@ -143,18 +143,11 @@ pub fn simulate(options: &CommonOptions) -> Result<(), RunError> {
 
 /// Loads the config and last checkpoint of a run folder.
 pub fn load_run(dir: &Path) -> Result<(RunConfig, Trainer, PathBuf), RunError> {
-    let config_path = dir.join("config.toml");
-    let options = CommonOptions {
-        preset: None,
-        cones: None,
-        seed: None,
-        steps: None,
-        out: None,
-        config: Some(config_path),
-        resume: false,
-        force: false,
-    };
-    let config = RunConfig::resolve(&options, "quick")?;
+    let config = crate::run_folder::read_config(dir)?;
+    config.validate().map_err(|e| RunError::Folder {
+        path: dir.join("config.toml"),
+        reason: e.to_string(),
+    })?;
     let checkpoints = dir.join("checkpoints");
     let valid = match cortex::checkpoint::latest_valid(&checkpoints)? {
         Ok(v) => v,

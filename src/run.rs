@@ -53,7 +53,7 @@ pub enum RunError {
     #[error("{0}")]
     Config(#[from] crate::config::ConfigError),
     /// The run folder cannot be used for this run.
-    #[error("--out {path}: {reason}")]
+    #[error("{path}: {reason}")]
     Folder {
         /// The folder.
         path: PathBuf,

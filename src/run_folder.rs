@@ -35,7 +35,7 @@ pub enum Opened {
 fn refuse(out: &Path, reason: String) -> RunError {
     RunError::Folder {
         path: out.to_path_buf(),
-        reason,
+        reason: format!("(--out) {reason}"),
     }
 }
 
@@ -80,16 +80,23 @@ fn show(v: Option<&toml::Value>) -> String {
     v.map_or_else(|| "absent".to_string(), |v| v.to_string())
 }
 
-/// The config a run folder was started with (`config.toml`).
+/// The config a run folder was started with (`config.toml`). Folders written before
+/// `[cortex.train] steps` became the run's `steps` carry the cortex preset's own value there,
+/// which no run used: it is read as `steps`.
 pub fn read_config(out: &Path) -> Result<RunConfig, RunError> {
     let path = out.join("config.toml");
     let text = std::fs::read_to_string(&path).map_err(fs_err(&path))?;
-    toml::from_str(&text).map_err(|e| {
+    let mut config: RunConfig = toml::from_str(&text).map_err(|e| {
         RunError::Config(crate::config::ConfigError::Parse {
             path: path.display().to_string(),
             message: e.to_string(),
         })
-    })
+    })?;
+    config.cortex.train.steps = config.steps;
+    // Likewise `oracle_motion` was once written `true` beside an estimated motion; the
+    // cortex followed `[cortex.m] mode`.
+    config.oracle_motion = config.cortex.m.mode == cortex::config::MMode::Oracle;
+    Ok(config)
 }
 
 /// Removes everything in the run folder `out` (which must hold a `config.toml`).
