@@ -7,8 +7,8 @@
 //! it covers SIGTERM as well as SIGINT. A watcher thread prints that the stop was heard, since a
 //! step or a CMF-SIM measurement can take a while to finish.
 //!
-//! Fault injection for tests (`COLORVISION_FAULT`, read by [`install_fault_injection`]):
-//! `ACTION@POINT:STEP`, with ACTION `abort` (the process dies there, as under SIGKILL) or
+//! Fault injection for tests (`COLORVISION_FAULT`, read by [`install_fault_injection`]): a
+//! comma-separated list of `ACTION@POINT:STEP`, with ACTION `abort` (the process dies there, as under SIGKILL) or
 //! `interrupt` (as if SIGINT arrived there), POINT `step` (after the training step), `measured`
 //! (after the step's measurements) or a stage of a checkpoint write (`params-written`,
 //! `files-written`, `old-moved-aside`, `renamed`; see `cortex::checkpoint::set_fault_hook`).
@@ -47,11 +47,7 @@ pub fn install() -> std::io::Result<()> {
                 while requested().is_none() {
                     std::thread::sleep(Duration::from_millis(100));
                 }
-                eprintln!(
-                    "\ncolorvision: {} received: finishing the current step, then writing a \
-                     checkpoint (send it again to stop at once, without one)",
-                    requested().unwrap_or("stop")
-                );
+                announce();
             })?;
     }
     let _ = INSTALLED.set(());
@@ -71,6 +67,20 @@ pub fn requested() -> Option<&'static str> {
     }
 }
 
+/// Says, once, that a stop was asked for and what happens next (from the watcher thread, or
+/// from the training loop when it notices first).
+pub fn announce() {
+    static ANNOUNCED: AtomicBool = AtomicBool::new(false);
+    if let Some(what) = requested() {
+        if !ANNOUNCED.swap(true, Ordering::SeqCst) {
+            eprintln!(
+                "\ncolorvision: {what} received: finishing the current step, then writing a \
+                 checkpoint (send it again to stop at once, without one)"
+            );
+        }
+    }
+}
+
 /// Asks the run to stop as a signal would (fault injection, embedding programs).
 pub fn request() {
     REQUESTED.store(true, Ordering::SeqCst);
@@ -87,7 +97,7 @@ pub struct Fault {
     pub step: u64,
 }
 
-static FAULT: OnceLock<Fault> = OnceLock::new();
+static FAULTS: OnceLock<Vec<Fault>> = OnceLock::new();
 
 /// Parses `ACTION@POINT:STEP`.
 pub fn parse_fault(text: &str) -> Result<Fault, String> {
@@ -111,24 +121,24 @@ pub fn install_fault_injection() -> Result<(), String> {
     let Ok(text) = std::env::var("COLORVISION_FAULT") else {
         return Ok(());
     };
-    let _ = FAULT.set(parse_fault(&text)?);
+    let faults = text.split(',').map(parse_fault).collect::<Result<_, _>>()?;
+    let _ = FAULTS.set(faults);
     cortex::checkpoint::set_fault_hook(fault_point);
     Ok(())
 }
 
-/// Triggers the armed fault if it is at `point` of `step`.
+/// Triggers the armed faults that are at `point` of `step`.
 pub fn fault_point(point: &'static str, step: u64) {
-    let Some(f) = FAULT.get() else {
+    let Some(faults) = FAULTS.get() else {
         return;
     };
-    if f.point != point || f.step != step {
-        return;
+    for f in faults.iter().filter(|f| f.point == point && f.step == step) {
+        if f.action == "abort" {
+            eprintln!("colorvision: fault injection: abort at {point} of step {step}");
+            std::process::abort();
+        }
+        request();
     }
-    if f.action == "abort" {
-        eprintln!("colorvision: fault injection: abort at {point} of step {step}");
-        std::process::abort();
-    }
-    request();
 }
 
 #[cfg(test)]

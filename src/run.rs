@@ -709,6 +709,7 @@ impl RunState<'_> {
         let Some(signal) = interrupt::requested() else {
             return Ok(());
         };
+        interrupt::announce();
         let checkpoint = match &self.saved {
             Some((s, m, path)) if *s == k && *m == measured => path.clone(),
             _ => self.save(k, measured)?,

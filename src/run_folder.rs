@@ -58,8 +58,14 @@ fn first_difference(
 ) -> Option<(String, String, String)> {
     match (a, b) {
         (toml::Value::Table(ta), toml::Value::Table(tb)) => {
-            let keys: std::collections::BTreeSet<&String> = ta.keys().chain(tb.keys()).collect();
-            keys.into_iter().find_map(|k| {
+            // Plain values before sub-tables: `steps` is named before `cortex.train.steps`.
+            let is_table = |k: &String| ta.get(k).or(tb.get(k)).is_some_and(|v| v.is_table());
+            let keys: std::collections::BTreeSet<(bool, &String)> = ta
+                .keys()
+                .chain(tb.keys())
+                .map(|k| (is_table(k), k))
+                .collect();
+            keys.into_iter().find_map(|(_, k)| {
                 let name = if prefix.is_empty() {
                     k.clone()
                 } else {
