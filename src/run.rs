@@ -253,6 +253,13 @@ pub fn run_in(
             reason: format!("invalid summary: {e}; --force runs it again"),
         });
     }
+    // The eye is built (its scene files read) before the folder is touched: bad input stops
+    // the run with nothing written.
+    let retina = Retina::new(config.retina.clone())?;
+    let source = RetinaSource::new(retina, config.seed, config.oracle_motion);
+    // Held-out batches carry the true motion for evaluation (the estimator's error); the
+    // cortex reads it only when the run itself uses the oracle.
+    let heldout = RetinaSource::new(heldout_retina(config)?, config.seed ^ 0xA5A5, true);
     std::fs::create_dir_all(out).map_err(crate::io::fs_err(out))?;
     for p in crate::io::clean_stale_temps(out)? {
         println!(
@@ -266,7 +273,8 @@ pub fn run_in(
     if opened == Opened::Fresh {
         crate::io::write_atomic(&out.join("config.toml"), config.to_toml().as_bytes())?;
     }
-    let state = RunState::open(config, out, mode, opened == Opened::Resume, origin)?;
+    let streams = (source, heldout);
+    let state = RunState::open(config, out, mode, opened == Opened::Resume, origin, streams)?;
     state.drive()
 }
 
@@ -301,12 +309,8 @@ impl<'a> RunState<'a> {
         mode: RunMode,
         resume: bool,
         origin: Origin<'_>,
+        (mut source, heldout): (RetinaSource, RetinaSource),
     ) -> Result<Self, RunError> {
-        let retina = Retina::new(config.retina.clone())?;
-        let mut source = RetinaSource::new(retina, config.seed, config.oracle_motion);
-        // Held-out batches carry the true motion for evaluation (the estimator's error); the
-        // cortex reads it only when the run itself uses the oracle.
-        let heldout = RetinaSource::new(heldout_retina(config)?, config.seed ^ 0xA5A5, true);
         let resumed = if resume {
             resume_trainer(out, &mut source)?
         } else {
