@@ -38,6 +38,16 @@ pub enum Command {
     Scope(RunDirOptions),
     /// Run a named experiment of the paper (see `colorvision experiment list`).
     Experiment(ExperimentOptions),
+    /// Continue a stopped `run` or `train` from the newest valid checkpoint of its folder
+    /// (the same as repeating its command with `--resume`).
+    Resume(ResumeOptions),
+}
+
+/// Options of `resume`.
+#[derive(Debug, Clone, Args)]
+pub struct ResumeOptions {
+    /// The run folder of the stopped run.
+    pub dir: PathBuf,
 }
 
 /// Options every subcommand understands.
@@ -63,6 +73,35 @@ pub struct CommonOptions {
     /// A TOML file of settings; command-line options override it.
     #[arg(long)]
     pub config: Option<PathBuf>,
+    /// Continue the run in the output folder from its newest checkpoint that verifies (run,
+    /// train, experiment). The folder's config.toml gives the settings; any option given must
+    /// agree with it. The continued run ends as if it had never stopped (same thread count).
+    #[arg(long)]
+    pub resume: bool,
+    /// Empty the output folder first when it holds another run (it must be a run folder).
+    #[arg(long, conflicts_with = "resume")]
+    pub force: bool,
+}
+
+impl CommonOptions {
+    /// What a run may do with a non-empty output folder.
+    pub fn folder(&self) -> crate::run_folder::Folder {
+        use crate::run_folder::Folder;
+        match (self.resume, self.force) {
+            (true, _) => Folder::Resume,
+            (false, true) => Folder::Replace,
+            (false, false) => Folder::New,
+        }
+    }
+
+    /// Whether any option that changes the settings was given.
+    pub fn sets_anything(&self) -> bool {
+        self.preset.is_some()
+            || self.cones.is_some()
+            || self.seed.is_some()
+            || self.steps.is_some()
+            || self.config.is_some()
+    }
 }
 
 /// Options of `cmf-sim`.

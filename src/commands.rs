@@ -1,7 +1,8 @@
 //! What each subcommand does. `main.rs` only parses and dispatches here.
 
 use crate::cli::{
-    CmfSimOptions, CommonOptions, ExperimentOptions, ObserverKind, ReadoutArg, RunDirOptions,
+    CmfSimOptions, CommonOptions, ExperimentOptions, ObserverKind, ReadoutArg, ResumeOptions,
+    RunDirOptions,
 };
 use crate::config::RunConfig;
 use crate::experiments;
@@ -14,42 +15,120 @@ use std::path::{Path, PathBuf};
 
 /// `colorvision run`: train, measure at checkpoints, summarise.
 pub fn run(options: &CommonOptions) -> Result<(), RunError> {
-    let config = RunConfig::resolve(options, "quick")?;
-    let out = run::out_dir(&config, options.out.as_ref(), "run");
-    let summary = run::run(
-        &config,
-        &out,
+    train_and_report(
+        options,
+        "run",
         RunMode {
             cmf_sim: true,
             pictures: true,
             progress: true,
         },
-    )?;
-    run::print_outcome(&out, &summary);
-    Ok(())
+    )
 }
 
 /// `colorvision train`: train only (no CMF-SIM).
 pub fn train(options: &CommonOptions) -> Result<(), RunError> {
-    let config = RunConfig::resolve(options, "quick")?;
-    let out = run::out_dir(&config, options.out.as_ref(), "train");
-    let summary = run::run(
-        &config,
-        &out,
+    train_and_report(
+        options,
+        "train",
         RunMode {
             cmf_sim: false,
             pictures: true,
             progress: true,
         },
-    )?;
+    )
+}
+
+fn train_and_report(options: &CommonOptions, command: &str, mode: RunMode) -> Result<(), RunError> {
+    let (config, out) = resolve_run(options, command)?;
+    crate::interrupt::install().map_err(|e| {
+        RunError::Config(crate::config::ConfigError::Invalid {
+            field: "signals".into(),
+            reason: format!("cannot catch SIGINT/SIGTERM: {e}"),
+        })
+    })?;
+    let summary = run::run_in(&config, &out, mode, options.folder(), run::Origin::New)?;
+    write_run_marker(&out, command)?;
     run::print_outcome(&out, &summary);
     Ok(())
+}
+
+/// The config and run folder of `run`/`train`. With `--resume` and no option that changes
+/// the settings, the folder's own `config.toml` is the config (any option given must agree
+/// with it, which [`run::run_in`] checks).
+pub fn resolve_run(
+    options: &CommonOptions,
+    command: &str,
+) -> Result<(RunConfig, PathBuf), RunError> {
+    if let Some(out) = options.out.as_ref().filter(|_| options.resume) {
+        if !out.join("config.toml").is_file() {
+            return Err(RunError::Folder {
+                path: out.clone(),
+                reason: "holds no run to resume (no config.toml)".into(),
+            });
+        }
+        if !options.sets_anything() {
+            let config = crate::run_folder::read_config(out)?;
+            config.validate()?;
+            return Ok((config, out.clone()));
+        }
+    }
+    let config = RunConfig::resolve(options, "quick")?;
+    let out = run::out_dir(&config, options.out.as_ref(), command);
+    Ok((config, out))
+}
+
+/// `run.json`: which command made the folder, for `colorvision resume DIR`.
+fn write_run_marker(out: &Path, command: &str) -> Result<(), RunError> {
+    let marker = serde_json::json!({ "command": command });
+    Ok(crate::io::write_json(&out.join("run.json"), &marker)?)
+}
+
+/// `colorvision resume DIR`: repeats the command that made `DIR` with `--resume`.
+pub fn resume(options: &ResumeOptions) -> Result<(), RunError> {
+    let dir = &options.dir;
+    let marker = dir.join("run.json");
+    let command = std::fs::read_to_string(&marker)
+        .ok()
+        .and_then(|t| serde_json::from_str::<serde_json::Value>(&t).ok())
+        .and_then(|v| v["command"].as_str().map(str::to_string));
+    let common = CommonOptions {
+        preset: None,
+        cones: None,
+        seed: None,
+        steps: None,
+        out: Some(dir.clone()),
+        config: None,
+        resume: true,
+        force: false,
+    };
+    match command.as_deref() {
+        Some("run") => run(&common),
+        Some("train") => train(&common),
+        _ if dir.join("config.toml").is_file() => Err(RunError::Folder {
+            path: dir.clone(),
+            reason: "run.json does not say which command made it: repeat that command with \
+                     --out and --resume (`run` and `train` folders; an experiment continues \
+                     with `experiment NAME --out DIR --resume`)"
+                .into(),
+        }),
+        _ => Err(RunError::Folder {
+            path: dir.clone(),
+            reason: "is not a run folder (no config.toml)".into(),
+        }),
+    }
 }
 
 /// `colorvision simulate`: pictures of every stage of the eye.
 pub fn simulate(options: &CommonOptions) -> Result<(), RunError> {
     let config = RunConfig::resolve(options, "quick")?;
     let out = run::out_dir(&config, options.out.as_ref(), "simulate");
+    if out.exists() && !out.is_dir() {
+        return Err(RunError::Folder {
+            path: out,
+            reason: "is a file, not a folder: choose another --out".into(),
+        });
+    }
     let retina = Retina::new(config.retina.clone())?;
     let mut rng = <rand::rngs::StdRng as rand::SeedableRng>::seed_from_u64(config.seed);
     let written = retina::write_stage_pictures(&retina, &mut rng, &out)?;
@@ -66,25 +145,32 @@ pub fn simulate(options: &CommonOptions) -> Result<(), RunError> {
 
 /// Loads the config and last checkpoint of a run folder.
 pub fn load_run(dir: &Path) -> Result<(RunConfig, Trainer, PathBuf), RunError> {
-    let config_path = dir.join("config.toml");
-    let options = CommonOptions {
-        preset: None,
-        cones: None,
-        seed: None,
-        steps: None,
-        out: None,
-        config: Some(config_path),
+    let config = crate::run_folder::read_config(dir)?;
+    config.validate().map_err(|e| RunError::Folder {
+        path: dir.join("config.toml"),
+        reason: e.to_string(),
+    })?;
+    let checkpoints = dir.join("checkpoints");
+    let valid = match cortex::checkpoint::latest_valid(&checkpoints)? {
+        Ok(v) => v,
+        Err(failed) => {
+            let why = failed
+                .first()
+                .map_or_else(|| "has no checkpoint".to_string(), |(_, e)| e.to_string());
+            return Err(RunError::Folder {
+                path: dir.to_path_buf(),
+                reason: format!("no checkpoint of checkpoints/ loads: {why}"),
+            });
+        }
     };
-    let config = RunConfig::resolve(&options, "quick")?;
-    let checkpoint =
-        cortex::checkpoint::latest_checkpoint(&dir.join("checkpoints"))?.ok_or_else(|| {
-            RunError::Config(crate::config::ConfigError::Invalid {
-                field: "run".into(),
-                reason: format!("{} has no checkpoints/ with a checkpoint", dir.display()),
-            })
-        })?;
-    let trainer = Trainer::continue_from(&checkpoint, Some(config.cortex.clone()))?;
-    Ok((config, trainer, checkpoint))
+    for (path, e) in &valid.skipped {
+        println!(
+            "colorvision: checkpoint {} does not load ({e}); using the one before",
+            path.display()
+        );
+    }
+    let trainer = Trainer::continue_from(&valid.path, Some(config.cortex.clone()))?;
+    Ok((config, trainer, valid.path))
 }
 
 /// `colorvision cmf-sim`: on a run folder's cortex or on an observer whose answer is known.
@@ -202,5 +288,11 @@ pub fn scope(options: &RunDirOptions) -> Result<(), RunError> {
 
 /// `colorvision experiment NAME`.
 pub fn experiment(options: &ExperimentOptions) -> Result<(), RunError> {
+    crate::interrupt::install().map_err(|e| {
+        RunError::Config(crate::config::ConfigError::Invalid {
+            field: "signals".into(),
+            reason: format!("cannot catch SIGINT/SIGTERM: {e}"),
+        })
+    })?;
     experiments::run_named(&options.name, &options.common)
 }

@@ -40,6 +40,16 @@ pub enum ConfigError {
         /// Why.
         reason: String,
     },
+    /// A value from a config file is out of range.
+    #[error("{path}: setting `{field}`: {reason}")]
+    InFile {
+        /// The file.
+        path: String,
+        /// The field.
+        field: String,
+        /// Why.
+        reason: String,
+    },
 }
 
 /// When a run checkpoints, measures and draws.
@@ -150,6 +160,8 @@ impl RunConfig {
             max_primaries: 4,
             ..CmfSimSettings::default()
         };
+        // One setting: the run's `steps` is the cortex's.
+        cortex.train.steps = steps;
         Ok(RunConfig {
             preset: name.to_string(),
             cones: cones.to_string(),
@@ -193,7 +205,7 @@ impl RunConfig {
                 })?;
                 let value: toml::Value = toml::from_str(&text).map_err(|e| ConfigError::Parse {
                     path: path.display().to_string(),
-                    message: e.to_string(),
+                    message: one_line(&e.to_string()),
                 })?;
                 Some((path.display().to_string(), value))
             }
@@ -216,6 +228,17 @@ impl RunConfig {
             .or_else(|| file_str("cones"))
             .unwrap_or_else(|| "LMS".to_string());
         let base = RunConfig::preset(&preset, &cones)?;
+        let given = |key: &[&str]| {
+            file.as_ref()
+                .is_some_and(|(_, v)| key.iter().try_fold(v, |v, k| v.get(k)).is_some())
+        };
+        let keys = FileKeys {
+            steps: given(&["steps"]),
+            train_steps: given(&["cortex", "train", "steps"]),
+            oracle_motion: given(&["oracle_motion"]),
+            m_mode: given(&["cortex", "m", "mode"]),
+        };
+        let file_path = file.as_ref().map(|(p, _)| p.clone());
         let mut config = match file {
             Some((path, value)) => {
                 let mut merged =
@@ -225,7 +248,7 @@ impl RunConfig {
                     .try_into::<RunConfig>()
                     .map_err(|e| ConfigError::Parse {
                         path,
-                        message: e.to_string(),
+                        message: one_line(&e.to_string()),
                     })?
             }
             None => base,
@@ -236,12 +259,60 @@ impl RunConfig {
         if let Some(seed) = options.seed {
             config.seed = seed;
         }
+        let in_file = |field: &str, reason: String| match &file_path {
+            Some(path) => ConfigError::InFile {
+                path: path.clone(),
+                field: field.into(),
+                reason,
+            },
+            None => ConfigError::Invalid {
+                field: field.into(),
+                reason,
+            },
+        };
+        config.reconcile(&keys).map_err(|(f, r)| in_file(f, r))?;
         if let Some(steps) = options.steps {
             config.steps = steps as u64;
         }
+        config.cortex.train.steps = config.steps;
         config.apply_seed();
-        config.validate()?;
+        config
+            .validate()
+            .map_err(|e| attribute(e, options, file_path.as_deref()))?;
         Ok(config)
+    }
+
+    /// Settings said twice are made one: `[cortex.train] steps` is `steps` (they must agree
+    /// when both are given), and `oracle_motion` follows `[cortex.m] mode` (and the other way
+    /// round) when only one of them is given. Errors name the field.
+    fn reconcile(&mut self, keys: &FileKeys) -> Result<(), (&'static str, String)> {
+        if keys.train_steps {
+            if keys.steps && self.steps != self.cortex.train.steps {
+                return Err((
+                    "cortex.train.steps",
+                    format!(
+                        "{} disagrees with `steps` = {} (they are one setting; give one)",
+                        self.cortex.train.steps, self.steps
+                    ),
+                ));
+            }
+            self.steps = self.cortex.train.steps;
+        }
+        let oracle_mode = cortex::config::MMode::Oracle;
+        match (keys.oracle_motion, keys.m_mode) {
+            (false, true) => self.oracle_motion = self.cortex.m.mode == oracle_mode,
+            (true, false) if self.oracle_motion => self.cortex.m.mode = oracle_mode,
+            (true, false) if self.cortex.m.mode == oracle_mode => {
+                return Err((
+                    "oracle_motion",
+                    "false needs an estimated eye motion: set [cortex.m] mode = \"learned\" \
+                     (or \"block_matching\") as well"
+                        .into(),
+                ))
+            }
+            _ => {}
+        }
+        Ok(())
     }
 
     /// Derives every component's seed from `seed` (seed 0 keeps the presets' official seeds).
@@ -266,6 +337,39 @@ impl RunConfig {
             field: field.into(),
             reason,
         };
+        if self.oracle_motion != (self.cortex.m.mode == cortex::config::MMode::Oracle) {
+            return Err(invalid(
+                "oracle_motion",
+                format!(
+                    "{} but [cortex.m] mode = {:?}: the oracle motion is mode \"oracle\"",
+                    self.oracle_motion, self.cortex.m.mode
+                ),
+            ));
+        }
+        if self.cortex.train.steps != self.steps {
+            return Err(invalid(
+                "cortex.train.steps",
+                format!(
+                    "{} disagrees with `steps` = {} (they are one setting)",
+                    self.cortex.train.steps, self.steps
+                ),
+            ));
+        }
+        if self.retina.cones != self.cones {
+            return Err(invalid(
+                "retina.cones",
+                format!(
+                    "`{}` disagrees with `cones` = `{}`",
+                    self.retina.cones, self.cones
+                ),
+            ));
+        }
+        retina::MosaicSpec::parse(&self.cones).map_err(|e| match e {
+            retina::RetinaError::InvalidSetting { message, .. } => {
+                invalid("cones", format!("`{}`: {message}", self.cones))
+            }
+            other => invalid("cones", other.to_string()),
+        })?;
         if self.retina.cones_per_side != self.cortex.ons_size_px {
             return Err(invalid(
                 "cortex.ons_size_px",
@@ -275,12 +379,18 @@ impl RunConfig {
                 ),
             ));
         }
-        self.retina
-            .validate()
-            .map_err(|e| invalid("retina", e.to_string()))?;
-        self.cortex
-            .validate()
-            .map_err(|e| invalid("cortex", e.to_string()))?;
+        self.retina.validate().map_err(|e| match e {
+            retina::RetinaError::InvalidSetting { name, message } => {
+                invalid(&format!("retina.{name}"), message)
+            }
+            other => invalid("retina", other.to_string()),
+        })?;
+        self.cortex.validate().map_err(|e| match e {
+            cortex::CortexError::InvalidConfig { field, reason } => {
+                invalid(&format!("cortex.{field}"), reason)
+            }
+            other => invalid("cortex", other.to_string()),
+        })?;
         if !matches!(
             self.learning_rule.as_str(),
             "backprop" | "feedback-alignment"
@@ -371,6 +481,59 @@ impl RunConfig {
     }
 }
 
+/// The TOML parser's message on one line: the source excerpt it draws (lines of `|`) is
+/// dropped, the rest joined (`… at line 1, column 9: invalid string; expected `"``).
+pub fn one_line(message: &str) -> String {
+    let mut out = String::new();
+    for line in message.lines().map(str::trim) {
+        let excerpt = line.starts_with('|')
+            || line
+                .split_once(" |")
+                .is_some_and(|(n, _)| n.chars().all(|c| c.is_ascii_digit()));
+        if line.is_empty() || excerpt {
+            continue;
+        }
+        if !out.is_empty() {
+            out.push_str(if line.starts_with("in `") { " " } else { ": " });
+        }
+        out.push_str(line);
+    }
+    out
+}
+
+/// Names where a bad value came from: the command-line flag that set it, else the config file.
+fn attribute(e: ConfigError, options: &CommonOptions, file: Option<&str>) -> ConfigError {
+    let ConfigError::Invalid { field, reason } = e else {
+        return e;
+    };
+    let flag = match field.as_str() {
+        "steps" if options.steps.is_some() => Some("--steps"),
+        "cones" if options.cones.is_some() => Some("--cones"),
+        "seed" if options.seed.is_some() => Some("--seed"),
+        _ => None,
+    };
+    match (flag, file) {
+        (Some(flag), _) => ConfigError::Invalid {
+            field: flag.into(),
+            reason,
+        },
+        (None, Some(path)) => ConfigError::InFile {
+            path: path.into(),
+            field,
+            reason,
+        },
+        (None, None) => ConfigError::Invalid { field, reason },
+    }
+}
+
+/// Which of the settings said twice a config file gave.
+struct FileKeys {
+    steps: bool,
+    train_steps: bool,
+    oracle_motion: bool,
+    m_mode: bool,
+}
+
 /// Deep-merges `over` into `base` (tables recursively, everything else replaced).
 fn merge(base: &mut toml::Value, over: toml::Value) {
     match (base, over) {
@@ -400,6 +563,8 @@ mod tests {
             steps: None,
             out: None,
             config,
+            resume: false,
+            force: false,
         }
     }
 

@@ -18,7 +18,7 @@
 use crate::cli::CommonOptions;
 use crate::config::RunConfig;
 use crate::observer::EyeObserver;
-use crate::run::{self, RunError, RunMode, Summary};
+use crate::run::{self, Origin, RunError, RunMode, Summary};
 use colorimetry::analytic::ConeObserver;
 use colorimetry::{compare_stiles_burch, run_cmf_sim, StilesBurchSettings};
 use cortex::config::Baseline;
@@ -72,7 +72,7 @@ fn sub(out: &Path, name: &str) -> PathBuf {
 /// Trains one retina and measures it; returns its summary.
 pub fn emergence(options: &CommonOptions, out: &Path) -> Result<Summary, RunError> {
     let config = RunConfig::resolve(options, "quick")?;
-    let summary = run::run(
+    let summary = run::run_in(
         &config,
         out,
         RunMode {
@@ -80,6 +80,8 @@ pub fn emergence(options: &CommonOptions, out: &Path) -> Result<Summary, RunErro
             pictures: true,
             progress: true,
         },
+        options.folder(),
+        Origin::New,
     )?;
     run::print_outcome(out, &summary);
     Ok(summary)
@@ -112,7 +114,7 @@ fn identity_percept(config: &RunConfig, dir: &Path, name: &str) -> Result<usize,
         config.observer.clone(),
     );
     let r = run_cmf_sim(&observer, &config.cmf_sim)?;
-    r.save(dir)?;
+    save_result(dir, |d| Ok(r.save(d).map(|_| ())?))?;
     println!("baseline {name}: dimension {} ({})", r.dimension, r.verdict);
     Ok(r.dimension)
 }
@@ -147,7 +149,7 @@ fn baselines(options: &CommonOptions, out: &Path) -> Result<(), RunError> {
     ] {
         let mut c = eye.clone();
         c.cortex.baseline = baseline;
-        let s = run::run(
+        let s = run::run_in(
             &c,
             &sub(out, name),
             RunMode {
@@ -155,6 +157,8 @@ fn baselines(options: &CommonOptions, out: &Path) -> Result<(), RunError> {
                 pictures: true,
                 progress: true,
             },
+            options.folder(),
+            Origin::New,
         )?;
         println!("baseline {name}: dimension {} ({})", s.dimension, s.verdict);
     }
@@ -172,12 +176,14 @@ fn continued(
     let first = sub(out, &format!("before_{before}"));
     let s = emergence(&with_cones(options, before), &first)?;
     println!("before ({before}): dimension {}", s.dimension);
-    let checkpoint = cortex::checkpoint::latest_checkpoint(&first.join("checkpoints"))?
-        .expect("a run leaves a checkpoint");
+    // The before run's own last checkpoint (its folder holds no other run's).
+    let checkpoint = first
+        .join("checkpoints")
+        .join(cortex::checkpoint::checkpoint_name(s.steps));
     for a in after {
         let config = RunConfig::resolve(&with_cones(options, a), "quick")?;
         let dir = sub(out, &format!("after_{a}"));
-        let s = run::run_continued(&config, &dir, &checkpoint)?;
+        let s = run::run_continued(&config, &dir, &checkpoint, options.folder())?;
         println!("after ({a}): dimension {}", s.dimension);
     }
     Ok(())
@@ -192,10 +198,12 @@ fn stiles_burch(options: &CommonOptions, out: &Path) -> Result<(), RunError> {
         &grid,
     )?;
     let r = compare_stiles_burch(&observer, &StilesBurchSettings::default())?;
-    r.save(sub(out, "analytic_stockman_sharpe"))?;
+    save_result(&sub(out, "analytic_stockman_sharpe"), |d| {
+        Ok(r.save(d).map(|_| ())?)
+    })?;
     println!("analytic Stockman–Sharpe observer: {}", summary_line(&r));
     let trained = sub(out, "trained_LMS");
-    run::run(
+    run::run_in(
         &config,
         &trained,
         RunMode {
@@ -203,14 +211,24 @@ fn stiles_burch(options: &CommonOptions, out: &Path) -> Result<(), RunError> {
             pictures: false,
             progress: true,
         },
+        options.folder(),
+        Origin::New,
     )?;
     let (_, trainer, _) = crate::commands::load_run(&trained)?;
     let retina = Retina::new(config.retina.clone())?;
     let observer = EyeObserver::cortex(&retina, &trainer.cortex, config.observer.clone());
     let r = compare_stiles_burch(&observer, &StilesBurchSettings::default())?;
-    r.save(&trained)?;
+    save_result(&trained, |d| Ok(r.save(d).map(|_| ())?))?;
     println!("trained LMS cortex: {}", summary_line(&r));
     Ok(())
+}
+
+/// Writes a result whose `save` takes a folder into `dir`, each file atomically.
+fn save_result(
+    dir: &Path,
+    save: impl FnOnce(&Path) -> Result<(), RunError>,
+) -> Result<(), RunError> {
+    crate::io::save_into(dir, save)
 }
 
 fn summary_line(r: &colorimetry::StilesBurchResult) -> String {

@@ -1,6 +1,9 @@
-//! Files a run folder holds: NumPy `.npy` arrays, PNG pictures, JSON and CSV — all written
-//! atomically (a temporary file in the same folder, then a rename), so a killed run never leaves
-//! a half-written file behind.
+//! Files a run folder holds: NumPy `.npy` arrays, PNG pictures, JSON and CSV. Every file goes
+//! through one helper, [`write_via`]: the bytes land in a hidden temporary sibling
+//! (`.NAME.tmp-PID`, same folder, so the rename cannot cross file systems), which is synced and
+//! renamed over the target, and the folder is synced. A killed run therefore leaves either the
+//! old file or the new one under the real name, never a half-written one; the temporaries it
+//! leaves are removed by [`clean_stale_temps`] when a run starts in that folder.
 
 use std::fs;
 use std::io::Write;
@@ -27,28 +30,179 @@ pub enum IoError {
     },
 }
 
-fn fs_err(path: &Path) -> impl FnOnce(std::io::Error) -> IoError + '_ {
+/// Wraps an `std::io::Error` with the path it concerns.
+pub fn fs_err(path: &Path) -> impl FnOnce(std::io::Error) -> IoError + '_ {
     move |source| IoError::Fs {
         path: path.to_path_buf(),
         source,
     }
 }
 
-/// Writes `bytes` to `path` atomically (temp file + fsync + rename), creating parent folders.
-pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), IoError> {
-    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+/// Marks a temporary file or folder: `.NAME.tmp-PID`.
+const TEMP_MARK: &str = ".tmp-";
+
+/// The temporary sibling `path` is written through: `.NAME.tmp-PID` in the same folder.
+pub fn temp_sibling(path: &Path) -> PathBuf {
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let dir = path.parent().unwrap_or(Path::new(""));
+    dir.join(format!(".{name}{TEMP_MARK}{}", std::process::id()))
+}
+
+/// Flushes a folder's entries (a rename into it) to disk. Only Unix can open a folder for
+/// syncing; elsewhere the rename's own ordering is what there is.
+pub fn sync_dir(dir: &Path) -> Result<(), IoError> {
+    let dir = if dir.as_os_str().is_empty() {
+        Path::new(".")
+    } else {
+        dir
+    };
+    if cfg!(unix) {
+        fs::File::open(dir)
+            .and_then(|f| f.sync_all())
+            .map_err(fs_err(dir))?;
+    }
+    Ok(())
+}
+
+/// The one way this crate writes a file: `write` fills a temporary sibling of `path` (created
+/// with its parent folders), which is synced and renamed over `path`; the folder is synced.
+/// On an error the temporary is removed and `path` is untouched.
+pub fn write_via<E: From<IoError>>(
+    path: &Path,
+    write: impl FnOnce(&Path) -> Result<(), E>,
+) -> Result<(), E> {
+    let dir = path.parent().unwrap_or(Path::new(""));
+    if !dir.as_os_str().is_empty() {
         fs::create_dir_all(dir).map_err(fs_err(dir))?;
     }
-    let tmp = path.with_extension(format!(
-        "{}.tmp{}",
-        path.extension().and_then(|e| e.to_str()).unwrap_or(""),
-        std::process::id()
-    ));
-    let mut f = fs::File::create(&tmp).map_err(fs_err(&tmp))?;
-    f.write_all(bytes).map_err(fs_err(&tmp))?;
-    f.sync_all().map_err(fs_err(&tmp))?;
-    drop(f);
-    fs::rename(&tmp, path).map_err(fs_err(path))
+    let tmp = temp_sibling(path);
+    let result = write(&tmp).and_then(|()| {
+        let f = fs::File::open(&tmp).map_err(fs_err(&tmp))?;
+        f.sync_all().map_err(fs_err(&tmp))?;
+        drop(f);
+        fs::rename(&tmp, path).map_err(fs_err(path))?;
+        Ok(sync_dir(dir)?)
+    });
+    if result.is_err() {
+        let _ = fs::remove_file(&tmp);
+    }
+    result
+}
+
+/// Writes `bytes` to `path` atomically (see [`write_via`]), creating parent folders.
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), IoError> {
+    write_via(path, |tmp| {
+        let mut f = fs::File::create(tmp).map_err(fs_err(tmp))?;
+        f.write_all(bytes).map_err(fs_err(tmp))
+    })
+}
+
+/// Copies the file `from` to `to` atomically.
+pub fn copy_atomic(from: &Path, to: &Path) -> Result<(), IoError> {
+    let bytes = fs::read(from).map_err(fs_err(from))?;
+    write_atomic(to, &bytes)
+}
+
+/// Runs `save`, which writes any number of files into the folder it is given, and publishes
+/// each file into `dir` atomically: `save` writes into a hidden staging folder inside `dir`,
+/// then every file is synced and renamed to its place (sub-folders are kept). For writers of
+/// other crates that take a folder and write into it directly.
+pub fn save_into<E: From<IoError>>(
+    dir: &Path,
+    save: impl FnOnce(&Path) -> Result<(), E>,
+) -> Result<(), E> {
+    fs::create_dir_all(dir).map_err(fs_err(dir))?;
+    let staging = dir.join(format!(".staging{TEMP_MARK}{}", std::process::id()));
+    if staging.exists() {
+        fs::remove_dir_all(&staging).map_err(fs_err(&staging))?;
+    }
+    let result = save(&staging).and_then(|()| Ok(publish(&staging, dir)?));
+    let _ = fs::remove_dir_all(&staging);
+    result
+}
+
+/// Moves every file under `staging` to the same place under `dir`, each synced then renamed.
+fn publish(staging: &Path, dir: &Path) -> Result<(), IoError> {
+    if !staging.exists() {
+        return Ok(());
+    }
+    let mut entries: Vec<_> = fs::read_dir(staging)
+        .map_err(fs_err(staging))?
+        .collect::<Result<_, _>>()
+        .map_err(fs_err(staging))?;
+    entries.sort_by_key(|e| e.file_name());
+    for entry in entries {
+        let from = entry.path();
+        let to = dir.join(entry.file_name());
+        if from.is_dir() {
+            fs::create_dir_all(&to).map_err(fs_err(&to))?;
+            publish(&from, &to)?;
+        } else {
+            fs::File::open(&from)
+                .and_then(|f| f.sync_all())
+                .map_err(fs_err(&from))?;
+            fs::rename(&from, &to).map_err(fs_err(&to))?;
+        }
+    }
+    sync_dir(dir)
+}
+
+/// Whether `name` is a temporary this crate or its dependencies write (`.NAME.tmp-PID`,
+/// `.NAME.old-PID`, or the older `NAME.tmpPID`), and the writer's process id.
+fn temp_owner(name: &str) -> Option<u32> {
+    let digits = |s: &str| s.parse::<u32>().ok();
+    if name.starts_with('.') {
+        for mark in [TEMP_MARK, ".old-"] {
+            if let Some((_, pid)) = name.rsplit_once(mark) {
+                return digits(pid);
+            }
+        }
+    }
+    let (_, pid) = name.rsplit_once(".tmp")?;
+    digits(pid)
+}
+
+/// Whether a process with this id is running (Linux: `/proc/PID`; elsewhere assumed not, so a
+/// run folder is never shared by two runs at once there).
+fn process_alive(pid: u32) -> bool {
+    pid == std::process::id() || Path::new("/proc").join(pid.to_string()).exists()
+}
+
+/// Removes temporaries left in `dir` (recursively) by writers that were killed, and returns
+/// what it removed. Temporaries of a process still running are kept. Checkpoint folders are
+/// the cortex's (see `cortex::checkpoint::recover`), which restores a checkpoint moved aside.
+pub fn clean_stale_temps(dir: &Path) -> Result<Vec<PathBuf>, IoError> {
+    let mut removed = Vec::new();
+    if !dir.is_dir() {
+        return Ok(removed);
+    }
+    for entry in fs::read_dir(dir).map_err(fs_err(dir))? {
+        let path = entry.map_err(fs_err(dir))?.path();
+        let name = path
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        let is_dir = path.is_dir();
+        match temp_owner(&name) {
+            Some(pid) if !process_alive(pid) && !name.contains(".old-") => {
+                let r = if is_dir {
+                    fs::remove_dir_all(&path)
+                } else {
+                    fs::remove_file(&path)
+                };
+                r.map_err(fs_err(&path))?;
+                removed.push(path);
+            }
+            _ if is_dir && !name.starts_with('.') => {
+                removed.extend(clean_stale_temps(&path)?);
+            }
+            _ => {}
+        }
+    }
+    Ok(removed)
 }
 
 /// Serialises `value` as pretty JSON to `path`, atomically.
@@ -169,6 +323,57 @@ mod tests {
             .map(|e| e.unwrap().file_name())
             .collect();
         assert_eq!(names, vec![std::ffi::OsString::from("x.json")]);
+        fs::remove_dir_all(dir).ok();
+    }
+
+    #[test]
+    fn stale_temporaries_of_dead_writers_are_removed_and_live_ones_kept() {
+        let dir = std::env::temp_dir().join(format!("cv_stale_{}", std::process::id()));
+        let sub = dir.join("pictures");
+        fs::create_dir_all(&sub).unwrap();
+        // Process id 4294967295 is never running.
+        let dead = [
+            dir.join(".metrics.csv.tmp-4294967295"),
+            sub.join(".ons.png.tmp-4294967295"),
+            dir.join("summary.json.tmp4294967295"),
+        ];
+        for p in &dead {
+            fs::write(p, b"half").unwrap();
+        }
+        fs::create_dir_all(dir.join(".staging.tmp-4294967295")).unwrap();
+        let live = dir.join(format!(".x.json.tmp-{}", std::process::id()));
+        fs::write(&live, b"in progress").unwrap();
+        fs::write(dir.join("keep.json"), b"{}").unwrap();
+        let removed = clean_stale_temps(&dir).unwrap();
+        assert_eq!(removed.len(), 4, "{removed:?}");
+        assert!(dead.iter().all(|p| !p.exists()));
+        assert!(live.exists() && dir.join("keep.json").exists());
+        fs::remove_dir_all(dir).ok();
+    }
+
+    #[test]
+    fn save_into_publishes_every_file_and_leaves_no_staging() {
+        let dir = std::env::temp_dir().join(format!("cv_save_into_{}", std::process::id()));
+        save_into(&dir, |staging| -> Result<(), IoError> {
+            fs::create_dir_all(staging.join("sub")).unwrap();
+            fs::write(staging.join("a.json"), b"1").unwrap();
+            fs::write(staging.join("sub").join("b.svg"), b"2").unwrap();
+            Ok(())
+        })
+        .unwrap();
+        assert_eq!(fs::read(dir.join("a.json")).unwrap(), b"1");
+        assert_eq!(fs::read(dir.join("sub").join("b.svg")).unwrap(), b"2");
+        let hidden = fs::read_dir(&dir)
+            .unwrap()
+            .filter(|e| {
+                e.as_ref()
+                    .unwrap()
+                    .file_name()
+                    .to_string_lossy()
+                    .starts_with('.')
+            })
+            .count();
+        assert_eq!(hidden, 0);
         fs::remove_dir_all(dir).ok();
     }
 }

@@ -6,6 +6,10 @@ use colorvision::commands;
 
 fn main() {
     let cli = Cli::parse();
+    if let Err(e) = colorvision::interrupt::install_fault_injection() {
+        eprintln!("colorvision: error: {e}");
+        std::process::exit(2);
+    }
     let command = cli.command.unwrap_or(Command::Run(cli.common));
     let result = match &command {
         Command::Run(o) => commands::run(o),
@@ -14,9 +18,10 @@ fn main() {
         Command::CmfSim(o) => commands::cmf_sim(o),
         Command::Scope(o) => commands::scope(o),
         Command::Experiment(o) => commands::experiment(o),
+        Command::Resume(o) => commands::resume(o),
     };
     if let Err(e) = result {
         eprintln!("colorvision: error: {e}");
-        std::process::exit(1);
+        std::process::exit(e.exit_code());
     }
 }

@@ -18,12 +18,12 @@ use crate::source::RetinaSource;
 use colorimetry::{srgb, ScopeAccumulator};
 use cortex::Trainer;
 use retina::Retina;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use std::fmt::Write as _;
 use std::path::Path;
 
 /// Learned invariants against the truth (paper: "all recovered").
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Invariants {
     /// Adjusted Rand index of k-means clusters of the learned C against the true classes.
     pub c_adjusted_rand_index: Option<f64>,

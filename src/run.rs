@@ -4,15 +4,24 @@
 //! Run folder layout:
 //! - `config.toml` — the resolved settings (repeat with `--config DIR/config.toml`);
 //! - `metrics.csv` — per step: loss, step time; per evaluation: held-out prediction error;
-//! - `checkpoints/` — safetensors + JSON metadata (resume with the cortex's `Trainer::resume`);
+//! - `checkpoints/` — safetensors + JSON metadata with checksums, every
+//!   `checkpoint_every_steps`, at each CMF-SIM measurement, at the last step and when the run
+//!   is stopped by SIGINT/SIGTERM (`--resume` continues from the newest one that verifies);
 //! - `cmf_sim/step_<k>/cmf_sim.json` and `.svg` — CMF-SIM at step k; the last one also at the
 //!   top level (`cmf_sim.json`, with the integer field `dimension`);
 //! - `pictures/` — see [`crate::pictures`];
 //! - `summary.json` — `dimension`, `steps`, `wall_seconds`, the config, the dimension over steps.
+//!
+//! Resume is exact: a checkpoint holds, besides the cortex's own state, the run's state
+//! ([`Progress`]: the held-out stream, the measurements so far), and `metrics.csv` is written
+//! before each checkpoint, so a resumed run ends with the same parameters, metrics and
+//! CMF-SIM schedule as one that never stopped (same seed, same thread count).
 
 use crate::config::RunConfig;
+use crate::interrupt;
 use crate::observer::EyeObserver;
 use crate::pictures;
+use crate::run_folder::{self, Folder, Opened};
 use crate::source::RetinaSource;
 use colorimetry::cmf_sim::CmfSimSettings;
 use colorimetry::plot::{LinePlot, Series};
@@ -20,10 +29,10 @@ use colorimetry::{run_cmf_sim, CmfSimResult};
 use cortex::{DataSource, Trainer};
 use indicatif::{ProgressBar, ProgressStyle};
 use retina::Retina;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 /// Anything that stops a run, with the file or stage it concerns.
 #[derive(Debug, thiserror::Error)]
@@ -43,6 +52,40 @@ pub enum RunError {
     /// A setting is wrong.
     #[error("{0}")]
     Config(#[from] crate::config::ConfigError),
+    /// The run folder cannot be used for this run.
+    #[error("{path}: {reason}")]
+    Folder {
+        /// The folder.
+        path: PathBuf,
+        /// Why.
+        reason: String,
+    },
+    /// SIGINT/SIGTERM stopped the run after a step; a checkpoint was written.
+    #[error(
+        "stopped by {signal} after step {step} of {steps}; checkpoint {checkpoint}. Continue \
+         with the same command and --resume (same --out)",
+        checkpoint = .checkpoint.display()
+    )]
+    Interrupted {
+        /// What stopped it.
+        signal: &'static str,
+        /// Steps done.
+        step: u64,
+        /// Steps of the run.
+        steps: u64,
+        /// The checkpoint written.
+        checkpoint: PathBuf,
+    },
+}
+
+impl RunError {
+    /// The process exit code for this error: 130 when a signal stopped the run, else 1.
+    pub fn exit_code(&self) -> i32 {
+        match self {
+            RunError::Interrupted { .. } => 130,
+            _ => 1,
+        }
+    }
 }
 
 /// What a run does besides training.
@@ -57,7 +100,7 @@ pub struct RunMode {
 }
 
 /// One CMF-SIM measurement during training.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct DimensionPoint {
     /// Steps done.
     pub step: u64,
@@ -74,13 +117,16 @@ pub struct DimensionPoint {
 }
 
 /// `summary.json`.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Summary {
     /// The colour dimensionality CMF-SIM measured at the end (0 when not measured or undefined).
     pub dimension: usize,
     /// Gradient updates done.
     pub steps: u64,
-    /// Wall time of the whole run, s.
+    /// Steps of the checkpoints the run was resumed from, in order (empty: never stopped).
+    #[serde(default)]
+    pub resumed_at_steps: Vec<u64>,
+    /// Wall time of the whole run (its parts, when resumed), s.
     pub wall_seconds: f64,
     /// Mean training-step time, ms.
     pub mean_step_ms: f64,
@@ -117,11 +163,59 @@ pub fn heldout_retina(config: &RunConfig) -> Result<Retina, RunError> {
     Ok(Retina::new(c)?)
 }
 
-/// Trains a fresh cortex, measures and writes the run folder `out`.
+/// The last CMF-SIM measurement, as the summary reports it.
+#[derive(Clone, Debug, Default, Serialize, Deserialize)]
+pub struct LastMeasurement {
+    /// Step measured at.
+    pub step: u64,
+    /// Dimension (0: undefined).
+    pub dimension: usize,
+    /// Verdict.
+    pub verdict: String,
+    /// Per K tried, the converged margin in words ([`colorimetry::cmf_sim::KSummary::describe`]).
+    pub cmf_sim_per_k: Vec<String>,
+    /// `(K, converged max error / threshold over every wavelength)` per K tried.
+    pub converged_ratio_per_k: Vec<(usize, f64)>,
+}
+
+/// The run's own state at a checkpoint (stored in its `meta.json` as `run_state`), restored
+/// on resume so the continued run is the uninterrupted one.
+#[derive(Clone, Debug, Default, Serialize, Deserialize)]
+pub struct Progress {
+    /// Whether the measurements of the checkpoint's step (CMF-SIM, pictures) are done.
+    pub measured: bool,
+    /// State of the held-out stream (evaluation batches, pictures).
+    pub heldout_state: Option<serde_json::Value>,
+    /// CMF-SIM measurements so far.
+    pub dims: Vec<DimensionPoint>,
+    /// The last CMF-SIM measurement.
+    pub last_cmf: Option<LastMeasurement>,
+    /// The last held-out prediction error.
+    pub last_eval: Option<[f64; 3]>,
+    /// The last held-out motion error.
+    pub last_motion_error: Option<f64>,
+    /// Sum of the step times, ms.
+    pub step_ms_total: f64,
+    /// Wall time of the run so far, s.
+    pub wall_seconds: f64,
+    /// Steps the run was resumed at before.
+    pub resumed_at_steps: Vec<u64>,
+}
+
+/// Where a run's cortex comes from.
+#[derive(Clone, Copy, Debug)]
+pub enum Origin<'a> {
+    /// A fresh cortex.
+    New,
+    /// The cortex of another run's checkpoint, with Adam recreated and the step count
+    /// continued (gene therapy, dimensionality boosting; official §3.9).
+    Continue(&'a Path),
+}
+
+/// Trains a fresh cortex, measures and writes the run folder `out`, which must be new or
+/// empty.
 pub fn run(config: &RunConfig, out: &Path, mode: RunMode) -> Result<Summary, RunError> {
-    let mut cortex_config = config.cortex.clone();
-    cortex_config.train.steps = config.steps;
-    run_with_trainer(config, out, mode, Trainer::new(cortex_config)?)
+    run_in(config, out, mode, Folder::New, Origin::New)
 }
 
 /// Continues training the cortex of `checkpoint` on the (changed) eye of `config` for
@@ -131,120 +225,374 @@ pub fn run_continued(
     config: &RunConfig,
     out: &Path,
     checkpoint: &Path,
+    folder: Folder,
 ) -> Result<Summary, RunError> {
-    println!(
-        "  continuing the cortex of {} on cones `{}`",
-        checkpoint.display(),
-        config.cones
-    );
-    let trainer = Trainer::continue_from(checkpoint, Some(config.cortex.clone()))?;
-    run_with_trainer(
-        config,
-        out,
-        RunMode {
-            cmf_sim: true,
-            pictures: true,
-            progress: true,
-        },
-        trainer,
-    )
+    let mode = RunMode {
+        cmf_sim: true,
+        pictures: true,
+        progress: true,
+    };
+    run_in(config, out, mode, folder, Origin::Continue(checkpoint))
 }
 
-/// The training loop of [`run`] on a given trainer.
-pub fn run_with_trainer(
+/// A run in `out` as `folder` allows (new, resumed from its newest valid checkpoint, or
+/// replaced); a finished run returns its summary.
+pub fn run_in(
     config: &RunConfig,
     out: &Path,
     mode: RunMode,
-    mut trainer: Trainer,
+    folder: Folder,
+    origin: Origin<'_>,
 ) -> Result<Summary, RunError> {
-    let started = Instant::now();
-    if config.learning_rule == "feedback-alignment" {
-        trainer.set_learning_rule(Box::new(autodiff::learn::FeedbackAlignment::new(
-            config.seed ^ 0xFA,
-        )));
-        println!("  learning rule: feedback alignment (fixed random backward weights for conv/matmul kernels)");
-    }
-    std::fs::create_dir_all(out).map_err(|source| crate::io::IoError::Fs {
-        path: out.to_path_buf(),
-        source,
-    })?;
-    crate::io::write_atomic(&out.join("config.toml"), config.to_toml().as_bytes())?;
-    println!(
-        "colorvision: preset `{}`, cones `{}`, seed {}, {} steps → {}",
-        config.preset,
-        config.cones,
-        config.seed,
-        config.steps,
-        out.display()
-    );
-    if config.oracle_motion {
-        println!("  note: the cortex receives the ORACLE eye motion (true shift) besides the optic nerve signal");
-    } else {
+    let opened = run_folder::open(out, config, folder)?;
+    if opened == Opened::Finished {
         println!(
-            "  the cortex receives the optic nerve signal only (eye motion estimated by bucket M)"
+            "colorvision: {} holds this run, finished; its summary.json stands",
+            out.display()
         );
+        let path = out.join("summary.json");
+        let text = std::fs::read_to_string(&path).map_err(crate::io::fs_err(&path))?;
+        return serde_json::from_str(&text).map_err(|e| RunError::Folder {
+            path: path.clone(),
+            reason: format!("invalid summary: {e}; --force runs it again"),
+        });
     }
+    // The eye is built (its scene files read) before the folder is touched: bad input stops
+    // the run with nothing written.
     let retina = Retina::new(config.retina.clone())?;
-    println!(
-        "  retina: {} cones per side, classes {:?}",
-        retina.n(),
-        retina
-            .mosaic
-            .classes
-            .iter()
-            .map(|c| c.name.as_str())
-            .collect::<Vec<_>>()
-    );
-    let mut source = RetinaSource::new(retina, config.seed, config.oracle_motion);
+    let source = RetinaSource::new(retina, config.seed, config.oracle_motion);
     // Held-out batches carry the true motion for evaluation (the estimator's error); the
     // cortex reads it only when the run itself uses the oracle.
-    let mut heldout = RetinaSource::new(heldout_retina(config)?, config.seed ^ 0xA5A5, true);
-    let estimates_motion = config.cortex.m.mode != cortex::config::MMode::Oracle;
-    let bar = if mode.progress {
-        ProgressBar::new(config.steps)
-    } else {
-        ProgressBar::hidden()
+    let heldout = RetinaSource::new(heldout_retina(config)?, config.seed ^ 0xA5A5, true);
+    std::fs::create_dir_all(out).map_err(crate::io::fs_err(out))?;
+    for p in crate::io::clean_stale_temps(out)? {
+        println!(
+            "  removed a temporary left by a stopped run: {}",
+            p.display()
+        );
+    }
+    for line in cortex::checkpoint::recover(&out.join("checkpoints"))? {
+        println!("  checkpoints: {line}");
+    }
+    if opened == Opened::Fresh {
+        crate::io::write_atomic(&out.join("config.toml"), config.to_toml().as_bytes())?;
+    }
+    let streams = (source, heldout);
+    let state = RunState::open(config, out, mode, opened == Opened::Resume, origin, streams)?;
+    state.drive()
+}
+
+/// Everything the training loop carries from step to step.
+struct RunState<'a> {
+    config: &'a RunConfig,
+    out: &'a Path,
+    mode: RunMode,
+    trainer: Trainer,
+    source: RetinaSource,
+    heldout: RetinaSource,
+    progress: Progress,
+    /// Finished rows of `metrics.csv` (header included).
+    metrics: String,
+    /// The row of the last step until its measurements add the dimension.
+    pending_row: Option<String>,
+    losses: (Vec<f64>, Vec<f64>),
+    started: Instant,
+    bar: ProgressBar,
+    /// The checkpoint written last: step and whether it was after the step's measurements.
+    saved: Option<(u64, bool, PathBuf)>,
+}
+
+const METRICS_HEADER: &str = "step,loss,main_loss,step_ms,heldout_model_mse,heldout_identity_mse,improvement,motion_error_px,dimension\n";
+
+impl<'a> RunState<'a> {
+    /// Builds the trainer and the streams: fresh (or continued from `origin`), or resumed from
+    /// the newest checkpoint of `out` that verifies.
+    fn open(
+        config: &'a RunConfig,
+        out: &'a Path,
+        mode: RunMode,
+        resume: bool,
+        origin: Origin<'_>,
+        (mut source, heldout): (RetinaSource, RetinaSource),
+    ) -> Result<Self, RunError> {
+        let resumed = if resume {
+            resume_trainer(out, &mut source)?
+        } else {
+            None
+        };
+        let resumed_at = resumed.as_ref().map(|(t, _)| t.step_count());
+        let (trainer, progress) = match resumed {
+            Some(x) => x,
+            None => (new_trainer(config, origin)?, Progress::default()),
+        };
+        let mut state = RunState {
+            config,
+            out,
+            mode,
+            trainer,
+            source,
+            heldout,
+            progress,
+            metrics: METRICS_HEADER.to_string(),
+            pending_row: None,
+            losses: (Vec::new(), Vec::new()),
+            started: Instant::now(),
+            bar: ProgressBar::hidden(),
+            saved: None,
+        };
+        if let Some(step) = resumed_at {
+            state.restore(step)?;
+        }
+        state.announce(resumed_at);
+        Ok(state)
+    }
+
+    /// Puts back what the checkpoint of `step` recorded beside the trainer: the held-out
+    /// stream, the clock, and `metrics.csv` up to that step.
+    fn restore(&mut self, step: u64) -> Result<(), RunError> {
+        if let Some(state) = &self.progress.heldout_state {
+            self.heldout.load_state(state)?;
+        }
+        self.started = Instant::now()
+            .checked_sub(Duration::from_secs_f64(self.progress.wall_seconds))
+            .unwrap_or_else(Instant::now);
+        let path = self.out.join("metrics.csv");
+        let text = std::fs::read_to_string(&path).map_err(crate::io::fs_err(&path))?;
+        let first_step = self.trainer.continued_from_step().unwrap_or(0);
+        let mut last = first_step;
+        for line in text.lines().skip(1) {
+            let mut cols = line.split(',');
+            let k: u64 = cols.next().and_then(|c| c.parse().ok()).unwrap_or(u64::MAX);
+            if k > step {
+                break;
+            }
+            if k != last + 1 {
+                return Err(RunError::Folder {
+                    path: path.clone(),
+                    reason: format!("row of step {k} follows step {last}: the file was changed"),
+                });
+            }
+            last = k;
+            let loss: f64 = cols.next().and_then(|c| c.parse().ok()).unwrap_or(f64::NAN);
+            self.losses.0.push(k as f64);
+            self.losses.1.push(loss);
+            self.metrics.push_str(line);
+            self.metrics.push('\n');
+        }
+        if last != step {
+            return Err(RunError::Folder {
+                path,
+                reason: format!("has rows up to step {last}, the checkpoint is at step {step}"),
+            });
+        }
+        if !self.progress.measured && last == step && step > first_step {
+            // The checkpoint was taken before the step's measurements: its row waits for them.
+            let row_end = self.metrics[..self.metrics.len() - 1]
+                .rfind('\n')
+                .map_or(0, |i| i + 1);
+            let row = self.metrics.split_off(row_end);
+            let without_dimension = row.trim_end().rsplit_once(',').map_or("", |(r, _)| r);
+            self.pending_row = Some(without_dimension.to_string());
+        }
+        self.progress.resumed_at_steps.push(step);
+        Ok(())
+    }
+
+    fn announce(&mut self, resumed_at: Option<u64>) {
+        let c = self.config;
+        println!(
+            "colorvision: preset `{}`, cones `{}`, seed {}, {} steps → {}",
+            c.preset,
+            c.cones,
+            c.seed,
+            c.steps,
+            self.out.display()
+        );
+        if let Some(step) = resumed_at {
+            println!(
+                "  resuming at step {step} (checkpoint {})",
+                self.trainer
+                    .last_checkpoint()
+                    .map_or_else(String::new, |p| p.display().to_string())
+            );
+        }
+        if c.oracle_motion {
+            println!("  note: the cortex receives the ORACLE eye motion (true shift) besides the optic nerve signal");
+        } else {
+            println!(
+                "  the cortex receives the optic nerve signal only (eye motion estimated by bucket M)"
+            );
+        }
+        if c.learning_rule == "feedback-alignment" {
+            self.trainer
+                .set_learning_rule(Box::new(autodiff::learn::FeedbackAlignment::new(
+                    c.seed ^ 0xFA,
+                )));
+            println!("  learning rule: feedback alignment (fixed random backward weights for conv/matmul kernels)");
+            if resumed_at.is_some() {
+                println!("  (feedback alignment scales its backward weights to the weights at their first use, so a resumed run is not bit-identical to an uninterrupted one)");
+            }
+        }
+        let retina = &self.source.retina;
+        println!(
+            "  retina: {} cones per side, classes {:?}",
+            retina.n(),
+            retina
+                .mosaic
+                .classes
+                .iter()
+                .map(|c| c.name.as_str())
+                .collect::<Vec<_>>()
+        );
+        self.bar = if self.mode.progress {
+            ProgressBar::new(c.steps)
+        } else {
+            ProgressBar::hidden()
+        };
+        self.bar.set_style(
+            ProgressStyle::with_template("{elapsed_precise} [{bar:30}] {pos}/{len} {msg}")
+                .expect("a valid template")
+                .progress_chars("=> "),
+        );
+        self.bar
+            .set_position(self.trainer.step_count().min(c.steps));
+    }
+}
+
+/// A fresh trainer, or one continued from another run's checkpoint.
+fn new_trainer(config: &RunConfig, origin: Origin<'_>) -> Result<Trainer, RunError> {
+    Ok(match origin {
+        Origin::New => {
+            let mut cortex_config = config.cortex.clone();
+            cortex_config.train.steps = config.steps;
+            Trainer::new(cortex_config)?
+        }
+        Origin::Continue(checkpoint) => {
+            println!(
+                "  continuing the cortex of {} on cones `{}`",
+                checkpoint.display(),
+                config.cones
+            );
+            Trainer::continue_from(checkpoint, Some(config.cortex.clone()))?
+        }
+    })
+}
+
+/// The trainer and run state of the newest checkpoint of `out` that loads (saying which
+/// newer ones did not and why), or `None` when none does.
+fn resume_trainer(
+    out: &Path,
+    source: &mut RetinaSource,
+) -> Result<Option<(Trainer, Progress)>, RunError> {
+    let dir = out.join("checkpoints");
+    let resumed = Trainer::resume_latest(&dir, Some(source))?;
+    for (path, e) in &resumed.skipped {
+        println!(
+            "  checkpoint {} does not load ({e}); falling back to the one before",
+            path.display()
+        );
+    }
+    let Some((trainer, meta)) = resumed.trainer else {
+        println!("  no checkpoint of this run loads: starting it from the beginning");
+        return Ok(None);
     };
-    bar.set_style(
-        ProgressStyle::with_template("{elapsed_precise} [{bar:30}] {pos}/{len} {msg}")
-            .expect("a valid template")
-            .progress_chars("=> "),
-    );
-    let mut metrics = String::from("step,loss,main_loss,step_ms,heldout_model_mse,heldout_identity_mse,improvement,motion_error_px,dimension\n");
-    let mut last_motion_error = None;
-    let mut dims: Vec<DimensionPoint> = Vec::new();
-    let mut losses: (Vec<f64>, Vec<f64>) = (Vec::new(), Vec::new());
-    let mut step_ms_total = 0.0;
-    let schedule = &config.schedule;
-    let bs = config.cortex.train.batch_size;
-    let checkpoints = out.join("checkpoints");
-    let mut last_eval = None;
-    let mut last_cmf: Option<CmfSimResult> = None;
-    for k in 1..=config.steps {
-        let batch = source.next_batch(bs);
-        let stats = match trainer.step(&batch) {
+    let progress = match meta.run_state {
+        Some(v) => serde_json::from_value(v).map_err(|e| RunError::Folder {
+            path: meta_path(&trainer),
+            reason: format!("field `run_state`: {e}"),
+        })?,
+        None => Progress::default(),
+    };
+    Ok(Some((trainer, progress)))
+}
+
+fn meta_path(trainer: &Trainer) -> PathBuf {
+    trainer
+        .last_checkpoint()
+        .map_or_else(PathBuf::new, |p| p.join("meta.json"))
+}
+
+impl RunState<'_> {
+    /// The training loop: steps, checkpoints, measurements, and the end of the run.
+    fn drive(mut self) -> Result<Summary, RunError> {
+        let steps = self.config.steps;
+        let mut k = self.trainer.step_count();
+        if self.pending_row.is_some() && self.measure(k)? {
+            return self.finish();
+        }
+        if self.progress.measured && self.reached_stop_dimension() {
+            return self.finish();
+        }
+        while k < steps {
+            k += 1;
+            self.train_step(k)?;
+            interrupt::fault_point("step", k);
+            if self.checkpoint_due(k) {
+                self.save(k, false)?;
+            }
+            self.stop_if_asked(k, false)?;
+            let stop_early = self.measure(k)?;
+            interrupt::fault_point("measured", k);
+            self.stop_if_asked(k, true)?;
+            if stop_early {
+                break;
+            }
+        }
+        self.finish()
+    }
+
+    fn cmf_due(&self, k: u64) -> bool {
+        let s = &self.config.schedule;
+        self.mode.cmf_sim
+            && (k == self.config.steps
+                || (s.cmf_every_steps > 0 && k % s.cmf_every_steps == 0)
+                || s.cmf_extra_steps.contains(&k))
+    }
+
+    fn checkpoint_due(&self, k: u64) -> bool {
+        let every = self.config.cortex.train.checkpoint_every_steps;
+        k == self.config.steps || (every > 0 && k % every == 0) || self.cmf_due(k)
+    }
+
+    fn reached_stop_dimension(&self) -> bool {
+        let target = self.config.schedule.stop_at_dimension;
+        target > 0
+            && self
+                .progress
+                .dims
+                .last()
+                .is_some_and(|d| d.dimension >= target)
+    }
+
+    /// One gradient update and, when due, the held-out evaluation; leaves the step's metrics
+    /// row pending until its measurements.
+    fn train_step(&mut self, k: u64) -> Result<(), RunError> {
+        let bs = self.config.cortex.train.batch_size;
+        let batch = self.source.next_batch(bs);
+        let stats = match self.trainer.step(&batch) {
             Ok(s) => s,
             Err(e) => {
-                bar.abandon_with_message("stopped");
+                self.bar.abandon_with_message("stopped");
                 return Err(e.into());
             }
         };
-        step_ms_total += stats.total_ms;
-        losses.0.push(k as f64);
-        losses.1.push(stats.loss);
-        let due = |every: u64| k == config.steps || (every > 0 && k % every == 0);
+        self.progress.step_ms_total += stats.total_ms;
+        self.losses.0.push(k as f64);
+        self.losses.1.push(stats.loss);
         let mut row = format!(
             "{k},{},{},{:.3}",
             stats.loss, stats.main_loss, stats.total_ms
         );
-        if due(schedule.eval_every_steps) {
-            let e = heldout_error(&mut trainer, &mut heldout, bs, schedule.eval_batches)?;
-            last_eval = Some(e);
+        let schedule = &self.config.schedule;
+        let every = schedule.eval_every_steps;
+        if k == self.config.steps || (every > 0 && k % every == 0) {
+            let batches = schedule.eval_batches;
+            let e = heldout_error(&mut self.trainer, &mut self.heldout, bs, batches)?;
+            self.progress.last_eval = Some(e);
             let _ = write!(row, ",{},{},{}", e[0], e[1], e[2]);
-            if estimates_motion {
-                let m =
-                    heldout_motion_error(&mut trainer, &mut heldout, bs, schedule.eval_batches)?;
-                last_motion_error = Some(m);
+            if self.config.cortex.m.mode != cortex::config::MMode::Oracle {
+                let m = heldout_motion_error(&mut self.trainer, &mut self.heldout, bs, batches)?;
+                self.progress.last_motion_error = Some(m);
                 let _ = write!(row, ",{m}");
             } else {
                 row.push(',');
@@ -252,13 +600,37 @@ pub fn run_with_trainer(
         } else {
             row.push_str(",,,,");
         }
-        if mode.cmf_sim && (due(schedule.cmf_every_steps) || schedule.cmf_extra_steps.contains(&k))
-        {
-            bar.set_message(format!("loss {:.4} · CMF-SIM…", stats.loss));
-            let settings = config.cmf_settings(k == config.steps);
-            let r = measure(&settings, config, &source.retina, &trainer)?;
-            r.save(out.join("cmf_sim").join(format!("step_{k:06}")))?;
-            bar.suspend(|| {
+        self.pending_row = Some(row);
+        self.bar.set_position(k);
+        self.bar.set_message(format!(
+            "loss {:.4} · {:.0} ms/step",
+            stats.loss, stats.total_ms
+        ));
+        if self.bar.is_hidden() && (k % (self.config.steps / 10).max(1) == 0) {
+            // Not a terminal: a line every tenth of the run instead of a bar.
+            println!(
+                "  step {k}/{}: loss {:.4}, {:.0} ms/step",
+                self.config.steps, stats.loss, stats.total_ms
+            );
+        }
+        Ok(())
+    }
+
+    /// The measurements of step `k` (CMF-SIM, pictures) when due; completes its metrics row.
+    /// Returns whether the run reached `stop_at_dimension`.
+    fn measure(&mut self, k: u64) -> Result<bool, RunError> {
+        let mut dimension_column = String::new();
+        if self.cmf_due(k) {
+            let final_step = k == self.config.steps;
+            let settings = self.config.cmf_settings(final_step);
+            self.bar.set_message(format!("step {k} · CMF-SIM…"));
+            let r = measure(&settings, self.config, &self.source.retina, &self.trainer)?;
+            let dir = self.out.join("cmf_sim").join(format!("step_{k:06}"));
+            crate::io::save_into(&dir, |staging| -> Result<(), RunError> {
+                r.save(staging)?;
+                Ok(())
+            })?;
+            self.bar.suspend(|| {
                 println!(
                     "  step {k}: CMF-SIM dimension {} ({:.0} s; {} λ, {} sets/K; {})",
                     r.dimension,
@@ -268,144 +640,209 @@ pub fn run_with_trainer(
                     r.verdict
                 )
             });
-            dims.push(DimensionPoint {
+            self.progress.dims.push(DimensionPoint {
                 step: k,
                 dimension: r.dimension,
                 seconds: r.seconds,
-                wall_seconds: started.elapsed().as_secs_f64(),
+                wall_seconds: self.started.elapsed().as_secs_f64(),
                 sets_per_k: settings.sets_per_k,
                 test_wavelengths: settings.n_test_wavelengths,
             });
-            let _ = write!(row, ",{}", r.dimension);
-            last_cmf = Some(r);
-            trainer.save_checkpoint(&checkpoints, Some(&source))?;
-        } else {
-            row.push(',');
+            dimension_column = r.dimension.to_string();
+            self.progress.last_cmf = Some(LastMeasurement {
+                step: k,
+                dimension: r.dimension,
+                verdict: r.verdict.clone(),
+                cmf_sim_per_k: r
+                    .per_k
+                    .iter()
+                    .map(|q| q.describe(r.test_wavelengths_nm.len()))
+                    .collect(),
+                converged_ratio_per_k: r
+                    .per_k
+                    .iter()
+                    .map(|q| (q.n_primaries, q.converged_worst_ratio))
+                    .collect(),
+            });
         }
-        metrics.push_str(&row);
-        metrics.push('\n');
-        if mode.pictures
-            && schedule.pictures_every_steps > 0
-            && k % schedule.pictures_every_steps == 0
-            && k != config.steps
-        {
+        if let Some(row) = self.pending_row.take() {
+            let _ = writeln!(self.metrics, "{row},{dimension_column}");
+        }
+        let every = self.config.schedule.pictures_every_steps;
+        if self.mode.pictures && every > 0 && k % every == 0 && k != self.config.steps {
             pictures::write_all(
-                &out.join("pictures").join(format!("step_{k:06}")),
-                config,
-                &source.retina,
-                &mut heldout,
-                &trainer,
+                &self.out.join("pictures").join(format!("step_{k:06}")),
+                self.config,
+                &self.source.retina,
+                &mut self.heldout,
+                &self.trainer,
             )?;
         }
-        if bar.is_hidden() && (k % (config.steps / 10).max(1) == 0) {
-            // Not a terminal: a line every tenth of the run instead of a bar.
-            println!(
-                "  step {k}/{}: loss {:.4}, {:.0} ms/step",
-                config.steps, stats.loss, stats.total_ms
-            );
-        }
-        bar.set_position(k);
-        bar.set_message(format!(
-            "loss {:.4} · {:.0} ms/step",
-            stats.loss, stats.total_ms
-        ));
-        if schedule.stop_at_dimension > 0
-            && dims
-                .last()
-                .is_some_and(|d| d.dimension >= schedule.stop_at_dimension)
-        {
-            bar.suspend(|| {
-                println!(
-                    "  reached dimension {} at step {k}: stopping early",
-                    schedule.stop_at_dimension
-                )
-            });
-            break;
-        }
+        self.progress.measured = true;
         if k % 200 == 0 {
-            crate::io::write_atomic(&out.join("metrics.csv"), metrics.as_bytes())?;
+            self.write_metrics()?;
         }
-    }
-    bar.finish_and_clear();
-    let steps_done = trainer.step_count();
-    if trainer.last_checkpoint().is_none_or(|p| {
-        !p.to_string_lossy()
-            .contains(&cortex::checkpoint::checkpoint_name(steps_done))
-    }) {
-        trainer.save_checkpoint(&checkpoints, Some(&source))?;
-    }
-    crate::io::write_atomic(&out.join("metrics.csv"), metrics.as_bytes())?;
-    let mut loss_plot = LinePlot::new(
-        "Training loss (official §3.8 normalisation)",
-        "step",
-        "loss",
-    );
-    loss_plot.log_y = true;
-    loss_plot.push(Series::new("loss", losses.0, losses.1));
-    loss_plot.save(out.join("loss.svg"))?;
-    if !dims.is_empty() {
-        let mut p = LinePlot::new(
-            "Colour dimensionality over training (CMF-SIM)",
-            "step",
-            "dimension (0 = undefined: no primary set passed)",
-        );
-        p.push(Series::new(
-            "dimension",
-            dims.iter().map(|d| d.step as f64).collect(),
-            dims.iter().map(|d| d.dimension as f64).collect(),
-        ));
-        p.save(out.join("dimension.svg"))?;
-    }
-    let invariants = if mode.pictures {
-        Some(pictures::write_all(
-            &out.join("pictures"),
-            config,
-            &source.retina,
-            &mut heldout,
-            &trainer,
-        )?)
-    } else {
-        None
-    };
-    if let Some(r) = &last_cmf {
-        r.save(out)?;
-    }
-    let mut first = Vec::new();
-    for d in &dims {
-        if d.dimension > 0 && !first.iter().any(|&(k, _, _)| k == d.dimension) {
-            first.push((d.dimension, d.step, d.wall_seconds));
+        let stop = self.reached_stop_dimension();
+        if stop {
+            let target = self.config.schedule.stop_at_dimension;
+            self.bar
+                .suspend(|| println!("  reached dimension {target} at step {k}: stopping early"));
         }
+        Ok(stop)
     }
-    let summary = Summary {
-        dimension: last_cmf.as_ref().map_or(0, |r| r.dimension),
-        steps: steps_done,
-        wall_seconds: started.elapsed().as_secs_f64(),
-        mean_step_ms: step_ms_total / steps_done.max(1) as f64,
-        oracle_motion: config.oracle_motion,
-        dimension_over_steps: dims,
-        first_step_at_dimension: first,
-        heldout_prediction: last_eval,
-        heldout_motion_error_px: last_motion_error,
-        verdict: last_cmf
-            .as_ref()
-            .map_or_else(|| "not measured".to_string(), |r| r.verdict.clone()),
-        cmf_sim_per_k: last_cmf.as_ref().map_or_else(Vec::new, |r| {
-            let nw = r.test_wavelengths_nm.len();
-            r.per_k.iter().map(|k| k.describe(nw)).collect()
-        }),
-        converged_ratio_per_k: last_cmf.as_ref().map_or_else(Vec::new, |r| {
-            r.per_k
-                .iter()
-                .map(|k| (k.n_primaries, k.converged_worst_ratio))
-                .collect()
-        }),
-        invariants,
-        config: config.clone(),
-    };
-    crate::io::write_json(&out.join("summary.json"), &summary)?;
-    Ok(summary)
+
+    fn write_metrics(&self) -> Result<(), RunError> {
+        let mut text = self.metrics.clone();
+        if let Some(row) = &self.pending_row {
+            let _ = writeln!(text, "{row},");
+        }
+        crate::io::write_atomic(&self.out.join("metrics.csv"), text.as_bytes())?;
+        Ok(())
+    }
+
+    /// Writes `metrics.csv`, then the checkpoint of step `k` with the run state.
+    fn save(&mut self, k: u64, measured: bool) -> Result<PathBuf, RunError> {
+        self.write_metrics()?;
+        self.progress.measured = measured;
+        self.progress.heldout_state = self.heldout.save_state();
+        self.progress.wall_seconds = self.started.elapsed().as_secs_f64();
+        let state = serde_json::to_value(&self.progress).expect("plain data");
+        let path = self.trainer.save_checkpoint_with(
+            &self.out.join("checkpoints"),
+            Some(&self.source),
+            Some(state),
+        )?;
+        self.saved = Some((k, measured, path.clone()));
+        Ok(path)
+    }
+
+    /// After step `k` (before or after its measurements): when a signal asked to stop, make
+    /// sure a checkpoint of this point exists and stop with [`RunError::Interrupted`].
+    fn stop_if_asked(&mut self, k: u64, measured: bool) -> Result<(), RunError> {
+        let Some(signal) = interrupt::requested() else {
+            return Ok(());
+        };
+        interrupt::announce();
+        let checkpoint = match &self.saved {
+            Some((s, m, path)) if *s == k && *m == measured => path.clone(),
+            _ => self.save(k, measured)?,
+        };
+        self.bar.abandon_with_message("stopped");
+        Err(RunError::Interrupted {
+            signal,
+            step: k,
+            steps: self.config.steps,
+            checkpoint,
+        })
+    }
 }
 
+impl RunState<'_> {
+    /// After the last step: plots, final pictures, the top-level CMF-SIM files, summary.json.
+    fn finish(mut self) -> Result<Summary, RunError> {
+        self.bar.finish_and_clear();
+        let out = self.out;
+        self.write_metrics()?;
+        let mut loss_plot = LinePlot::new(
+            "Training loss (official §3.8 normalisation)",
+            "step",
+            "loss",
+        );
+        loss_plot.log_y = true;
+        loss_plot.push(Series::new(
+            "loss",
+            std::mem::take(&mut self.losses.0),
+            std::mem::take(&mut self.losses.1),
+        ));
+        crate::io::write_atomic(&out.join("loss.svg"), loss_plot.to_svg().as_bytes())?;
+        let dims = &self.progress.dims;
+        if !dims.is_empty() {
+            let mut p = LinePlot::new(
+                "Colour dimensionality over training (CMF-SIM)",
+                "step",
+                "dimension (0 = undefined: no primary set passed)",
+            );
+            p.push(Series::new(
+                "dimension",
+                dims.iter().map(|d| d.step as f64).collect(),
+                dims.iter().map(|d| d.dimension as f64).collect(),
+            ));
+            crate::io::write_atomic(&out.join("dimension.svg"), p.to_svg().as_bytes())?;
+        }
+        let invariants = if self.mode.pictures {
+            Some(pictures::write_all(
+                &out.join("pictures"),
+                self.config,
+                &self.source.retina,
+                &mut self.heldout,
+                &self.trainer,
+            )?)
+        } else {
+            None
+        };
+        if let Some(last) = &self.progress.last_cmf {
+            publish_top_level(out, last.step)?;
+        }
+        let summary = self.summary(invariants);
+        crate::io::write_json(&out.join("summary.json"), &summary)?;
+        Ok(summary)
+    }
+
+    fn summary(&self, invariants: Option<pictures::Invariants>) -> Summary {
+        let p = &self.progress;
+        let mut first = Vec::new();
+        for d in &p.dims {
+            if d.dimension > 0 && !first.iter().any(|&(k, _, _)| k == d.dimension) {
+                first.push((d.dimension, d.step, d.wall_seconds));
+            }
+        }
+        let steps_done = self.trainer.step_count();
+        let steps_here = steps_done - self.trainer.continued_from_step().unwrap_or(0);
+        Summary {
+            dimension: p.last_cmf.as_ref().map_or(0, |r| r.dimension),
+            steps: steps_done,
+            resumed_at_steps: p.resumed_at_steps.clone(),
+            wall_seconds: self.started.elapsed().as_secs_f64(),
+            mean_step_ms: p.step_ms_total / steps_here.max(1) as f64,
+            oracle_motion: self.config.oracle_motion,
+            dimension_over_steps: p.dims.clone(),
+            first_step_at_dimension: first,
+            heldout_prediction: p.last_eval,
+            heldout_motion_error_px: p.last_motion_error,
+            verdict: p
+                .last_cmf
+                .as_ref()
+                .map_or_else(|| "not measured".to_string(), |r| r.verdict.clone()),
+            cmf_sim_per_k: p
+                .last_cmf
+                .as_ref()
+                .map_or_else(Vec::new, |r| r.cmf_sim_per_k.clone()),
+            converged_ratio_per_k: p
+                .last_cmf
+                .as_ref()
+                .map_or_else(Vec::new, |r| r.converged_ratio_per_k.clone()),
+            invariants,
+            config: self.config.clone(),
+        }
+    }
+}
+
+/// Copies the files of the CMF-SIM measurement at `step` (`cmf_sim/step_<k>/`) to the top
+/// of the run folder, each atomically.
+fn publish_top_level(out: &Path, step: u64) -> Result<(), RunError> {
+    let dir = out.join("cmf_sim").join(format!("step_{step:06}"));
+    let mut files: Vec<PathBuf> = std::fs::read_dir(&dir)
+        .map_err(crate::io::fs_err(&dir))?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.is_file())
+        .collect();
+    files.sort();
+    for f in files {
+        let name = f.file_name().expect("a file has a name");
+        crate::io::copy_atomic(&f, &out.join(name))?;
+    }
+    Ok(())
+}
 /// CMF-SIM with `settings` on the observer "retina + the trainer's cortex".
 pub fn measure(
     settings: &CmfSimSettings,

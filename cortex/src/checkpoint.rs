@@ -1,15 +1,21 @@
-//! Checkpoints: one directory per step, written atomically.
+//! Checkpoints: one directory per step, written atomically, verified on load.
 //!
 //! Layout of `DIR/step_00000100/`:
 //! - `params.safetensors` — every parameter (`w.response`, `c.raw`, `d.*`, `p.*`), opens in
 //!   PyTorch/NumPy;
 //! - `optim.safetensors` — Adam's `m`, `v` per parameter and its step counts;
 //! - `meta.json` — [`CheckpointMeta`]: step, the full config, the trainer's RNG state, the data
-//!   source's state (for exact resume), and the last loss.
+//!   source's state and the caller's run state (for exact resume), the last loss, the SHA-256
+//!   of both safetensors files (`sha256sum` prints the same) and of `meta.json` itself.
 //!
-//! Atomicity: the three files are written into a hidden sibling `DIR/.step_….tmp-<pid>` and the
-//! directory is renamed into place (one `rename(2)`), so a killed run never leaves a
-//! half-written checkpoint under a real name. [`latest_checkpoint`] ignores hidden directories.
+//! Atomicity: the three files are written and synced into a hidden sibling
+//! `DIR/.step_….tmp-<pid>`, which is renamed into place (one `rename(2)`), so a killed run
+//! never leaves a half-written checkpoint under a real name. Re-saving a step moves the old
+//! folder to `DIR/.step_….old-<pid>` first; [`recover`] (run when a run starts in `DIR`) moves
+//! it back if the process died between the two renames, and [`newest_first`] counts it as that
+//! step's checkpoint meanwhile, so there is no moment at which the step has no checkpoint.
+//! [`verify`] checks every checksum; [`latest_valid`] falls back to older checkpoints, saying
+//! why it skipped the newer ones.
 
 use crate::config::CortexConfig;
 use crate::rng::CortexRng;
@@ -17,13 +23,20 @@ use crate::CortexError;
 use autodiff::optim::{Adam, Optimizer};
 use autodiff::ParamStore;
 use serde::{Deserialize, Serialize};
+use sha2::{Digest, Sha256};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
 
-/// Version of the checkpoint layout.
-pub const CHECKPOINT_FORMAT: u32 = 1;
+/// Version of the checkpoint layout: 2 adds the checksums and the run state (format 1 still
+/// loads, unverified).
+pub const CHECKPOINT_FORMAT: u32 = 2;
 
-/// `meta.json` of a checkpoint.
+/// Files of a checkpoint besides `meta.json`, each with its SHA-256 in the metadata.
+pub const CHECKPOINT_FILES: [&str; 2] = ["params.safetensors", "optim.safetensors"];
+
+/// `meta.json` of a checkpoint. Field order is fixed and every map is ordered, so the same
+/// state always gives the same bytes.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct CheckpointMeta {
     /// [`CHECKPOINT_FORMAT`].
@@ -41,6 +54,41 @@ pub struct CheckpointMeta {
     pub continued_from_step: Option<u64>,
     /// Loss of the last step.
     pub last_loss: Option<f64>,
+    /// State of the program driving the trainer (its evaluation stream, measurements so far),
+    /// restored by it on resume; the cortex does not read it.
+    #[serde(default)]
+    pub run_state: Option<serde_json::Value>,
+    /// Lower-case hex SHA-256 of each file in [`CHECKPOINT_FILES`].
+    #[serde(default)]
+    pub files_sha256: BTreeMap<String, String>,
+    /// SHA-256 of this metadata serialised (pretty JSON) with this field `null`.
+    #[serde(default)]
+    pub meta_sha256: Option<String>,
+}
+
+impl CheckpointMeta {
+    /// The pretty JSON of the metadata with `meta_sha256` left out of the hash, and that hash.
+    fn sealed_json(&self, path: &Path) -> Result<(String, String), CortexError> {
+        let mut unsealed = self.clone();
+        unsealed.meta_sha256 = None;
+        let json = |m: &CheckpointMeta| {
+            serde_json::to_string_pretty(m).map_err(|e| CortexError::Json {
+                path: path.to_path_buf(),
+                source: e,
+            })
+        };
+        let hash = sha256_hex(json(&unsealed)?.as_bytes());
+        unsealed.meta_sha256 = Some(hash.clone());
+        Ok((json(&unsealed)?, hash))
+    }
+}
+
+/// Lower-case hex SHA-256 of `bytes`.
+pub fn sha256_hex(bytes: &[u8]) -> String {
+    Sha256::digest(bytes)
+        .iter()
+        .map(|b| format!("{b:02x}"))
+        .collect()
 }
 
 /// Directory name of the checkpoint of `step`.
@@ -50,6 +98,71 @@ pub fn checkpoint_name(step: u64) -> String {
 
 fn io(path: &Path) -> impl Fn(std::io::Error) -> CortexError + '_ {
     move |e| CortexError::io(path, e)
+}
+
+fn bad(path: &Path, reason: impl Into<String>) -> CortexError {
+    CortexError::Checkpoint {
+        path: path.to_path_buf(),
+        reason: reason.into(),
+    }
+}
+
+/// Called at named points of [`write_checkpoint`] with the step (fault-injection tests stop
+/// the process there, as a crash would).
+pub type FaultHook = fn(stage: &'static str, step: u64);
+
+static FAULT_HOOK: OnceLock<FaultHook> = OnceLock::new();
+
+/// Installs a [`FaultHook`] for the rest of the process (the first call wins). The stages are
+/// `params-written`, `files-written` (everything in the temporary folder), `old-moved-aside`
+/// (re-saving a step, between its two renames) and `renamed`.
+pub fn set_fault_hook(hook: FaultHook) {
+    let _ = FAULT_HOOK.set(hook);
+}
+
+fn fault_point(stage: &'static str, step: u64) {
+    if let Some(hook) = FAULT_HOOK.get() {
+        hook(stage, step);
+    }
+}
+
+fn sync(path: &Path) -> Result<(), CortexError> {
+    if cfg!(unix) || path.is_file() {
+        std::fs::File::open(path)
+            .and_then(|f| f.sync_all())
+            .map_err(io(path))?;
+    }
+    Ok(())
+}
+
+fn write_files(
+    tmp: &Path,
+    meta: &CheckpointMeta,
+    params: &ParamStore<f32>,
+    optim: &Optimizer<f32, Adam>,
+) -> Result<(), CortexError> {
+    let mut st_meta = BTreeMap::new();
+    st_meta.insert("step".to_string(), meta.step.to_string());
+    let p = tmp.join(CHECKPOINT_FILES[0]);
+    params
+        .save_safetensors(&p, &st_meta)
+        .map_err(|e| bad(&p, e.to_string()))?;
+    fault_point("params-written", meta.step);
+    let o = tmp.join(CHECKPOINT_FILES[1]);
+    optim
+        .save_safetensors(&o, params)
+        .map_err(|e| bad(&o, e.to_string()))?;
+    let mut meta = meta.clone();
+    for f in CHECKPOINT_FILES {
+        let path = tmp.join(f);
+        let bytes = std::fs::read(&path).map_err(io(&path))?;
+        meta.files_sha256.insert(f.to_string(), sha256_hex(&bytes));
+    }
+    let m = tmp.join("meta.json");
+    let (text, _) = meta.sealed_json(&m)?;
+    std::fs::write(&m, text).map_err(io(&m))?;
+    sync(&m)?;
+    sync(tmp)
 }
 
 /// Writes a checkpoint for `meta.step` under `dir` atomically; returns its path.
@@ -67,48 +180,31 @@ pub fn write_checkpoint(
         std::fs::remove_dir_all(&tmp).map_err(io(&tmp))?;
     }
     std::fs::create_dir(&tmp).map_err(io(&tmp))?;
-    let result = (|| {
-        let mut st_meta = BTreeMap::new();
-        st_meta.insert("step".to_string(), meta.step.to_string());
-        let p = tmp.join("params.safetensors");
-        params
-            .save_safetensors(&p, &st_meta)
-            .map_err(|e| CortexError::Checkpoint {
-                path: p.clone(),
-                reason: e.to_string(),
-            })?;
-        let o = tmp.join("optim.safetensors");
-        optim
-            .save_safetensors(&o, params)
-            .map_err(|e| CortexError::Checkpoint {
-                path: o.clone(),
-                reason: e.to_string(),
-            })?;
-        let m = tmp.join("meta.json");
-        let text = serde_json::to_string_pretty(meta).map_err(|e| CortexError::Json {
-            path: m.clone(),
-            source: e,
-        })?;
-        std::fs::write(&m, text).map_err(io(&m))?;
-        Ok::<(), CortexError>(())
-    })();
-    if let Err(e) = result {
+    if let Err(e) = write_files(&tmp, meta, params, optim) {
         let _ = std::fs::remove_dir_all(&tmp);
         return Err(e);
     }
+    fault_point("files-written", meta.step);
     if fin.exists() {
-        // Re-saving a step: move the old one aside first (a rename cannot replace a directory).
+        // A rename cannot replace a non-empty folder: move the old one aside first. Until the
+        // second rename, `newest_first` and `recover` take the aside copy as this step's.
         let old = dir.join(format!(".{name}.old-{}", std::process::id()));
+        if old.exists() {
+            std::fs::remove_dir_all(&old).map_err(io(&old))?;
+        }
         std::fs::rename(&fin, &old).map_err(io(&fin))?;
+        fault_point("old-moved-aside", meta.step);
         std::fs::rename(&tmp, &fin).map_err(io(&fin))?;
         let _ = std::fs::remove_dir_all(&old);
     } else {
         std::fs::rename(&tmp, &fin).map_err(io(&fin))?;
     }
+    sync(dir)?;
+    fault_point("renamed", meta.step);
     Ok(fin)
 }
 
-/// Reads `meta.json` of the checkpoint at `path`.
+/// Reads `meta.json` of the checkpoint at `path` and checks its format and its own checksum.
 pub fn read_meta(path: &Path) -> Result<CheckpointMeta, CortexError> {
     let m = path.join("meta.json");
     let text = std::fs::read_to_string(&m).map_err(io(&m))?;
@@ -116,25 +212,68 @@ pub fn read_meta(path: &Path) -> Result<CheckpointMeta, CortexError> {
         path: m.clone(),
         source: e,
     })?;
-    if meta.format != CHECKPOINT_FORMAT {
-        return Err(CortexError::Checkpoint {
-            path: m,
-            reason: format!(
-                "format {} is not the supported {CHECKPOINT_FORMAT}",
+    if !(1..=CHECKPOINT_FORMAT).contains(&meta.format) {
+        return Err(bad(
+            &m,
+            format!(
+                "format {} is not a supported one (1..={CHECKPOINT_FORMAT})",
                 meta.format
             ),
-        });
+        ));
+    }
+    if meta.format >= 2 {
+        let (_, hash) = meta.sealed_json(&m)?;
+        if meta.meta_sha256.as_deref() != Some(hash.as_str()) {
+            return Err(bad(
+                &m,
+                "field `meta_sha256` does not match the metadata (the file was changed or damaged)",
+            ));
+        }
+    }
+    Ok(meta)
+}
+
+/// Reads the metadata of the checkpoint at `path` and checks every checksum and that the step
+/// is the folder's. Format-1 checkpoints carry no checksums; only their metadata is checked.
+pub fn verify(path: &Path) -> Result<CheckpointMeta, CortexError> {
+    let meta = read_meta(path)?;
+    let folder = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    if !folder.contains(&checkpoint_name(meta.step)) {
+        return Err(bad(
+            &path.join("meta.json"),
+            format!("field `step` is {} but the folder is {folder}", meta.step),
+        ));
+    }
+    if meta.format < 2 {
+        return Ok(meta);
+    }
+    for f in CHECKPOINT_FILES {
+        let file = path.join(f);
+        let want = meta.files_sha256.get(f).ok_or_else(|| {
+            bad(
+                &path.join("meta.json"),
+                format!("no `files_sha256` for {f}"),
+            )
+        })?;
+        let bytes = std::fs::read(&file).map_err(io(&file))?;
+        let got = sha256_hex(&bytes);
+        if &got != want {
+            return Err(bad(
+                &file,
+                format!("SHA-256 {got} differs from {want} in meta.json (the file is damaged)"),
+            ));
+        }
     }
     Ok(meta)
 }
 
 /// Loads the parameters of the checkpoint at `path` into `params` (names and shapes must match).
 pub fn load_params(path: &Path, params: &mut ParamStore<f32>) -> Result<(), CortexError> {
-    let p = path.join("params.safetensors");
-    params.load_into(&p).map_err(|e| CortexError::Checkpoint {
-        path: p.clone(),
-        reason: e.to_string(),
-    })?;
+    let p = path.join(CHECKPOINT_FILES[0]);
+    params.load_into(&p).map_err(|e| bad(&p, e.to_string()))?;
     Ok(())
 }
 
@@ -144,36 +283,128 @@ pub fn load_optim(
     optim: &mut Optimizer<f32, Adam>,
     params: &ParamStore<f32>,
 ) -> Result<(), CortexError> {
-    let o = path.join("optim.safetensors");
+    let o = path.join(CHECKPOINT_FILES[1]);
     optim
         .load_safetensors(&o, params)
-        .map_err(|e| CortexError::Checkpoint {
-            path: o.clone(),
-            reason: e.to_string(),
-        })
+        .map_err(|e| bad(&o, e.to_string()))
 }
 
-/// The checkpoint of the highest step under `dir` (complete ones only), if any.
-pub fn latest_checkpoint(dir: &Path) -> Result<Option<PathBuf>, CortexError> {
-    if !dir.exists() {
-        return Ok(None);
+/// The step of a checkpoint folder name: `step_K`, or `.step_K.old-PID` (a checkpoint moved
+/// aside while its step was re-saved), with whether it is the aside copy.
+fn parse_name(name: &str) -> Option<(u64, bool)> {
+    if let Some(num) = name.strip_prefix("step_") {
+        return num.parse().ok().map(|s| (s, false));
     }
-    let mut best: Option<(u64, PathBuf)> = None;
+    let rest = name.strip_prefix(".step_")?;
+    let (num, _) = rest.split_once(".old-")?;
+    num.parse().ok().map(|s| (s, true))
+}
+
+/// Every complete-looking checkpoint under `dir` (a `meta.json` present), newest first. A
+/// folder moved aside by an interrupted re-save counts when its step has no other folder.
+pub fn newest_first(dir: &Path) -> Result<Vec<PathBuf>, CortexError> {
+    if !dir.exists() {
+        return Ok(Vec::new());
+    }
+    let mut found: BTreeMap<(u64, bool), PathBuf> = BTreeMap::new();
     for entry in std::fs::read_dir(dir).map_err(io(dir))? {
         let entry = entry.map_err(io(dir))?;
         let name = entry.file_name().to_string_lossy().to_string();
-        let Some(num) = name.strip_prefix("step_") else {
+        let Some((step, aside)) = parse_name(&name) else {
             continue;
         };
-        let Ok(step) = num.parse::<u64>() else {
-            continue;
-        };
-        if !entry.path().join("meta.json").exists() {
-            continue;
-        }
-        if best.as_ref().is_none_or(|(s, _)| step > *s) {
-            best = Some((step, entry.path()));
+        if entry.path().join("meta.json").exists() {
+            found.insert((step, aside), entry.path());
         }
     }
-    Ok(best.map(|(_, p)| p))
+    let mut out = Vec::new();
+    let mut last_step = None;
+    for ((step, _), path) in found.into_iter().rev() {
+        // Per step the real folder sorts after (and so before, reversed) the aside copy.
+        if last_step != Some(step) {
+            out.push(path);
+            last_step = Some(step);
+        }
+    }
+    Ok(out)
+}
+
+/// The checkpoint of the highest step under `dir` (complete ones only), if any. Does not
+/// verify it; see [`latest_valid`].
+pub fn latest_checkpoint(dir: &Path) -> Result<Option<PathBuf>, CortexError> {
+    Ok(newest_first(dir)?.into_iter().next())
+}
+
+/// The newest checkpoint under `dir` that passes [`verify`], its metadata, and every newer one
+/// that failed with the reason.
+pub struct Valid {
+    /// The checkpoint folder.
+    pub path: PathBuf,
+    /// Its verified metadata.
+    pub meta: CheckpointMeta,
+    /// Newer checkpoints that failed to verify, newest first, with the error.
+    pub skipped: Vec<(PathBuf, CortexError)>,
+}
+
+/// The newest checkpoint under `dir` that verifies (see [`Valid`]); `None` when there is none,
+/// with the failures of those that did not.
+pub fn latest_valid(dir: &Path) -> Result<Result<Valid, Vec<(PathBuf, CortexError)>>, CortexError> {
+    let mut skipped = Vec::new();
+    for path in newest_first(dir)? {
+        match verify(&path) {
+            Ok(meta) => {
+                return Ok(Ok(Valid {
+                    path,
+                    meta,
+                    skipped,
+                }))
+            }
+            Err(e) => skipped.push((path, e)),
+        }
+    }
+    Ok(Err(skipped))
+}
+
+fn process_alive(pid: &str) -> bool {
+    pid.parse::<u32>()
+        .is_ok_and(|p| p == std::process::id() || Path::new("/proc").join(pid).exists())
+}
+
+/// Tidies `dir` after a killed writer: a checkpoint moved aside by an interrupted re-save is
+/// moved back when its step has no folder (else removed), and temporary folders of processes
+/// no longer running are removed. Returns what it did, one line each.
+pub fn recover(dir: &Path) -> Result<Vec<String>, CortexError> {
+    let mut done = Vec::new();
+    if !dir.is_dir() {
+        return Ok(done);
+    }
+    for entry in std::fs::read_dir(dir).map_err(io(dir))? {
+        let path = entry.map_err(io(dir))?.path();
+        let name = path
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        let Some(rest) = name.strip_prefix(".step_") else {
+            continue;
+        };
+        if let Some((num, pid)) = rest.split_once(".old-") {
+            if process_alive(pid) {
+                continue;
+            }
+            let fin = dir.join(format!("step_{num}"));
+            if fin.exists() {
+                std::fs::remove_dir_all(&path).map_err(io(&path))?;
+                done.push(format!("removed {}", path.display()));
+            } else {
+                std::fs::rename(&path, &fin).map_err(io(&path))?;
+                done.push(format!("restored {}", fin.display()));
+            }
+        } else if let Some((_, pid)) = rest.split_once(".tmp-") {
+            if !process_alive(pid) {
+                std::fs::remove_dir_all(&path).map_err(io(&path))?;
+                done.push(format!("removed {}", path.display()));
+            }
+        }
+    }
+    Ok(done)
 }

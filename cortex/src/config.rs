@@ -214,6 +214,16 @@ pub struct CortexConfig {
     pub train: TrainConfig,
 }
 
+/// Largest ONS side accepted (the paper uses 256).
+pub const MAX_ONS_SIZE_PX: usize = 2048;
+
+/// Largest U-Net width, percept dimension, coupling count or hidden width accepted.
+pub const MAX_WIDTH: usize = 4096;
+
+/// Largest `batch_size · ons_size_px²` accepted: 2²⁶ values (256 MiB per f32 frame batch; the
+/// paper's batch is 2¹⁹).
+pub const MAX_BATCH_ONS_VALUES: usize = 1 << 26;
+
 /// Names accepted by [`CortexConfig::preset`].
 pub const PRESETS: &[&str] = &["tiny", "quick", "sandbox", "paper"];
 
@@ -329,9 +339,19 @@ impl CortexConfig {
         if self.percept_channels == 0 {
             return bad("percept_channels", "must be at least 1".into());
         }
+        self.validate_sizes()?;
         if self.d.mode == DMode::UNet {
             if self.d.widths.is_empty() {
                 return bad("d.widths", "a U-Net needs at least one level".into());
+            }
+            if let Some(w) = self.d.widths.iter().find(|&&w| w == 0 || w > MAX_WIDTH) {
+                return bad(
+                    "d.widths",
+                    format!(
+                        "{:?}: each width must be 1..={MAX_WIDTH}, got {w}",
+                        self.d.widths
+                    ),
+                );
             }
             let div = 1usize << (self.d.widths.len() - 1);
             if !n.is_multiple_of(div) {
@@ -389,12 +409,108 @@ impl CortexConfig {
         if self.p.mode == PMode::Flow && (self.p.couplings == 0 || self.p.hidden == 0) {
             return bad("p", "a flow needs couplings ≥ 1 and hidden ≥ 1".into());
         }
-        if self.w.inverse_guard.is_nan()
-            || self.w.inverse_guard < 0.0
-            || self.c.norm_eps.is_nan()
-            || self.c.norm_eps < 0.0
-        {
-            return bad("w.inverse_guard / c.norm_eps", "must be ≥ 0".into());
+        if !(self.w.inverse_guard.is_finite() && self.w.inverse_guard > 0.0) {
+            return bad(
+                "w.inverse_guard",
+                format!("{} must be finite and > 0", self.w.inverse_guard),
+            );
+        }
+        if !(self.c.norm_eps.is_finite() && self.c.norm_eps >= 0.0) {
+            return bad(
+                "c.norm_eps",
+                format!("{} must be finite and ≥ 0", self.c.norm_eps),
+            );
+        }
+        self.validate_training()
+    }
+
+    /// Checks the sizes that decide how much memory a run takes.
+    fn validate_sizes(&self) -> Result<(), crate::CortexError> {
+        let bad = |field: &str, why: String| {
+            Err(crate::CortexError::InvalidConfig {
+                field: field.to_string(),
+                reason: why,
+            })
+        };
+        let n = self.ons_size_px;
+        if n > MAX_ONS_SIZE_PX {
+            return bad(
+                "ons_size_px",
+                format!("{n} is above the limit of {MAX_ONS_SIZE_PX}"),
+            );
+        }
+        for (field, v) in [
+            ("percept_channels", self.percept_channels),
+            ("p.couplings", self.p.couplings),
+            ("p.hidden", self.p.hidden),
+        ] {
+            if v > MAX_WIDTH {
+                return bad(field, format!("{v} is above the limit of {MAX_WIDTH}"));
+            }
+        }
+        let b = self.train.batch_size;
+        if b.saturating_mul(n * n) > MAX_BATCH_ONS_VALUES {
+            return bad(
+                "train.batch_size",
+                format!(
+                    "{b} samples of {n}×{n} exceed the limit of {MAX_BATCH_ONS_VALUES} ONS values \
+                     per frame batch (at most {} samples at this size)",
+                    MAX_BATCH_ONS_VALUES / (n * n)
+                ),
+            );
+        }
+        Ok(())
+    }
+
+    /// Checks the optimiser and motion numbers (finite, in range).
+    fn validate_training(&self) -> Result<(), crate::CortexError> {
+        let bad = |field: &str, why: String| {
+            Err(crate::CortexError::InvalidConfig {
+                field: field.to_string(),
+                reason: why,
+            })
+        };
+        let t = &self.train;
+        if !t.learning_rate.is_finite() {
+            return bad(
+                "train.learning_rate",
+                format!("{} must be finite", t.learning_rate),
+            );
+        }
+        for (field, beta) in [
+            ("train.adam_beta1", t.adam_beta1),
+            ("train.adam_beta2", t.adam_beta2),
+        ] {
+            if !(0.0..1.0).contains(&beta) {
+                return bad(field, format!("{beta} must be in [0, 1)"));
+            }
+        }
+        if !(t.adam_eps.is_finite() && t.adam_eps > 0.0) {
+            return bad(
+                "train.adam_eps",
+                format!("{} must be finite and > 0", t.adam_eps),
+            );
+        }
+        let m = &self.m;
+        if m.search_radius_px < 0 || m.search_radius_px as usize >= self.ons_size_px {
+            return bad(
+                "m.search_radius_px",
+                format!("{} must be in 0..{}", m.search_radius_px, self.ons_size_px),
+            );
+        }
+        for (field, v) in [
+            ("m.min_overlap_fraction", m.min_overlap_fraction),
+            ("m.refine_fd_step_px", m.refine_fd_step_px),
+            ("m.refine_max_step_px", m.refine_max_step_px),
+            ("m.blur_loss_weight", m.blur_loss_weight),
+            ("p.motion_ons_px_per_unit", self.p.motion_ons_px_per_unit),
+        ] {
+            if !(v.is_finite() && v >= 0.0) {
+                return bad(field, format!("{v} must be finite and ≥ 0"));
+            }
+        }
+        if m.refine_stride_px == 0 {
+            return bad("m.refine_stride_px", "must be at least 1".into());
         }
         Ok(())
     }

@@ -9,6 +9,14 @@ use crate::trainer::{adam, StepStats, Trainer};
 use crate::CortexError;
 use std::path::{Path, PathBuf};
 
+/// What [`Trainer::resume_latest`] found.
+pub struct Resumed {
+    /// The resumed trainer and its checkpoint's metadata; `None` when no checkpoint loaded.
+    pub trainer: Option<(Trainer, CheckpointMeta)>,
+    /// Newer checkpoints that failed to load, newest first, with the error.
+    pub skipped: Vec<(PathBuf, CortexError)>,
+}
+
 impl Trainer {
     /// The metadata a checkpoint of the current state would carry.
     pub fn checkpoint_meta(&self, source: Option<&dyn DataSource>) -> CheckpointMeta {
@@ -20,6 +28,9 @@ impl Trainer {
             data_source_state: source.and_then(|s| s.save_state()),
             continued_from_step: self.continued_from_step,
             last_loss: self.last_loss,
+            run_state: None,
+            files_sha256: Default::default(),
+            meta_sha256: None,
         }
     }
 
@@ -30,7 +41,19 @@ impl Trainer {
         dir: &Path,
         source: Option<&dyn DataSource>,
     ) -> Result<PathBuf, CortexError> {
-        let meta = self.checkpoint_meta(source);
+        self.save_checkpoint_with(dir, source, None)
+    }
+
+    /// [`Trainer::save_checkpoint`] with the caller's own state (`run_state`, restored by the
+    /// caller from [`CheckpointMeta::run_state`] on resume).
+    pub fn save_checkpoint_with(
+        &mut self,
+        dir: &Path,
+        source: Option<&dyn DataSource>,
+        run_state: Option<serde_json::Value>,
+    ) -> Result<PathBuf, CortexError> {
+        let mut meta = self.checkpoint_meta(source);
+        meta.run_state = run_state;
         let path = checkpoint::write_checkpoint(dir, &meta, &self.cortex.params, &self.optim)?;
         self.last_checkpoint = Some(path.clone());
         Ok(path)
@@ -38,24 +61,62 @@ impl Trainer {
 
     /// Rebuilds the trainer of the checkpoint at `path`: parameters, Adam state, step, RNG; and
     /// restores `source`'s state when the checkpoint holds one. Continuing from here gives
-    /// bit-identical parameters to a run that never stopped (same thread count).
+    /// bit-identical parameters to a run that never stopped (same thread count). Every
+    /// checksum is verified first ([`checkpoint::verify`]).
     pub fn resume(
         path: &Path,
         source: Option<&mut dyn DataSource>,
     ) -> Result<Trainer, CortexError> {
-        let meta = checkpoint::read_meta(path)?;
-        let mut t = Trainer::new(meta.config.clone())?;
-        checkpoint::load_params(path, &mut t.cortex.params)?;
-        checkpoint::load_optim(path, &mut t.optim, &t.cortex.params)?;
-        t.step = meta.step;
-        t.rng = meta.rng;
-        t.continued_from_step = meta.continued_from_step;
-        t.last_loss = meta.last_loss;
-        t.last_checkpoint = Some(path.to_path_buf());
+        let (t, meta) = Self::load_verified(path)?;
         if let (Some(src), Some(state)) = (source, meta.data_source_state.as_ref()) {
             src.load_state(state)?;
         }
         Ok(t)
+    }
+
+    /// The trainer of the checkpoint at `path` after [`checkpoint::verify`], and its metadata
+    /// (the data source is not touched).
+    fn load_verified(path: &Path) -> Result<(Trainer, CheckpointMeta), CortexError> {
+        let meta = checkpoint::verify(path)?;
+        let mut t = Trainer::new(meta.config.clone())?;
+        checkpoint::load_params(path, &mut t.cortex.params)?;
+        checkpoint::load_optim(path, &mut t.optim, &t.cortex.params)?;
+        t.step = meta.step;
+        t.rng = meta.rng.clone();
+        t.continued_from_step = meta.continued_from_step;
+        t.last_loss = meta.last_loss;
+        t.last_checkpoint = Some(path.to_path_buf());
+        Ok((t, meta))
+    }
+
+    /// [`Trainer::resume`] from the newest checkpoint under `dir` that loads, falling back to
+    /// older ones (`trainer: None` when none does). The newer checkpoints that failed are in
+    /// [`Resumed::skipped`] with the reason.
+    pub fn resume_latest(
+        dir: &Path,
+        mut source: Option<&mut dyn DataSource>,
+    ) -> Result<Resumed, CortexError> {
+        let mut skipped = Vec::new();
+        for path in checkpoint::newest_first(dir)? {
+            match Self::load_verified(&path) {
+                Ok((t, meta)) => {
+                    if let (Some(src), Some(state)) =
+                        (source.as_deref_mut(), &meta.data_source_state)
+                    {
+                        src.load_state(state)?;
+                    }
+                    return Ok(Resumed {
+                        trainer: Some((t, meta)),
+                        skipped,
+                    });
+                }
+                Err(e) => skipped.push((path, e)),
+            }
+        }
+        Ok(Resumed {
+            trainer: None,
+            skipped,
+        })
     }
 
     /// Keeps training the cortex of the checkpoint at `path` on a **new** data source
@@ -67,7 +128,7 @@ impl Trainer {
         path: &Path,
         config: Option<CortexConfig>,
     ) -> Result<Trainer, CortexError> {
-        let meta = checkpoint::read_meta(path)?;
+        let meta = checkpoint::verify(path)?;
         let cfg = config.unwrap_or_else(|| meta.config.clone());
         let mut t = Trainer::new(cfg)?;
         checkpoint::load_params(path, &mut t.cortex.params)?;

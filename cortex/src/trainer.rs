@@ -187,6 +187,12 @@ impl Trainer {
         (&self.last_percept, self.last_batch)
     }
 
+    /// The step at which this trainer continued another run's cortex on new data
+    /// ([`Trainer::continue_from`]), if it did.
+    pub fn continued_from_step(&self) -> Option<u64> {
+        self.continued_from_step
+    }
+
     /// The last checkpoint written or loaded.
     pub fn last_checkpoint(&self) -> Option<&Path> {
         self.last_checkpoint.as_deref()

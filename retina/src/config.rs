@@ -204,6 +204,17 @@ impl RetinaConfig {
                 "must be ≥ 1",
             ));
         }
+        if n > MAX_CONES_PER_SIDE || self.field_px > MAX_FIELD_PX {
+            return Err(RetinaError::setting(
+                "cones_per_side / field_px",
+                format!(
+                    "{n} cones and a {} px field; the limits are {MAX_CONES_PER_SIDE} and \
+                     {MAX_FIELD_PX}",
+                    self.field_px
+                ),
+            ));
+        }
+        self.validate_stages()?;
         let need = self.field_px + 2 * self.eye_motion.max_shift_px as usize;
         if self.scenes.tile_px < need {
             return Err(RetinaError::setting(
@@ -216,4 +227,73 @@ impl RetinaConfig {
         }
         Ok(())
     }
+
+    /// Checks the stage settings that would otherwise panic or allocate without bound.
+    fn validate_stages(&self) -> Result<()> {
+        let n = self.cones_per_side;
+        if let Some(li) = &self.lateral_inhibition {
+            for (name, sigma) in [
+                (
+                    "lateral_inhibition.sigma_centre_cells",
+                    li.sigma_centre_cells,
+                ),
+                (
+                    "lateral_inhibition.sigma_surround_cells",
+                    li.sigma_surround_cells,
+                ),
+            ] {
+                // The kernel spans 6σ; it must fit the lattice.
+                if !(sigma.is_finite() && sigma > 0.0 && 6.0 * sigma <= n as f64) {
+                    return Err(RetinaError::setting(
+                        name,
+                        format!("{sigma} must be positive and at most n/6 = {:.3} cells (the 6σ kernel must fit the {n}×{n} lattice)", n as f64 / 6.0),
+                    ));
+                }
+            }
+            if !li.surround_weight.is_finite() {
+                return Err(RetinaError::setting(
+                    "lateral_inhibition.surround_weight",
+                    format!("{} must be finite", li.surround_weight),
+                ));
+            }
+        }
+        if self.scenes.dead_leaves.max_leaves == 0 {
+            return Err(RetinaError::setting(
+                "scenes.dead_leaves.max_leaves",
+                "must be at least 1",
+            ));
+        }
+        if let LayoutConfig::Foveated(f) = &self.layout {
+            if let Some(j) = &f.jitter {
+                let lattice = crate::foveation::layout::JITTER_LATTICE_OVERSIZE * n;
+                let finest = u32::try_from(j.octaves.saturating_sub(1))
+                    .ok()
+                    .and_then(|o| j.base_resolution.checked_shl(o))
+                    .filter(|&r| r >> j.octaves.saturating_sub(1) == j.base_resolution);
+                if j.base_resolution == 0 || finest.is_none_or(|r| r > lattice) {
+                    return Err(RetinaError::setting(
+                        "layout.Foveated.jitter.base_resolution",
+                        format!(
+                            "{} with {} octaves: must be ≥ 1, and base_resolution·2^(octaves−1) \
+                             at most the {lattice}-cell noise lattice",
+                            j.base_resolution, j.octaves
+                        ),
+                    ));
+                }
+                if !(j.persistence.is_finite() && j.amplitude_cells.is_finite()) {
+                    return Err(RetinaError::setting(
+                        "layout.Foveated.jitter",
+                        "persistence and amplitude_cells must be finite",
+                    ));
+                }
+            }
+        }
+        Ok(())
+    }
 }
+
+/// Largest cone lattice side accepted (the paper uses 256).
+pub const MAX_CONES_PER_SIDE: usize = 2048;
+
+/// Largest scene field side accepted, px (the paper uses 512).
+pub const MAX_FIELD_PX: usize = 8192;

@@ -137,6 +137,10 @@ pub fn write_safetensors<T: Float>(
         path: path.to_path_buf(),
         reason: e.to_string(),
     })?;
+    let buf = canonical_header(buf).map_err(|reason| SafetensorsError::Format {
+        path: path.to_path_buf(),
+        reason,
+    })?;
 
     let dir = path
         .parent()
@@ -160,6 +164,29 @@ pub fn write_safetensors<T: Float>(
         let _ = std::fs::remove_file(&tmp);
         io_err(path)(e)
     })
+}
+
+/// Rewrites the JSON header of serialised safetensors bytes with its keys sorted (the
+/// `safetensors` crate writes `__metadata__` from a hash map, in a different order each run), so
+/// the same tensors and metadata always give the same bytes. Readers locate tensors by their
+/// offsets, not by the order of the header.
+fn canonical_header(buf: Vec<u8>) -> Result<Vec<u8>, String> {
+    let n = buf
+        .get(..8)
+        .map(|b| u64::from_le_bytes(b.try_into().expect("8 bytes")) as usize)
+        .ok_or("shorter than its 8-byte header length")?;
+    let header = buf.get(8..8 + n).ok_or("header longer than the file")?;
+    let value: serde_json::Value =
+        serde_json::from_slice(header).map_err(|e| format!("header: {e}"))?;
+    let mut text = serde_json::to_string(&value).map_err(|e| format!("header: {e}"))?;
+    while text.len() % 8 != 0 {
+        text.push(' ');
+    }
+    let mut out = Vec::with_capacity(8 + text.len() + buf.len() - 8 - n);
+    out.extend_from_slice(&(text.len() as u64).to_le_bytes());
+    out.extend_from_slice(text.as_bytes());
+    out.extend_from_slice(&buf[8 + n..]);
+    Ok(out)
 }
 
 /// Named tensors and the string metadata of a safetensors file.
@@ -268,6 +295,23 @@ mod tests {
         assert!(matches!(err, SafetensorsError::Format { .. }), "{err}");
         assert!(err.to_string().contains("trunc.safetensors"), "{err}");
         std::fs::remove_file(&p).unwrap();
+    }
+
+    #[test]
+    fn the_same_tensors_and_metadata_give_the_same_bytes() {
+        let t = Tensor::from_vec([2], vec![1.0f32, -2.0]);
+        let meta: BTreeMap<String, String> = (0..12)
+            .map(|i| (format!("key{i}"), i.to_string()))
+            .collect();
+        let (a, b) = (tmp("canon_a"), tmp("canon_b"));
+        write_safetensors(&a, &[("t", &t), ("u", &t)], &meta).unwrap();
+        write_safetensors(&b, &[("t", &t), ("u", &t)], &meta).unwrap();
+        assert_eq!(std::fs::read(&a).unwrap(), std::fs::read(&b).unwrap());
+        let back = read_safetensors::<f32>(&a).unwrap();
+        assert_eq!(back.metadata, meta);
+        assert_eq!(back.tensors["u"].data(), t.data());
+        let _ = std::fs::remove_file(a);
+        let _ = std::fs::remove_file(b);
     }
 
     #[test]

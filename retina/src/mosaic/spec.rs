@@ -96,6 +96,9 @@ pub struct MosaicSpec {
     pub s_exclusion_window_cells: usize,
 }
 
+/// Peaks accepted for a cone class, nm (vertebrate cone photopigments lie within).
+pub const PEAK_RANGE_NM: std::ops::RangeInclusive<f64> = 300.0..=800.0;
+
 fn default_peaks() -> Vec<(String, f64)> {
     vec![
         ("L".into(), L_PEAK_NM),
@@ -177,6 +180,32 @@ fn parse_base(text: &str, base: &str) -> Result<(Arrangement, Vec<Modification>)
     })
 }
 
+/// Sets the peak of `NAME:nm` in `peaks`; returns the name.
+fn set_peak(text: &str, peaks: &mut Vec<(String, f64)>, tok: &str) -> Result<String> {
+    let (name, nm) = tok.split_once(':').expect("caller checked ':'");
+    let name = name.trim().to_string();
+    let nm = parse_number(text, "peak", nm)?;
+    if name.is_empty() || nm <= 0.0 {
+        return Err(bad(
+            text,
+            format!("peak `{tok}` needs a name and a positive nm"),
+        ));
+    }
+    if !PEAK_RANGE_NM.contains(&nm) {
+        return Err(bad(
+            text,
+            format!(
+                "peak `{tok}` is outside {}–{} nm, the range of cone photopigments",
+                PEAK_RANGE_NM.start(),
+                PEAK_RANGE_NM.end()
+            ),
+        ));
+    }
+    peaks.retain(|(n, _)| *n != name);
+    peaks.push((name.clone(), nm));
+    Ok(name)
+}
+
 fn parse_modification(text: &str, m: &str) -> Result<Modification> {
     let (body, fraction) = match m.split_once('@') {
         Some((b, f)) => (b, parse_number(text, "fraction", f)?),
@@ -221,27 +250,13 @@ impl MosaicSpec {
         let tokens: Vec<&str> = t.split(',').map(str::trim).collect();
         let mut peaks = default_peaks();
         let mut l_to_m_ratio = DEFAULT_L_TO_M_RATIO;
-        let set_peak = |peaks: &mut Vec<(String, f64)>, tok: &str| -> Result<String> {
-            let (name, nm) = tok.split_once(':').expect("caller checked ':'");
-            let name = name.trim().to_string();
-            let nm = parse_number(text, "peak", nm)?;
-            if name.is_empty() || nm <= 0.0 {
-                return Err(bad(
-                    text,
-                    format!("peak `{tok}` needs a name and a positive nm"),
-                ));
-            }
-            peaks.retain(|(n, _)| *n != name);
-            peaks.push((name.clone(), nm));
-            Ok(name)
-        };
         let (arrangement, mut modifications, rest) = if tokens[0].contains(':') {
             let mut names = Vec::new();
             for tok in &tokens {
                 if !tok.contains(':') {
                     return Err(bad(text, format!("`{tok}` in a peak list is not NAME:nm")));
                 }
-                let name = set_peak(&mut peaks, tok)?;
+                let name = set_peak(text, &mut peaks, tok)?;
                 if names.contains(&name) {
                     return Err(bad(text, format!("class {name} listed twice")));
                 }
@@ -280,7 +295,7 @@ impl MosaicSpec {
         };
         for tok in rest {
             if tok.contains(':') {
-                set_peak(&mut peaks, tok)?;
+                set_peak(text, &mut peaks, tok)?;
             } else if let Some(v) = tok.strip_prefix("lm=") {
                 l_to_m_ratio = parse_number(text, "lm", v)?;
                 if l_to_m_ratio <= 0.0 {
@@ -304,7 +319,36 @@ impl MosaicSpec {
         for name in spec.class_names() {
             spec.class(&name)?;
         }
+        spec.check_targets()?;
         Ok(spec)
+    }
+
+    /// Every modification must target classes the mosaic has at that point (a typo such as
+    /// `MS+L_replace_Z` would otherwise leave a plain MS eye).
+    fn check_targets(&self) -> Result<()> {
+        let mut present: Vec<String> = match &self.arrangement {
+            Arrangement::Trichromat => vec!["L".into(), "M".into(), "S".into()],
+            Arrangement::Dichromat { keep } => keep.to_vec(),
+            Arrangement::Mono(c) => vec![c.clone()],
+            Arrangement::Iid(r) => r.iter().map(|(n, _)| n.clone()).collect(),
+        };
+        for m in &self.modifications {
+            if let Some(t) = m.targets.iter().find(|t| !present.contains(t)) {
+                return Err(bad(
+                    &self.text,
+                    format!(
+                        "the modification adding {} targets class {t}, which the mosaic does \
+                         not have (it has {})",
+                        m.new_class,
+                        present.join(", ")
+                    ),
+                ));
+            }
+            if !present.contains(&m.new_class) {
+                present.push(m.new_class.clone());
+            }
+        }
+        Ok(())
     }
 
     /// The cone class with this name and its peak. Error if the name has no peak.

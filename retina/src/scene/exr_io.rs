@@ -37,18 +37,22 @@ pub fn channel_name(wavelength_nm: f64) -> String {
 pub fn parse_channel_wavelength(name: &str) -> Option<f64> {
     let lower = name.to_ascii_lowercase();
     let body = lower.strip_suffix("nm")?;
-    let number = if let Some(rest) = body.strip_prefix("wl_") {
-        rest
-    } else {
-        let (prefix, rest) = body.rsplit_once('.')?;
-        let prefix_ok = ["s1", "s2", "s3"].iter().all(|s| !prefix.ends_with(s));
-        if !prefix_ok {
-            return None;
-        }
-        rest
+    let parse = |number: &str| -> Option<f64> {
+        let v: f64 = number.replace(',', ".").parse().ok()?;
+        (v.is_finite() && v > 0.0).then_some(v)
     };
-    let v: f64 = number.replace(',', ".").parse().ok()?;
-    (v.is_finite() && v > 0.0).then_some(v)
+    if let Some(rest) = body.strip_prefix("wl_") {
+        return parse(rest);
+    }
+    // `<prefix>.<λ>`: the wavelength is the longest tail after a '.' that is a number, so
+    // `S0.402.5nm` is 402.5 nm (a '.' decimal mark) and `S0.402,5nm` too.
+    body.match_indices('.').find_map(|(i, _)| {
+        let (prefix, rest) = (&body[..i], &body[i + 1..]);
+        let stokes = ["s1", "s2", "s3"].iter().any(|s| prefix.ends_with(s));
+        (!prefix.is_empty() && !stokes)
+            .then(|| parse(rest))
+            .flatten()
+    })
 }
 
 /// Write `img` to `path` (module docs).
@@ -88,6 +92,7 @@ pub fn write_spectral_exr(img: &SpectralImage, path: impl AsRef<Path>) -> Result
 pub fn read_spectral_exr(path: impl AsRef<Path>) -> Result<SpectralImage> {
     let path = path.as_ref();
     let bytes = std::fs::read(path).map_err(|e| RetinaError::io(path, e))?;
+    check_exr_size(path, &bytes)?;
     let image = read()
         .no_deep_data()
         .largest_resolution_level()
@@ -135,7 +140,54 @@ pub fn read_spectral_exr(path: impl AsRef<Path>) -> Result<SpectralImage> {
     for (_, c) in &found {
         data.extend(c.sample_data.values_as_f32());
     }
+    if let Some(i) = data.iter().position(|v| !(v.is_finite() && *v >= 0.0)) {
+        let (band, pixel) = (i / (w * h).max(1), i % (w * h).max(1));
+        return Err(RetinaError::Exr {
+            path: path.to_path_buf(),
+            message: format!(
+                "pixel (x {}, y {}) of channel {} is {}: radiance must be finite and ≥ 0",
+                pixel % w.max(1),
+                pixel / w.max(1),
+                found[band].1.name,
+                data[i]
+            ),
+        });
+    }
     Ok(SpectralImage { grid, h, w, data })
+}
+
+/// Largest image a scene file may declare, pixels per channel (2²⁶, e.g. 8192²).
+pub const MAX_SCENE_PIXELS: usize = 1 << 26;
+
+/// Largest number of values (pixels × channels) a spectral EXR may declare (2²⁸: 1 GiB of f32).
+pub const MAX_EXR_VALUES: usize = 1 << 28;
+
+/// Refuses, from the header alone, an EXR whose image would not fit the limits above.
+fn check_exr_size(path: &Path, bytes: &[u8]) -> Result<()> {
+    let meta = exr::meta::MetaData::read_from_buffered(Cursor::new(bytes), true).map_err(|e| {
+        RetinaError::Exr {
+            path: path.to_path_buf(),
+            message: e.to_string(),
+        }
+    })?;
+    for header in &meta.headers {
+        let size = header.layer_size;
+        let pixels = size.width().saturating_mul(size.height());
+        let values = pixels.saturating_mul(header.channels.list.len());
+        if pixels > MAX_SCENE_PIXELS || values > MAX_EXR_VALUES {
+            return Err(RetinaError::Exr {
+                path: path.to_path_buf(),
+                message: format!(
+                    "the header declares {}×{} pixels × {} channels, above the limit of \
+                     {MAX_SCENE_PIXELS} pixels and {MAX_EXR_VALUES} values",
+                    size.width(),
+                    size.height(),
+                    header.channels.list.len()
+                ),
+            });
+        }
+    }
+    Ok(())
 }
 
 /// Read a spectral EXR and resample it onto `grid` (the grid of the cone sensitivities). Error

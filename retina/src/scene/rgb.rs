@@ -56,6 +56,13 @@ impl RgbImage {
         let mut dec = png::Decoder::new(Cursor::new(bytes));
         dec.set_transformations(png::Transformations::EXPAND);
         let mut reader = dec.read_info().map_err(|e| err(e.to_string()))?;
+        let (w, h) = (reader.info().width as usize, reader.info().height as usize);
+        if w.saturating_mul(h) > crate::scene::exr_io::MAX_SCENE_PIXELS {
+            return Err(err(format!(
+                "the header declares {w}×{h} pixels, above the limit of {}",
+                crate::scene::exr_io::MAX_SCENE_PIXELS
+            )));
+        }
         let size = reader
             .output_buffer_size()
             .ok_or_else(|| err("image too large".into()))?;

@@ -1,0 +1,162 @@
+//! Stopping a run cleanly: SIGINT (Ctrl-C) and SIGTERM ask the training loop to finish its
+//! step, write a checkpoint and exit with a message saying how to resume; a second signal
+//! ends the process at once (exit 130).
+//!
+//! Signals are caught with `signal-hook`: its handler only sets an atomic flag (the one thing a
+//! signal handler may safely do), it needs nothing but `libc`, which the build already has, and
+//! it covers SIGTERM as well as SIGINT. A watcher thread prints that the stop was heard, since a
+//! step or a CMF-SIM measurement can take a while to finish.
+//!
+//! Fault injection for tests (`COLORVISION_FAULT`, read by [`install_fault_injection`]): a
+//! comma-separated list of `ACTION@POINT:STEP`, with ACTION `abort` (the process dies there, as under SIGKILL) or
+//! `interrupt` (as if SIGINT arrived there), POINT `step` (after the training step), `measured`
+//! (after the step's measurements) or a stage of a checkpoint write (`params-written`,
+//! `files-written`, `old-moved-aside`, `renamed`; see `cortex::checkpoint::set_fault_hook`).
+
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, OnceLock};
+use std::time::Duration;
+
+static INT: OnceLock<Arc<AtomicBool>> = OnceLock::new();
+static TERM: OnceLock<Arc<AtomicBool>> = OnceLock::new();
+static REQUESTED: AtomicBool = AtomicBool::new(false);
+
+fn flag(cell: &OnceLock<Arc<AtomicBool>>) -> &Arc<AtomicBool> {
+    cell.get_or_init(|| Arc::new(AtomicBool::new(false)))
+}
+
+/// Catches SIGINT and SIGTERM for the rest of the process (idempotent).
+pub fn install() -> std::io::Result<()> {
+    static INSTALLED: OnceLock<()> = OnceLock::new();
+    if INSTALLED.get().is_some() {
+        return Ok(());
+    }
+    #[cfg(unix)]
+    {
+        use signal_hook::consts::{SIGINT, SIGTERM};
+        for (signal, cell) in [(SIGINT, &INT), (SIGTERM, &TERM)] {
+            let f = flag(cell);
+            // Registered first, so it sees the flag as the previous signal left it: a second
+            // signal ends the process at once.
+            signal_hook::flag::register_conditional_shutdown(signal, 130, Arc::clone(f))?;
+            signal_hook::flag::register(signal, Arc::clone(f))?;
+        }
+        std::thread::Builder::new()
+            .name("colorvision-stop".into())
+            .spawn(|| {
+                while requested().is_none() {
+                    std::thread::sleep(Duration::from_millis(100));
+                }
+                announce();
+            })?;
+    }
+    let _ = INSTALLED.set(());
+    Ok(())
+}
+
+/// The signal that asked the run to stop, if one did.
+pub fn requested() -> Option<&'static str> {
+    if flag(&INT).load(Ordering::SeqCst) {
+        Some("SIGINT")
+    } else if flag(&TERM).load(Ordering::SeqCst) {
+        Some("SIGTERM")
+    } else if REQUESTED.load(Ordering::SeqCst) {
+        Some("a stop request")
+    } else {
+        None
+    }
+}
+
+/// Says, once, that a stop was asked for and what happens next (from the watcher thread, or
+/// from the training loop when it notices first).
+pub fn announce() {
+    static ANNOUNCED: AtomicBool = AtomicBool::new(false);
+    if let Some(what) = requested() {
+        if !ANNOUNCED.swap(true, Ordering::SeqCst) {
+            eprintln!(
+                "\ncolorvision: {what} received: finishing the current step, then writing a \
+                 checkpoint (send it again to stop at once, without one)"
+            );
+        }
+    }
+}
+
+/// Asks the run to stop as a signal would (fault injection, embedding programs).
+pub fn request() {
+    REQUESTED.store(true, Ordering::SeqCst);
+}
+
+/// A fault to inject: what, where, at which step.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Fault {
+    /// `abort` or `interrupt`.
+    pub action: String,
+    /// `step`, `measured` or a checkpoint-write stage.
+    pub point: String,
+    /// The step.
+    pub step: u64,
+}
+
+static FAULTS: OnceLock<Vec<Fault>> = OnceLock::new();
+
+/// Parses `ACTION@POINT:STEP`.
+pub fn parse_fault(text: &str) -> Result<Fault, String> {
+    let bad = || format!("COLORVISION_FAULT `{text}` is not ACTION@POINT:STEP");
+    let (action, rest) = text.split_once('@').ok_or_else(bad)?;
+    let (point, step) = rest.split_once(':').ok_or_else(bad)?;
+    if !matches!(action, "abort" | "interrupt") {
+        return Err(format!(
+            "COLORVISION_FAULT action `{action}` is not abort or interrupt"
+        ));
+    }
+    Ok(Fault {
+        action: action.to_string(),
+        point: point.to_string(),
+        step: step.parse().map_err(|_| bad())?,
+    })
+}
+
+/// Reads `COLORVISION_FAULT` (see the module docs) and arms it.
+pub fn install_fault_injection() -> Result<(), String> {
+    let Ok(text) = std::env::var("COLORVISION_FAULT") else {
+        return Ok(());
+    };
+    let faults = text.split(',').map(parse_fault).collect::<Result<_, _>>()?;
+    let _ = FAULTS.set(faults);
+    cortex::checkpoint::set_fault_hook(fault_point);
+    Ok(())
+}
+
+/// Triggers the armed faults that are at `point` of `step`.
+pub fn fault_point(point: &'static str, step: u64) {
+    let Some(faults) = FAULTS.get() else {
+        return;
+    };
+    for f in faults.iter().filter(|f| f.point == point && f.step == step) {
+        if f.action == "abort" {
+            eprintln!("colorvision: fault injection: abort at {point} of step {step}");
+            std::process::abort();
+        }
+        request();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn faults_parse_and_bad_ones_are_refused() {
+        assert_eq!(
+            parse_fault("abort@params-written:12").unwrap(),
+            Fault {
+                action: "abort".into(),
+                point: "params-written".into(),
+                step: 12
+            }
+        );
+        for bad in ["abort", "kill@step:3", "abort@step:x", "abort@step"] {
+            assert!(parse_fault(bad).is_err(), "{bad}");
+        }
+    }
+}

@@ -1,0 +1,224 @@
+//! A run folder belongs to one run. [`open`] decides, before any work, whether `--out` is new,
+//! the same run to continue (`--resume`), the same run already finished, or someone else's:
+//! a folder holding a different run (or not a run at all) is refused, never mixed; `--force`
+//! empties a run folder first.
+
+use crate::config::RunConfig;
+use crate::io::{fs_err, IoError};
+use crate::run::RunError;
+use std::path::Path;
+
+/// What to do with a run folder that already holds files.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Folder {
+    /// Refuse a folder that holds files (`--out` must be new or empty).
+    #[default]
+    New,
+    /// Continue the run the folder holds (`--resume`); it must be the same run. An empty or
+    /// absent folder starts the run.
+    Resume,
+    /// Empty the folder first (`--force`); it must be a run folder.
+    Replace,
+}
+
+/// What [`open`] found.
+#[derive(Debug, PartialEq, Eq)]
+pub enum Opened {
+    /// Start from step 0 (the folder is absent or empty, or was emptied).
+    Fresh,
+    /// Continue the run in the folder from its newest valid checkpoint.
+    Resume,
+    /// The folder holds this run, finished (`summary.json`).
+    Finished,
+}
+
+fn refuse(out: &Path, reason: String) -> RunError {
+    RunError::Folder {
+        path: out.to_path_buf(),
+        reason: format!("(--out) {reason}"),
+    }
+}
+
+/// Whether `dir` is absent or holds nothing.
+fn is_empty(dir: &Path) -> Result<bool, IoError> {
+    if !dir.exists() {
+        return Ok(true);
+    }
+    Ok(std::fs::read_dir(dir)
+        .map_err(fs_err(dir))?
+        .next()
+        .is_none())
+}
+
+/// The first setting in which `a` and `b` differ, as `name`, value in `a`, value in `b`.
+fn first_difference(
+    a: &toml::Value,
+    b: &toml::Value,
+    prefix: &str,
+) -> Option<(String, String, String)> {
+    match (a, b) {
+        (toml::Value::Table(ta), toml::Value::Table(tb)) => {
+            // Plain values before sub-tables: `steps` is named before `cortex.train.steps`.
+            let is_table = |k: &String| ta.get(k).or(tb.get(k)).is_some_and(|v| v.is_table());
+            let keys: std::collections::BTreeSet<(bool, &String)> = ta
+                .keys()
+                .chain(tb.keys())
+                .map(|k| (is_table(k), k))
+                .collect();
+            keys.into_iter().find_map(|(_, k)| {
+                let name = if prefix.is_empty() {
+                    k.clone()
+                } else {
+                    format!("{prefix}.{k}")
+                };
+                match (ta.get(k), tb.get(k)) {
+                    (Some(x), Some(y)) => first_difference(x, y, &name),
+                    (x, y) => Some((name, show(x), show(y))),
+                }
+            })
+        }
+        _ if a == b => None,
+        _ => Some((prefix.to_string(), a.to_string(), b.to_string())),
+    }
+}
+
+fn show(v: Option<&toml::Value>) -> String {
+    v.map_or_else(|| "absent".to_string(), |v| v.to_string())
+}
+
+/// The config a run folder was started with (`config.toml`). Folders written before
+/// `[cortex.train] steps` became the run's `steps` carry the cortex preset's own value there,
+/// which no run used: it is read as `steps`.
+pub fn read_config(out: &Path) -> Result<RunConfig, RunError> {
+    let path = out.join("config.toml");
+    let text = std::fs::read_to_string(&path).map_err(fs_err(&path))?;
+    let mut config: RunConfig = toml::from_str(&text).map_err(|e| {
+        RunError::Config(crate::config::ConfigError::Parse {
+            path: path.display().to_string(),
+            message: e.to_string(),
+        })
+    })?;
+    config.cortex.train.steps = config.steps;
+    // Likewise `oracle_motion` was once written `true` beside an estimated motion; the
+    // cortex followed `[cortex.m] mode`.
+    config.oracle_motion = config.cortex.m.mode == cortex::config::MMode::Oracle;
+    Ok(config)
+}
+
+/// Removes everything in the run folder `out` (which must hold a `config.toml`).
+fn empty_run_folder(out: &Path) -> Result<(), RunError> {
+    if !out.join("config.toml").is_file() {
+        return Err(refuse(
+            out,
+            "holds files but no config.toml, so it is not a colorvision run folder; --force \
+             only replaces run folders: choose another --out"
+                .into(),
+        ));
+    }
+    for entry in std::fs::read_dir(out).map_err(fs_err(out))? {
+        let path = entry.map_err(fs_err(out))?.path();
+        let r = if path.is_dir() {
+            std::fs::remove_dir_all(&path)
+        } else {
+            std::fs::remove_file(&path)
+        };
+        r.map_err(fs_err(&path))?;
+    }
+    Ok(())
+}
+
+/// Decides how the run of `config` starts in `out` (see [`Folder`]).
+pub fn open(out: &Path, config: &RunConfig, folder: Folder) -> Result<Opened, RunError> {
+    if out.exists() && !out.is_dir() {
+        return Err(refuse(
+            out,
+            "is a file, not a folder: choose another --out".into(),
+        ));
+    }
+    if is_empty(out)? {
+        return Ok(Opened::Fresh);
+    }
+    if folder == Folder::Replace {
+        empty_run_folder(out)?;
+        return Ok(Opened::Fresh);
+    }
+    if !out.join("config.toml").is_file() {
+        return Err(refuse(
+            out,
+            "holds files but no config.toml, so it is not a colorvision run folder: choose \
+             another --out"
+                .into(),
+        ));
+    }
+    let theirs = read_config(out)?;
+    if &theirs != config {
+        let (a, b) = (
+            toml::Value::try_from(&theirs).expect("a RunConfig serialises to TOML"),
+            toml::Value::try_from(config).expect("a RunConfig serialises to TOML"),
+        );
+        let (field, there, here) = first_difference(&a, &b, "")
+            .unwrap_or_else(|| ("(a float)".into(), "-".into(), "-".into()));
+        return Err(refuse(
+            out,
+            format!(
+                "holds another run (`{field}` is {there} there, {here} here): choose another \
+                 --out, or --force to replace it"
+            ),
+        ));
+    }
+    let finished = out.join("summary.json").is_file();
+    match folder {
+        Folder::Resume if finished => Ok(Opened::Finished),
+        _ if finished => Err(refuse(
+            out,
+            "already holds this run, finished (see its summary.json): --force runs it again".into(),
+        )),
+        Folder::Resume => Ok(Opened::Resume),
+        _ => Err(refuse(
+            out,
+            "already holds this run, unfinished: add --resume to continue it from its last \
+             checkpoint, or --force to start it again"
+                .into(),
+        )),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn scratch(name: &str) -> std::path::PathBuf {
+        let d = std::env::temp_dir().join(format!("cv_folder_{name}_{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&d);
+        d
+    }
+
+    #[test]
+    fn a_folder_is_new_same_finished_or_refused() {
+        let c = RunConfig::preset("tiny", "LMS").unwrap();
+        let out = scratch("open");
+        assert_eq!(open(&out, &c, Folder::New).unwrap(), Opened::Fresh);
+        std::fs::create_dir_all(&out).unwrap();
+        std::fs::write(out.join("notes.txt"), "mine").unwrap();
+        for f in [Folder::New, Folder::Resume, Folder::Replace] {
+            let e = open(&out, &c, f).unwrap_err().to_string();
+            assert!(e.contains("not a colorvision run folder"), "{e}");
+        }
+        std::fs::remove_file(out.join("notes.txt")).unwrap();
+        std::fs::write(out.join("config.toml"), c.to_toml()).unwrap();
+        let e = open(&out, &c, Folder::New).unwrap_err().to_string();
+        assert!(e.contains("--resume"), "{e}");
+        assert_eq!(open(&out, &c, Folder::Resume).unwrap(), Opened::Resume);
+        let mut other = c.clone();
+        other.cones = "LM".into();
+        let e = open(&out, &other, Folder::Resume).unwrap_err().to_string();
+        assert!(e.contains("`cones` is \"LMS\" there, \"LM\" here"), "{e}");
+        std::fs::write(out.join("summary.json"), "{}").unwrap();
+        assert_eq!(open(&out, &c, Folder::Resume).unwrap(), Opened::Finished);
+        let e = open(&out, &c, Folder::New).unwrap_err().to_string();
+        assert!(e.contains("finished"), "{e}");
+        assert_eq!(open(&out, &other, Folder::Replace).unwrap(), Opened::Fresh);
+        assert!(is_empty(&out).unwrap());
+        std::fs::remove_dir_all(out).ok();
+    }
+}

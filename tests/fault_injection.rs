@@ -1,0 +1,361 @@
+//! Runs killed or interrupted at several points — between steps, inside a checkpoint write,
+//! between the two renames of a re-saved checkpoint — and resumed with `--resume` end with the
+//! parameters, optimiser state, metrics and CMF-SIM schedule of a run that never stopped, bit
+//! for bit (same seed, same thread count); every file left in the folder parses.
+//!
+//! The release binary is driven as a user would; `COLORVISION_FAULT` (see
+//! `colorvision::interrupt`) makes the process abort (as under SIGKILL) or receive a stop
+//! request at a named point. One test sends a real SIGINT.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+const BIN: &str = env!("CARGO_BIN_EXE_colorvision");
+
+/// 12 tiny steps; checkpoints every 4; held-out evaluation every 3, pictures every 6 and
+/// CMF-SIM at step 5 and the end, so every stream and schedule crosses a resume.
+const CONFIG: &str = r#"preset = "tiny"
+steps = 12
+[cortex.train]
+checkpoint_every_steps = 4
+[schedule]
+eval_every_steps = 3
+pictures_every_steps = 6
+cmf_extra_steps = [5]
+"#;
+
+fn scratch(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("cv_fault_{name}_{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn colorvision(dir: &Path, args: &[&str], fault: Option<&str>) -> Output {
+    let mut c = Command::new(BIN);
+    c.args(args)
+        .current_dir(dir)
+        .env_remove("COLORVISION_FAULT");
+    if let Some(f) = fault {
+        c.env("COLORVISION_FAULT", f);
+    }
+    c.output().expect("the binary runs")
+}
+
+/// The exit code, or 128 + the signal that ended the process (as a shell reports it).
+fn exit_code(o: &Output) -> Option<i32> {
+    use std::os::unix::process::ExitStatusExt;
+    o.status
+        .code()
+        .or_else(|| o.status.signal().map(|s| 128 + s))
+}
+
+fn text(o: &Output) -> String {
+    format!(
+        "{}{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    )
+}
+
+/// A run of `command` in `dir/out`, optionally with a fault.
+fn start(dir: &Path, command: &str, fault: Option<&str>) -> Output {
+    std::fs::write(dir.join("config.toml"), CONFIG).unwrap();
+    colorvision(
+        dir,
+        &[command, "--config", "config.toml", "--out", "out"],
+        fault,
+    )
+}
+
+fn resume(dir: &Path, command: &str) -> Output {
+    colorvision(dir, &[command, "--out", "out", "--resume"], None)
+}
+
+/// What must match an uninterrupted run: the final checkpoint's tensors (bytes), metrics
+/// without the step-time column, the CMF-SIM measurements (step, dimension), the steps.
+fn outcome(out: &Path) -> (Vec<u8>, Vec<u8>, String, Vec<(u64, u64)>, u64) {
+    let ck = out.join("checkpoints").join("step_00000012");
+    let metrics = std::fs::read_to_string(out.join("metrics.csv")).unwrap();
+    let metrics: String = metrics
+        .lines()
+        .map(|l| {
+            let mut c: Vec<&str> = l.split(',').collect();
+            c.remove(3);
+            c.join(",") + "\n"
+        })
+        .collect();
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    let dims = summary["dimension_over_steps"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|d| {
+            (
+                d["step"].as_u64().unwrap(),
+                d["dimension"].as_u64().unwrap(),
+            )
+        })
+        .collect();
+    (
+        std::fs::read(ck.join("params.safetensors")).unwrap(),
+        std::fs::read(ck.join("optim.safetensors")).unwrap(),
+        metrics,
+        dims,
+        summary["steps"].as_u64().unwrap(),
+    )
+}
+
+/// Every file under `dir` parses by its kind. Hidden temporaries (`.NAME.tmp-PID`, a
+/// checkpoint moved aside) may remain after a kill, and are removed when the run resumes: with
+/// `temporaries_allowed` false there must be none.
+fn assert_files_parse(dir: &Path, temporaries_allowed: bool) {
+    for entry in std::fs::read_dir(dir).unwrap() {
+        let path = entry.unwrap().path();
+        let name = path.file_name().unwrap().to_string_lossy().to_string();
+        let temporary = name.contains(".tmp") || name.contains(".old-") || name.contains("staging");
+        assert!(
+            temporaries_allowed || !temporary,
+            "temporary left behind: {}",
+            path.display()
+        );
+        if temporary {
+            assert!(name.starts_with('.'), "a temporary must be hidden: {name}");
+            continue;
+        }
+        if path.is_dir() {
+            assert_files_parse(&path, temporaries_allowed);
+            continue;
+        }
+        let bytes = std::fs::read(&path).unwrap();
+        let what = path.display();
+        match path.extension().and_then(|e| e.to_str()).unwrap_or("") {
+            "json" => {
+                serde_json::from_slice::<serde_json::Value>(&bytes)
+                    .unwrap_or_else(|e| panic!("{what}: {e}"));
+            }
+            "toml" => {
+                toml::from_str::<toml::Value>(std::str::from_utf8(&bytes).unwrap())
+                    .unwrap_or_else(|e| panic!("{what}: {e}"));
+            }
+            "csv" => {
+                let text = std::str::from_utf8(&bytes).unwrap();
+                let width = text.lines().next().unwrap().split(',').count();
+                assert!(
+                    text.ends_with('\n') && text.lines().all(|l| l.split(',').count() == width),
+                    "{what}: ragged CSV"
+                );
+            }
+            "svg" => {
+                let t = std::str::from_utf8(&bytes).unwrap().trim_end();
+                assert!(t.ends_with("</svg>"), "{what}: truncated SVG");
+            }
+            "png" => {
+                let mut r = png::Decoder::new(std::io::Cursor::new(bytes))
+                    .read_info()
+                    .unwrap_or_else(|e| panic!("{what}: {e}"));
+                let mut buf = vec![0; r.output_buffer_size().unwrap()];
+                r.next_frame(&mut buf)
+                    .unwrap_or_else(|e| panic!("{what}: {e}"));
+            }
+            "safetensors" => {
+                autodiff::params::read_safetensors::<f32>(&path)
+                    .unwrap_or_else(|e| panic!("{what}: {e}"));
+            }
+            other => panic!("{what}: unexpected file type `{other}`"),
+        }
+    }
+}
+
+fn reference() -> &'static (Vec<u8>, Vec<u8>, String, Vec<(u64, u64)>, u64) {
+    static REF: std::sync::OnceLock<(Vec<u8>, Vec<u8>, String, Vec<(u64, u64)>, u64)> =
+        std::sync::OnceLock::new();
+    REF.get_or_init(|| {
+        let dir = scratch("reference");
+        let o = start(&dir, "run", None);
+        assert!(o.status.success(), "{}", text(&o));
+        let r = outcome(&dir.join("out"));
+        assert_eq!(
+            r.3,
+            vec![(5, r.3[0].1), (12, r.3[1].1)],
+            "CMF-SIM at 5 and 12"
+        );
+        std::fs::remove_dir_all(dir).ok();
+        r
+    })
+}
+
+/// Runs with `faults` (one process each, in order), then resumes until finished, and checks
+/// the result against the uninterrupted run.
+fn check_scenario(name: &str, faults: &[(&str, i32)]) {
+    let dir = scratch(name);
+    for (i, (fault, code)) in faults.iter().enumerate() {
+        let o = if i == 0 {
+            start(&dir, "run", Some(fault))
+        } else {
+            colorvision(&dir, &["run", "--out", "out", "--resume"], Some(fault))
+        };
+        assert_eq!(exit_code(&o), Some(*code), "{name}, {fault}: {}", text(&o));
+        assert_files_parse(&dir.join("out"), true);
+    }
+    let o = resume(&dir, "run");
+    assert!(o.status.success(), "{name}: resume failed: {}", text(&o));
+    assert_files_parse(&dir.join("out"), false);
+    let got = outcome(&dir.join("out"));
+    let want = reference();
+    assert!(got.0 == want.0, "{name}: final parameters differ");
+    assert!(got.1 == want.1, "{name}: final optimiser state differs");
+    assert_eq!(got.2, want.2, "{name}: metrics differ");
+    assert_eq!(got.3, want.3, "{name}: CMF-SIM schedule differs");
+    assert_eq!(got.4, want.4, "{name}: steps differ");
+    std::fs::remove_dir_all(dir).ok();
+}
+
+const ABORT: i32 = 134;
+const STOPPED: i32 = 130;
+
+#[test]
+fn killed_between_steps_resumes_bit_identically() {
+    check_scenario("between", &[("abort@step:6", ABORT)]);
+}
+
+#[test]
+fn killed_inside_checkpoint_writes_resumes_bit_identically() {
+    check_scenario(
+        "inside_write",
+        &[
+            ("abort@params-written:8", ABORT),
+            ("abort@files-written:12", ABORT),
+        ],
+    );
+}
+
+#[test]
+fn interrupted_before_and_after_measurements_resumes_bit_identically() {
+    check_scenario(
+        "interrupted",
+        &[
+            ("interrupt@step:5", STOPPED),
+            ("interrupt@measured:6", STOPPED),
+            ("abort@measured:12", ABORT),
+        ],
+    );
+}
+
+#[test]
+fn killed_between_the_renames_of_a_resaved_checkpoint_resumes_bit_identically() {
+    // Step 8 is checkpointed before its measurements; the stop after them re-saves it, and
+    // the process dies with the old folder moved aside and the new one not yet in place.
+    check_scenario(
+        "resave",
+        &[("interrupt@measured:8,abort@old-moved-aside:8", ABORT)],
+    );
+}
+
+#[test]
+fn a_damaged_checkpoint_falls_back_to_the_one_before_and_says_so() {
+    let dir = scratch("damaged");
+    let o = start(&dir, "run", Some("abort@step:10"));
+    assert_eq!(exit_code(&o), Some(ABORT), "{}", text(&o));
+    let params = dir.join("out/checkpoints/step_00000008/params.safetensors");
+    let mut bytes = std::fs::read(&params).unwrap();
+    let last = bytes.len() - 1;
+    bytes[last] ^= 0x01;
+    std::fs::write(&params, bytes).unwrap();
+    let o = resume(&dir, "run");
+    let log = text(&o);
+    assert!(o.status.success(), "{log}");
+    assert!(
+        log.contains("step_00000008 does not load") && log.contains("SHA-256"),
+        "{log}"
+    );
+    assert!(log.contains("resuming at step 5"), "{log}");
+    let got = outcome(&dir.join("out"));
+    assert!(got.0 == reference().0, "final parameters differ");
+    std::fs::remove_dir_all(dir).ok();
+}
+
+#[test]
+fn sigint_finishes_the_step_writes_a_checkpoint_and_resume_continues_from_it() {
+    let dir = scratch("sigint");
+    let config = CONFIG.replace("steps = 12", "steps = 100000");
+    std::fs::write(dir.join("config.toml"), config).unwrap();
+    let mut child = Command::new(BIN)
+        .args(["train", "--config", "config.toml", "--out", "out"])
+        .current_dir(&dir)
+        .env_remove("COLORVISION_FAULT")
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let first = dir.join("out/checkpoints/step_00000008");
+    let started = std::time::Instant::now();
+    while !first.exists() {
+        assert!(started.elapsed().as_secs() < 60, "no checkpoint after 60 s");
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    let kill = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(kill.success());
+    let o = child.wait_with_output().unwrap();
+    let log = text(&o);
+    assert_eq!(exit_code(&o), Some(STOPPED), "{log}");
+    assert!(
+        log.contains("SIGINT received") && log.contains("stopped by SIGINT after step"),
+        "{log}"
+    );
+    assert_files_parse(&dir.join("out"), false);
+    // The folder is this run's: a plain rerun is refused, --resume continues (here to a
+    // shorter end is not allowed: the settings must agree).
+    let o = colorvision(
+        &dir,
+        &["train", "--config", "config.toml", "--out", "out"],
+        None,
+    );
+    assert!(text(&o).contains("--resume"), "{}", text(&o));
+    let o = colorvision(
+        &dir,
+        &[
+            "train",
+            "--config",
+            "config.toml",
+            "--out",
+            "out",
+            "--resume",
+            "--steps",
+            "9",
+        ],
+        None,
+    );
+    assert!(
+        text(&o).contains("holds another run (`steps`"),
+        "{}",
+        text(&o)
+    );
+    let stopped_at: u64 = log
+        .split("after step ")
+        .nth(1)
+        .and_then(|t| t.split_whitespace().next())
+        .and_then(|n| n.parse().ok())
+        .expect("the message names the step");
+    let next = stopped_at + 3;
+    let o = colorvision(
+        &dir,
+        &["train", "--out", "out", "--resume"],
+        Some(&format!("interrupt@step:{next}")),
+    );
+    let log = text(&o);
+    assert_eq!(exit_code(&o), Some(STOPPED), "{log}");
+    assert!(
+        log.contains(&format!("resuming at step {stopped_at}")),
+        "{log}"
+    );
+    assert!(
+        dir.join(format!("out/checkpoints/step_{next:08}")).is_dir(),
+        "{log}"
+    );
+    std::fs::remove_dir_all(dir).ok();
+}
