@@ -41,16 +41,21 @@ pub fn train(options: &CommonOptions) -> Result<(), RunError> {
 
 fn train_and_report(options: &CommonOptions, command: &str, mode: RunMode) -> Result<(), RunError> {
     let (config, out) = resolve_run(options, command)?;
+    install_signals()?;
+    let summary = run::run_in(&config, &out, mode, options.folder(), run::Origin::New)?;
+    write_run_marker(&out, command)?;
+    run::print_outcome(&out, &summary);
+    Ok(())
+}
+
+/// Catches SIGINT/SIGTERM so a run stops after a step with a checkpoint.
+fn install_signals() -> Result<(), RunError> {
     crate::interrupt::install().map_err(|e| {
         RunError::Config(crate::config::ConfigError::Invalid {
             field: "signals".into(),
             reason: format!("cannot catch SIGINT/SIGTERM: {e}"),
         })
-    })?;
-    let summary = run::run_in(&config, &out, mode, options.folder(), run::Origin::New)?;
-    write_run_marker(&out, command)?;
-    run::print_outcome(&out, &summary);
-    Ok(())
+    })
 }
 
 /// The config and run folder of `run`/`train`. With `--resume` and no option that changes
@@ -131,7 +136,13 @@ pub fn simulate(options: &CommonOptions) -> Result<(), RunError> {
     }
     let retina = Retina::new(config.retina.clone())?;
     let mut rng = <rand::rngs::StdRng as rand::SeedableRng>::seed_from_u64(config.seed);
-    let written = retina::write_stage_pictures(&retina, &mut rng, &out)?;
+    let mut written = Vec::new();
+    crate::io::save_into(&out, |staging| -> Result<(), RunError> {
+        for p in retina::write_stage_pictures(&retina, &mut rng, staging)? {
+            written.push(out.join(p.strip_prefix(staging).unwrap_or(&p)));
+        }
+        Ok(())
+    })?;
     println!(
         "colorvision simulate: {} files in {}",
         written.len(),
@@ -288,11 +299,6 @@ pub fn scope(options: &RunDirOptions) -> Result<(), RunError> {
 
 /// `colorvision experiment NAME`.
 pub fn experiment(options: &ExperimentOptions) -> Result<(), RunError> {
-    crate::interrupt::install().map_err(|e| {
-        RunError::Config(crate::config::ConfigError::Invalid {
-            field: "signals".into(),
-            reason: format!("cannot catch SIGINT/SIGTERM: {e}"),
-        })
-    })?;
+    install_signals()?;
     experiments::run_named(&options.name, &options.common)
 }

@@ -545,13 +545,13 @@ impl RunState<'_> {
         let s = &self.config.schedule;
         self.mode.cmf_sim
             && (k == self.config.steps
-                || (s.cmf_every_steps > 0 && k % s.cmf_every_steps == 0)
+                || (s.cmf_every_steps > 0 && k.is_multiple_of(s.cmf_every_steps))
                 || s.cmf_extra_steps.contains(&k))
     }
 
     fn checkpoint_due(&self, k: u64) -> bool {
         let every = self.config.cortex.train.checkpoint_every_steps;
-        k == self.config.steps || (every > 0 && k % every == 0) || self.cmf_due(k)
+        k == self.config.steps || (every > 0 && k.is_multiple_of(every)) || self.cmf_due(k)
     }
 
     fn reached_stop_dimension(&self) -> bool {
@@ -585,7 +585,7 @@ impl RunState<'_> {
         );
         let schedule = &self.config.schedule;
         let every = schedule.eval_every_steps;
-        if k == self.config.steps || (every > 0 && k % every == 0) {
+        if k == self.config.steps || (every > 0 && k.is_multiple_of(every)) {
             let batches = schedule.eval_batches;
             let e = heldout_error(&mut self.trainer, &mut self.heldout, bs, batches)?;
             self.progress.last_eval = Some(e);
@@ -606,7 +606,7 @@ impl RunState<'_> {
             "loss {:.4} · {:.0} ms/step",
             stats.loss, stats.total_ms
         ));
-        if self.bar.is_hidden() && (k % (self.config.steps / 10).max(1) == 0) {
+        if self.bar.is_hidden() && k.is_multiple_of((self.config.steps / 10).max(1)) {
             // Not a terminal: a line every tenth of the run instead of a bar.
             println!(
                 "  step {k}/{}: loss {:.4}, {:.0} ms/step",
@@ -669,7 +669,7 @@ impl RunState<'_> {
             let _ = writeln!(self.metrics, "{row},{dimension_column}");
         }
         let every = self.config.schedule.pictures_every_steps;
-        if self.mode.pictures && every > 0 && k % every == 0 && k != self.config.steps {
+        if self.mode.pictures && every > 0 && k.is_multiple_of(every) && k != self.config.steps {
             pictures::write_all(
                 &self.out.join("pictures").join(format!("step_{k:06}")),
                 self.config,
@@ -679,7 +679,7 @@ impl RunState<'_> {
             )?;
         }
         self.progress.measured = true;
-        if k % 200 == 0 {
+        if k.is_multiple_of(200) {
             self.write_metrics()?;
         }
         let stop = self.reached_stop_dimension();

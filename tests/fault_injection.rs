@@ -72,9 +72,12 @@ fn resume(dir: &Path, command: &str) -> Output {
     colorvision(dir, &[command, "--out", "out", "--resume"], None)
 }
 
-/// What must match an uninterrupted run: the final checkpoint's tensors (bytes), metrics
-/// without the step-time column, the CMF-SIM measurements (step, dimension), the steps.
-fn outcome(out: &Path) -> (Vec<u8>, Vec<u8>, String, Vec<(u64, u64)>, u64) {
+/// What must match an uninterrupted run: the final checkpoint's parameters and optimiser state
+/// (file bytes), metrics without the step-time column, the CMF-SIM measurements (step,
+/// dimension), the steps.
+type Outcome = (Vec<u8>, Vec<u8>, String, Vec<(u64, u64)>, u64);
+
+fn outcome(out: &Path) -> Outcome {
     let ck = out.join("checkpoints").join("step_00000012");
     let metrics = std::fs::read_to_string(out.join("metrics.csv")).unwrap();
     let metrics: String = metrics
@@ -168,9 +171,8 @@ fn assert_files_parse(dir: &Path, temporaries_allowed: bool) {
     }
 }
 
-fn reference() -> &'static (Vec<u8>, Vec<u8>, String, Vec<(u64, u64)>, u64) {
-    static REF: std::sync::OnceLock<(Vec<u8>, Vec<u8>, String, Vec<(u64, u64)>, u64)> =
-        std::sync::OnceLock::new();
+fn reference() -> &'static Outcome {
+    static REF: std::sync::OnceLock<Outcome> = std::sync::OnceLock::new();
     REF.get_or_init(|| {
         let dir = scratch("reference");
         let o = start(&dir, "run", None);
@@ -281,7 +283,7 @@ fn sigint_finishes_the_step_writes_a_checkpoint_and_resume_continues_from_it() {
     let dir = scratch("sigint");
     let config = CONFIG.replace("steps = 12", "steps = 100000");
     std::fs::write(dir.join("config.toml"), config).unwrap();
-    let mut child = Command::new(BIN)
+    let child = Command::new(BIN)
         .args(["train", "--config", "config.toml", "--out", "out"])
         .current_dir(&dir)
         .env_remove("COLORVISION_FAULT")

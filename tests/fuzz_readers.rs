@@ -28,6 +28,9 @@ fn scratch(name: &str) -> PathBuf {
     d
 }
 
+/// Bytes overwritten (position, value), a truncation, a slice repeated (start, length).
+type Mutation = (Vec<(usize, u8)>, Option<usize>, Option<(usize, usize)>);
+
 /// A mutation of `valid`: some bytes overwritten, then maybe truncated, maybe a slice
 /// repeated.
 fn mutate(
@@ -57,7 +60,7 @@ fn mutate(
     b
 }
 
-fn mutation() -> impl Strategy<Value = (Vec<(usize, u8)>, Option<usize>, Option<(usize, usize)>)> {
+fn mutation() -> impl Strategy<Value = Mutation> {
     (
         prop::collection::vec((any::<usize>(), any::<u8>()), 0..8),
         prop::option::of(any::<usize>()),
