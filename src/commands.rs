@@ -8,6 +8,7 @@ use crate::config::RunConfig;
 use crate::experiments;
 use crate::observer::ReadoutMode;
 use crate::run::{self, RunError, RunMode};
+use crate::run_folder::Folder;
 use colorimetry::CmfSimResult;
 use cortex::Trainer;
 use retina::Retina;
@@ -43,7 +44,6 @@ fn train_and_report(options: &CommonOptions, command: &str, mode: RunMode) -> Re
     let (config, out) = resolve_run(options, command)?;
     install_signals()?;
     let summary = run::run_in(&config, &out, mode, options.folder(), run::Origin::New)?;
-    write_run_marker(&out, command)?;
     run::print_outcome(&out, &summary);
     Ok(())
 }
@@ -83,45 +83,39 @@ pub fn resolve_run(
     Ok((config, out))
 }
 
-/// `run.json`: which command made the folder, for `colorvision resume DIR`.
-fn write_run_marker(out: &Path, command: &str) -> Result<(), RunError> {
-    let marker = serde_json::json!({ "command": command });
-    Ok(crate::io::write_json(&out.join("run.json"), &marker)?)
-}
-
-/// `colorvision resume DIR`: repeats the command that made `DIR` with `--resume`.
+/// `colorvision resume DIR`: continues the run of `DIR` (made by `run`, `train` or an
+/// experiment) as its `run.json` and `config.toml` say.
 pub fn resume(options: &ResumeOptions) -> Result<(), RunError> {
     let dir = &options.dir;
-    let marker = dir.join("run.json");
-    let command = std::fs::read_to_string(&marker)
-        .ok()
-        .and_then(|t| serde_json::from_str::<serde_json::Value>(&t).ok())
-        .and_then(|v| v["command"].as_str().map(str::to_string));
-    let common = CommonOptions {
-        preset: None,
-        cones: None,
-        seed: None,
-        steps: None,
-        out: Some(dir.clone()),
-        config: None,
-        resume: true,
-        force: false,
-    };
-    match command.as_deref() {
-        Some("run") => run(&common),
-        Some("train") => train(&common),
-        _ if dir.join("config.toml").is_file() => Err(RunError::Folder {
+    let marker_path = dir.join("run.json");
+    if !dir.join("config.toml").is_file() || !marker_path.is_file() {
+        return Err(RunError::Folder {
             path: dir.clone(),
-            reason: "run.json does not say which command made it: repeat that command with \
-                     --out and --resume (`run` and `train` folders; an experiment continues \
-                     with `experiment NAME --out DIR --resume`)"
+            reason: "is not a run folder (no config.toml and run.json); an experiment's folder \
+                     continues with `experiment NAME --out DIR --resume`"
                 .into(),
-        }),
-        _ => Err(RunError::Folder {
-            path: dir.clone(),
-            reason: "is not a run folder (no config.toml)".into(),
-        }),
+        });
     }
+    let text = std::fs::read_to_string(&marker_path).map_err(crate::io::fs_err(&marker_path))?;
+    let marker: run::RunMarker = serde_json::from_str(&text).map_err(|e| RunError::Folder {
+        path: marker_path.clone(),
+        reason: format!("invalid run marker: {e}"),
+    })?;
+    let config = crate::run_folder::read_config(dir)?;
+    config.validate()?;
+    install_signals()?;
+    let mode = RunMode {
+        cmf_sim: marker.cmf_sim,
+        pictures: marker.pictures,
+        progress: true,
+    };
+    let origin = match &marker.continued_from {
+        Some(p) => run::Origin::Continue(p),
+        None => run::Origin::New,
+    };
+    let summary = run::run_in(&config, dir, mode, Folder::Resume, origin)?;
+    run::print_outcome(dir, &summary);
+    Ok(())
 }
 
 /// `colorvision simulate`: pictures of every stage of the eye.

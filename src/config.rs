@@ -337,39 +337,7 @@ impl RunConfig {
             field: field.into(),
             reason,
         };
-        if self.oracle_motion != (self.cortex.m.mode == cortex::config::MMode::Oracle) {
-            return Err(invalid(
-                "oracle_motion",
-                format!(
-                    "{} but [cortex.m] mode = {:?}: the oracle motion is mode \"oracle\"",
-                    self.oracle_motion, self.cortex.m.mode
-                ),
-            ));
-        }
-        if self.cortex.train.steps != self.steps {
-            return Err(invalid(
-                "cortex.train.steps",
-                format!(
-                    "{} disagrees with `steps` = {} (they are one setting)",
-                    self.cortex.train.steps, self.steps
-                ),
-            ));
-        }
-        if self.retina.cones != self.cones {
-            return Err(invalid(
-                "retina.cones",
-                format!(
-                    "`{}` disagrees with `cones` = `{}`",
-                    self.retina.cones, self.cones
-                ),
-            ));
-        }
-        retina::MosaicSpec::parse(&self.cones).map_err(|e| match e {
-            retina::RetinaError::InvalidSetting { message, .. } => {
-                invalid("cones", format!("`{}`: {message}", self.cones))
-            }
-            other => invalid("cones", other.to_string()),
-        })?;
+        self.validate_said_twice()?;
         if self.retina.cones_per_side != self.cortex.ons_size_px {
             return Err(invalid(
                 "cortex.ons_size_px",
@@ -440,6 +408,50 @@ impl RunConfig {
                 ));
             }
         }
+        Ok(())
+    }
+
+    /// Checks that settings said in two places agree (`oracle_motion` and `[cortex.m] mode`,
+    /// `steps` and `[cortex.train] steps`, `cones` and `[retina] cones`) and that the mosaic
+    /// parses.
+    fn validate_said_twice(&self) -> Result<(), ConfigError> {
+        let invalid = |field: &str, reason: String| ConfigError::Invalid {
+            field: field.into(),
+            reason,
+        };
+        if self.oracle_motion != (self.cortex.m.mode == cortex::config::MMode::Oracle) {
+            return Err(invalid(
+                "oracle_motion",
+                format!(
+                    "{} but [cortex.m] mode = {:?}: the oracle motion is mode \"oracle\"",
+                    self.oracle_motion, self.cortex.m.mode
+                ),
+            ));
+        }
+        if self.cortex.train.steps != self.steps {
+            return Err(invalid(
+                "cortex.train.steps",
+                format!(
+                    "{} disagrees with `steps` = {} (they are one setting)",
+                    self.cortex.train.steps, self.steps
+                ),
+            ));
+        }
+        if self.retina.cones != self.cones {
+            return Err(invalid(
+                "retina.cones",
+                format!(
+                    "`{}` disagrees with `cones` = `{}`",
+                    self.retina.cones, self.cones
+                ),
+            ));
+        }
+        retina::MosaicSpec::parse(&self.cones).map_err(|e| match e {
+            retina::RetinaError::InvalidSetting { message, .. } => {
+                invalid("cones", format!("`{}`: {message}", self.cones))
+            }
+            other => invalid("cones", other.to_string()),
+        })?;
         Ok(())
     }
 

@@ -202,6 +202,18 @@ pub struct Progress {
     pub resumed_at_steps: Vec<u64>,
 }
 
+/// `run.json`: what the run does besides training and where its cortex came from, so
+/// `colorvision resume DIR` can continue it without its command line.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct RunMarker {
+    /// CMF-SIM on the schedule (`run`) or not (`train`).
+    pub cmf_sim: bool,
+    /// Pictures on the schedule.
+    pub pictures: bool,
+    /// The checkpoint a continued run (gene therapy, boosting) started from.
+    pub continued_from: Option<PathBuf>,
+}
+
 /// Where a run's cortex comes from.
 #[derive(Clone, Copy, Debug)]
 pub enum Origin<'a> {
@@ -276,6 +288,15 @@ pub fn run_in(
     }
     if opened == Opened::Fresh {
         crate::io::write_atomic(&out.join("config.toml"), config.to_toml().as_bytes())?;
+        let marker = RunMarker {
+            cmf_sim: mode.cmf_sim,
+            pictures: mode.pictures,
+            continued_from: match origin {
+                Origin::New => None,
+                Origin::Continue(p) => Some(std::path::absolute(p).unwrap_or(p.to_path_buf())),
+            },
+        };
+        crate::io::write_json(&out.join("run.json"), &marker)?;
     }
     let streams = (source, heldout);
     let state = RunState::open(config, out, mode, opened == Opened::Resume, origin, streams)?;

@@ -346,7 +346,7 @@ fn sigint_finishes_the_step_writes_a_checkpoint_and_resume_continues_from_it() {
     let next = stopped_at + 3;
     let o = colorvision(
         &dir,
-        &["train", "--out", "out", "--resume"],
+        &["resume", "out"],
         Some(&format!("interrupt@step:{next}")),
     );
     let log = text(&o);

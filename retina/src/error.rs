@@ -28,6 +28,14 @@ pub enum RetinaError {
         /// The decoder's message.
         message: String,
     },
+    /// A scene file's radiance is not finite and non-negative.
+    #[error("{}: {message}", path.display())]
+    Radiance {
+        /// The file.
+        path: PathBuf,
+        /// The first bad pixel and its value.
+        message: String,
+    },
     /// An OpenEXR file has no channel whose name carries a wavelength.
     #[error(
         "{}: no wavelength channels (expected names like `wl_550nm` or `S0.550,0nm`; \

@@ -140,20 +140,29 @@ pub fn read_spectral_exr(path: impl AsRef<Path>) -> Result<SpectralImage> {
     for (_, c) in &found {
         data.extend(c.sample_data.values_as_f32());
     }
-    if let Some(i) = data.iter().position(|v| !(v.is_finite() && *v >= 0.0)) {
-        let (band, pixel) = (i / (w * h).max(1), i % (w * h).max(1));
-        return Err(RetinaError::Exr {
+    Ok(SpectralImage { grid, h, w, data })
+}
+
+/// Read a spectral EXR as a scene's radiance onto `grid`: [`read_spectral_exr_on`], and every
+/// value must be finite and ≥ 0 (the error names the file, the first bad pixel and channel).
+pub fn read_scene_exr(path: impl AsRef<Path>, grid: &WavelengthGrid) -> Result<SpectralImage> {
+    let path = path.as_ref();
+    let img = read_spectral_exr(path)?;
+    let (h, w) = (img.h, img.w);
+    let plane = (h * w).max(1);
+    if let Some(i) = img.data.iter().position(|v| !(v.is_finite() && *v >= 0.0)) {
+        return Err(RetinaError::Radiance {
             path: path.to_path_buf(),
             message: format!(
-                "pixel (x {}, y {}) of channel {} is {}: radiance must be finite and ≥ 0",
-                pixel % w.max(1),
-                pixel / w.max(1),
-                found[band].1.name,
-                data[i]
+                "pixel (x {}, y {}) at {} nm is {}: radiance must be finite and ≥ 0",
+                (i % plane) % w.max(1),
+                (i % plane) / w.max(1),
+                img.grid.as_slice()[i / plane],
+                img.data[i]
             ),
         });
     }
-    Ok(SpectralImage { grid, h, w, data })
+    img.resample(grid, &path.display().to_string())
 }
 
 /// Largest image a scene file may declare, pixels per channel (2²⁶, e.g. 8192²).

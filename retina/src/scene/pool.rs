@@ -32,7 +32,7 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use super::dead_leaves::{DeadLeavesConfig, LeafScene};
-use super::exr_io::read_spectral_exr_on;
+use super::exr_io::read_scene_exr;
 use super::library::ReflectanceLibrary;
 pub use super::projection::SceneProjection;
 use super::rgb::{class_planes_by_matrix, Display, RgbImage};
@@ -212,7 +212,7 @@ impl ScenePool {
                 .unwrap_or("")
                 .to_ascii_lowercase();
             files.push(match ext.as_str() {
-                "exr" => LoadedFile::Spectral(read_spectral_exr_on(path, &grid)?),
+                "exr" => LoadedFile::Spectral(read_scene_exr(path, &grid)?),
                 "png" => LoadedFile::Rgb(RgbImage::read_png(path)?),
                 _ => {
                     return Err(RetinaError::setting(
