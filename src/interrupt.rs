@@ -8,7 +8,8 @@
 //! step or a CMF-SIM measurement can take a while to finish.
 //!
 //! Fault injection for tests (`COLORVISION_FAULT`, read by [`install_fault_injection`]): a
-//! comma-separated list of `ACTION@POINT:STEP`, with ACTION `abort` (the process dies there, as under SIGKILL) or
+//! comma-separated list of `ACTION@POINT:STEP` (STEP counts the cortex's updates, so in a
+//! continued run it goes on from the run it continued), with ACTION `abort` (the process dies there, as under SIGKILL) or
 //! `interrupt` (as if SIGINT arrived there), POINT `step` (after the training step), `measured`
 //! (after the step's measurements) or a stage of a checkpoint write (`params-written`,
 //! `files-written`, `old-moved-aside`, `renamed`; see `cortex::checkpoint::set_fault_hook`).

@@ -326,6 +326,11 @@ struct RunState<'a> {
 const METRICS_HEADER: &str = "step,loss,main_loss,step_ms,heldout_model_mse,heldout_identity_mse,improvement,motion_error_px,dimension\n";
 
 impl<'a> RunState<'a> {
+    /// Steps of this run done: the trainer's steps, less those of the run it continued.
+    fn run_step(&self) -> u64 {
+        self.trainer.step_count() - self.trainer.continued_from_step().unwrap_or(0)
+    }
+
     /// Builds the trainer and the streams: fresh (or continued from `origin`), or resumed from
     /// the newest checkpoint of `out` that verifies.
     fn open(
@@ -341,7 +346,7 @@ impl<'a> RunState<'a> {
         } else {
             None
         };
-        let resumed_at = resumed.as_ref().map(|(t, _)| t.step_count());
+        let was_resumed = resumed.is_some();
         let (trainer, progress) = match resumed {
             Some(x) => x,
             None => (new_trainer(config, origin)?, Progress::default()),
@@ -361,8 +366,9 @@ impl<'a> RunState<'a> {
             bar: ProgressBar::hidden(),
             saved: None,
         };
-        if let Some(step) = resumed_at {
-            state.restore(step)?;
+        let resumed_at = was_resumed.then(|| state.run_step());
+        if resumed_at.is_some() {
+            state.restore()?;
         }
         state.announce(resumed_at);
         Ok(state)
@@ -370,7 +376,8 @@ impl<'a> RunState<'a> {
 
     /// Puts back what the checkpoint of `step` recorded beside the trainer: the held-out
     /// stream, the clock, and `metrics.csv` up to that step.
-    fn restore(&mut self, step: u64) -> Result<(), RunError> {
+    fn restore(&mut self) -> Result<(), RunError> {
+        let step = self.run_step();
         if let Some(state) = &self.progress.heldout_state {
             self.heldout.load_state(state)?;
         }
@@ -379,8 +386,7 @@ impl<'a> RunState<'a> {
             .unwrap_or_else(Instant::now);
         let path = self.out.join("metrics.csv");
         let text = std::fs::read_to_string(&path).map_err(crate::io::fs_err(&path))?;
-        let first_step = self.trainer.continued_from_step().unwrap_or(0);
-        let mut last = first_step;
+        let mut last = 0;
         for line in text.lines().skip(1) {
             let mut cols = line.split(',');
             let k: u64 = cols.next().and_then(|c| c.parse().ok()).unwrap_or(u64::MAX);
@@ -406,7 +412,7 @@ impl<'a> RunState<'a> {
                 reason: format!("has rows up to step {last}, the checkpoint is at step {step}"),
             });
         }
-        if !self.progress.measured && last == step && step > first_step {
+        if !self.progress.measured && step > 0 {
             // The checkpoint was taken before the step's measurements: its row waits for them.
             let row_end = self.metrics[..self.metrics.len() - 1]
                 .rfind('\n')
@@ -537,7 +543,7 @@ impl RunState<'_> {
     /// The training loop: steps, checkpoints, measurements, and the end of the run.
     fn drive(mut self) -> Result<Summary, RunError> {
         let steps = self.config.steps;
-        let mut k = self.trainer.step_count();
+        let mut k = self.run_step();
         if self.pending_row.is_some() && self.measure(k)? {
             return self.finish();
         }
@@ -547,13 +553,13 @@ impl RunState<'_> {
         while k < steps {
             k += 1;
             self.train_step(k)?;
-            interrupt::fault_point("step", k);
+            interrupt::fault_point("step", self.trainer.step_count());
             if self.checkpoint_due(k) {
                 self.save(k, false)?;
             }
             self.stop_if_asked(k, false)?;
             let stop_early = self.measure(k)?;
-            interrupt::fault_point("measured", k);
+            interrupt::fault_point("measured", self.trainer.step_count());
             self.stop_if_asked(k, true)?;
             if stop_early {
                 break;
@@ -818,7 +824,7 @@ impl RunState<'_> {
             }
         }
         let steps_done = self.trainer.step_count();
-        let steps_here = steps_done - self.trainer.continued_from_step().unwrap_or(0);
+        let steps_here = self.run_step();
         Summary {
             dimension: p.last_cmf.as_ref().map_or(0, |r| r.dimension),
             steps: steps_done,

@@ -361,3 +361,34 @@ fn sigint_finishes_the_step_writes_a_checkpoint_and_resume_continues_from_it() {
     );
     std::fs::remove_dir_all(dir).ok();
 }
+
+#[test]
+fn a_continued_run_killed_in_its_second_stage_resumes_bit_identically() {
+    // `boost`: 4 steps on LMS, then the same cortex 4 more on LMSQ (Adam recreated); the
+    // fault's step counts the cortex's updates, so step 6 is inside the second stage.
+    let stage = "out/after_LMSQ_Q_506/checkpoints/step_00000008/params.safetensors";
+    let args = ["experiment", "boost", "--config", "c.toml", "--out", "out"];
+    let config = "preset = \"tiny\"\nsteps = 4\n[cortex.train]\ncheckpoint_every_steps = 1\n";
+    let reference = scratch("boost_reference");
+    std::fs::write(reference.join("c.toml"), config).unwrap();
+    let o = colorvision(&reference, &args, None);
+    assert!(o.status.success(), "{}", text(&o));
+    let dir = scratch("boost");
+    std::fs::write(dir.join("c.toml"), config).unwrap();
+    let o = colorvision(&dir, &args, Some("abort@step:6"));
+    assert_eq!(exit_code(&o), Some(ABORT), "{}", text(&o));
+    let mut resumed = args.to_vec();
+    resumed.push("--resume");
+    let o = colorvision(&dir, &resumed, None);
+    let log = text(&o);
+    assert!(o.status.success(), "{log}");
+    assert!(log.contains("before_LMS holds this run, finished"), "{log}");
+    assert!(log.contains("resuming at step 1"), "{log}");
+    assert_files_parse(&dir.join("out"), false);
+    assert!(
+        std::fs::read(dir.join(stage)).unwrap() == std::fs::read(reference.join(stage)).unwrap(),
+        "the continued stage's final parameters differ"
+    );
+    std::fs::remove_dir_all(reference).ok();
+    std::fs::remove_dir_all(dir).ok();
+}
