@@ -13,7 +13,7 @@
 //! All are noise-free and ignore the background (black); all but Naka–Rushton are linear in the
 //! stimulus.
 
-use rand::{Rng, SeedableRng};
+use rand::SeedableRng;
 
 use crate::cones::{sensitivities, ConeClass, ConeFundamentals, ConeTemplate};
 use crate::error::Result;
@@ -168,7 +168,7 @@ impl LocationDependentObserver {
         let cells = cells.max(2);
         let mut rng = rand::rngs::StdRng::seed_from_u64(seed);
         let rotations = (0..cells * cells)
-            .map(|_| random_orthogonal(n, &mut rng))
+            .map(|_| crate::linalg::random_orthonormal_columns(n, n, &mut rng))
             .collect();
         LocationDependentObserver {
             inner,
@@ -246,31 +246,6 @@ impl Observer for NakaRushtonObserver {
             *v /= v.abs() + self.half_saturation;
         }
     }
-}
-
-/// A random `n × n` orthogonal matrix (Gram–Schmidt on Gaussian-ish columns), row-major.
-fn random_orthogonal(n: usize, rng: &mut impl Rng) -> Vec<f64> {
-    let mut cols: Vec<Vec<f64>> = Vec::with_capacity(n);
-    while cols.len() < n {
-        let mut v: Vec<f64> = (0..n).map(|_| rng.random_range(-1.0..1.0)).collect();
-        for c in &cols {
-            let d: f64 = v.iter().zip(c).map(|(a, b)| a * b).sum();
-            for (x, y) in v.iter_mut().zip(c) {
-                *x -= d * y;
-            }
-        }
-        let norm = v.iter().map(|x| x * x).sum::<f64>().sqrt();
-        if norm > 1e-3 {
-            cols.push(v.into_iter().map(|x| x / norm).collect());
-        }
-    }
-    let mut m = vec![0.0; n * n];
-    for (j, c) in cols.iter().enumerate() {
-        for i in 0..n {
-            m[i * n + j] = c[i];
-        }
-    }
-    m
 }
 
 #[cfg(test)]

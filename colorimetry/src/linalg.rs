@@ -5,6 +5,7 @@
 //! minimum-norm solution instead of blowing up.
 
 use faer::Mat;
+use rand::{Rng, RngCore};
 
 /// Relative cut-off below which singular values count as zero in [`lstsq`].
 pub const DEFAULT_RCOND: f64 = 1e-12;
@@ -126,6 +127,38 @@ pub fn mat3_inverse(a: &[[f64; 3]; 3]) -> Option<[[f64; 3]; 3]> {
         }
     }
     Some(inv)
+}
+
+/// A random `(rows × cols)` row-major matrix with orthonormal columns (`cols ≤ rows`):
+/// Gram–Schmidt on columns of uniform draws in [−1, 1), a draw too close to the span so far
+/// redrawn. With `rows == cols` it is a random orthogonal matrix.
+///
+/// # Panics
+/// If `cols > rows`.
+pub fn random_orthonormal_columns(rows: usize, cols: usize, rng: &mut dyn RngCore) -> Vec<f64> {
+    assert!(
+        cols <= rows,
+        "random_orthonormal_columns: {cols} columns in {rows} rows"
+    );
+    let mut columns: Vec<Vec<f64>> = Vec::with_capacity(cols);
+    while columns.len() < cols {
+        let mut v: Vec<f64> = (0..rows).map(|_| rng.random_range(-1.0..1.0)).collect();
+        for c in &columns {
+            let d: f64 = v.iter().zip(c).map(|(a, b)| a * b).sum();
+            v.iter_mut().zip(c).for_each(|(x, y)| *x -= d * y);
+        }
+        let norm = v.iter().map(|x| x * x).sum::<f64>().sqrt();
+        if norm > 1e-3 {
+            columns.push(v.into_iter().map(|x| x / norm).collect());
+        }
+    }
+    let mut m = vec![0.0; rows * cols];
+    for (j, c) in columns.iter().enumerate() {
+        for i in 0..rows {
+            m[i * cols + j] = c[i];
+        }
+    }
+    m
 }
 
 #[cfg(test)]

@@ -24,7 +24,6 @@
 
 use rand::rngs::StdRng;
 use rand::SeedableRng;
-use rand_distr::{Distribution, StandardNormal};
 use retina::Retina;
 
 /// Channels of the oracle percept (the cortex's N, paper §4 and the official code: 8).
@@ -69,7 +68,14 @@ impl OracleDecoder {
             kinds,
             kind_of,
             taps,
-            embedding: orthonormal_columns(ORACLE_PERCEPT_DIM, kinds, seed),
+            embedding: colorimetry::linalg::random_orthonormal_columns(
+                ORACLE_PERCEPT_DIM,
+                kinds,
+                &mut StdRng::seed_from_u64(seed),
+            )
+            .into_iter()
+            .map(|v| v as f32)
+            .collect(),
         })
     }
 
@@ -212,34 +218,6 @@ fn interpolation_taps(retina: &Retina, kind_of: &[usize], kinds: usize) -> Vec<V
         }
     }
     taps
-}
-
-/// `(rows × cols)` row-major with orthonormal columns (Gram–Schmidt on Gaussian draws).
-fn orthonormal_columns(rows: usize, cols: usize, seed: u64) -> Vec<f32> {
-    assert!(
-        cols <= rows,
-        "orthonormal_columns: {cols} columns in {rows} rows"
-    );
-    let mut rng = StdRng::seed_from_u64(seed);
-    let mut columns: Vec<Vec<f64>> = Vec::with_capacity(cols);
-    while columns.len() < cols {
-        let mut v: Vec<f64> = (0..rows).map(|_| StandardNormal.sample(&mut rng)).collect();
-        for c in &columns {
-            let dot: f64 = v.iter().zip(c).map(|(a, b)| a * b).sum();
-            v.iter_mut().zip(c).for_each(|(a, b)| *a -= dot * b);
-        }
-        let norm = v.iter().map(|a| a * a).sum::<f64>().sqrt();
-        if norm > 1e-6 {
-            columns.push(v.into_iter().map(|a| a / norm).collect());
-        }
-    }
-    let mut out = vec![0f32; rows * cols];
-    for (c, col) in columns.iter().enumerate() {
-        for r in 0..rows {
-            out[r * cols + c] = col[r] as f32;
-        }
-    }
-    out
 }
 
 #[cfg(test)]
