@@ -36,6 +36,10 @@ pub enum Command {
     CmfSim(CmfSimOptions),
     /// Fit Neural Scope on held-out scenes for a trained run and write percept pictures.
     Scope(RunDirOptions),
+    /// Measure every checkpoint of a run folder — the learned invariants against the eye's
+    /// truth and, with `--cmf`, the calibrated CMF-SIM — and write convergence.md/json and plots
+    /// into DIR/convergence/.
+    Convergence(ConvergenceOptions),
     /// Run a named experiment of the paper (see `colorvision experiment list`).
     Experiment(ExperimentOptions),
     /// Continue a stopped `run` or `train` from the newest valid checkpoint of its folder
@@ -169,6 +173,17 @@ pub struct RunDirOptions {
     /// Shared options.
     #[command(flatten)]
     pub common: CommonOptions,
+}
+
+/// Options of `convergence`.
+#[derive(Debug, Clone, Args)]
+pub struct ConvergenceOptions {
+    /// The run folder.
+    #[arg(long)]
+    pub run: PathBuf,
+    /// Also run CMF-SIM (the run's full budget) at every checkpoint.
+    #[arg(long)]
+    pub cmf: bool,
 }
 
 /// Options of `experiment`.

@@ -1,8 +1,8 @@
 //! What each subcommand does. `main.rs` only parses and dispatches here.
 
 use crate::cli::{
-    CmfSimOptions, CommonOptions, ExperimentOptions, ObserverKind, ReadoutArg, ResumeOptions,
-    RunDirOptions,
+    CmfSimOptions, CommonOptions, ConvergenceOptions, ExperimentOptions, ObserverKind, ReadoutArg,
+    ResumeOptions, RunDirOptions,
 };
 use crate::config::RunConfig;
 use crate::experiments;
@@ -145,6 +145,22 @@ pub fn simulate(options: &CommonOptions) -> Result<(), RunError> {
     for p in written {
         println!("  {}", p.display());
     }
+    Ok(())
+}
+
+/// `colorvision convergence`: every checkpoint of a run folder measured the same way.
+pub fn convergence(options: &ConvergenceOptions) -> Result<(), RunError> {
+    println!(
+        "colorvision convergence: {}{}",
+        options.run.display(),
+        if options.cmf { " (with CMF-SIM)" } else { "" }
+    );
+    let rows = crate::convergence::study(&options.run, options.cmf)?;
+    println!(
+        "{} checkpoints; wrote {}/convergence/convergence.md, .json and convergence_*.svg",
+        rows.len(),
+        options.run.display()
+    );
     Ok(())
 }
 

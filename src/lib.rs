@@ -8,8 +8,10 @@
 pub mod cli;
 pub mod commands;
 pub mod config;
+pub mod convergence;
 pub mod experiments;
 pub mod interrupt;
+pub mod invariants;
 pub mod io;
 pub mod ladder;
 pub mod observer;
@@ -17,3 +19,4 @@ pub mod pictures;
 pub mod run;
 pub mod run_folder;
 pub mod source;
+pub mod stats;

@@ -17,6 +17,7 @@ fn main() {
         Command::Train(o) => commands::train(o),
         Command::CmfSim(o) => commands::cmf_sim(o),
         Command::Scope(o) => commands::scope(o),
+        Command::Convergence(o) => commands::convergence(o),
         Command::Experiment(o) => commands::experiment(o),
         Command::Resume(o) => commands::resume(o),
     };

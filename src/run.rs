@@ -935,12 +935,12 @@ pub fn print_outcome(out: &Path, summary: &Summary) {
             Some(a) => format!("{:.0}° (minor/major {:.2})", a.angle_deg, a.minor_to_major),
             None => "none".into(),
         };
+        println!("  learned invariants against the eye's truth:");
+        for line in inv.recovery.describe() {
+            println!("    {line}");
+        }
         println!(
-            "  learned invariants: C vs true types ARI {}, W vs DoG r {} (surround r {}), P spacing r {:.2}; Neural-Scope hue axis {} (scenes: {})",
-            inv.c_adjusted_rand_index.map_or("-".into(), |v| format!("{v:.2}")),
-            inv.w_kernel_correlation.map_or("-".into(), |v| format!("{v:.3}")),
-            inv.w_surround_correlation.map_or("-".into(), |v| format!("{v:.2}")),
-            inv.p_spacing_correlation,
+            "  Neural-Scope hue axis {} (scenes: {})",
             axis(&inv.scope_hue_axis),
             axis(&inv.truth_hue_axis),
         );

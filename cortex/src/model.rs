@@ -329,4 +329,9 @@ impl Cortex {
     pub fn learned_w_kernel(&self, k: usize) -> Option<Tensor<f64>> {
         self.w.kernel(&self.params, k)
     }
+
+    /// The learned lateral-inhibition filter's gain at zero frequency (the sum of its kernel).
+    pub fn learned_w_dc_gain(&self) -> Option<f64> {
+        self.w.dc_gain(&self.params)
+    }
 }

@@ -5,14 +5,14 @@
 //!
 //! | preset | cones | field | layout | LI | max shift | tiles × px | notes |
 //! |---|---|---|---|---|---|---|---|
-//! | `tiny` | 32² | 64 px | foveated | yes | 2 px | 8 × 96 | tests, seconds |
-//! | `quick` | 64² | 128 px | foveated | yes | 4 px | 32 × 192 | the default CPU run |
-//! | `sandbox` | 64² | 64 px | identity | no | 5 px | 32 × 96 | official sandbox (MSS 5) |
-//! | `paper` | 256² | 512 px | foveated | yes | 15 px | 8 × 576 | official everything |
+//! | `tiny` | 32² | 64 px | foveated | yes | 15 px = 7.5 cones | 8 × 96 | tests, seconds |
+//! | `quick` | 64² | 128 px | foveated | yes | 15 px = 7.5 cones | 32 × 192 | the default CPU run |
+//! | `sandbox` | 64² | 64 px | identity | no | 5 px = 5 cones | 32 × 96 | official sandbox (MSS 5) |
+//! | `paper` | 256² | 512 px | foveated | yes | 15 px = 7.5 cones | 8 × 576 | official everything |
 //!
 //! Field sizes keep the official ratio of 2 field px per cone for foveated layouts (official
-//! §2.5: 256 cones sample a 512-px field); the maximum shift scales with the field
-//! ([`EyeMotionConfig::scaled_for_field`]). Scenes are synthetic dead leaves by default.
+//! §2.5: 256 cones sample a 512-px field); the maximum shift is the official one in cone
+//! spacings, 7.5 ([`EyeMotionConfig::official_for`]). Scenes are synthetic dead leaves by default.
 
 use colorimetry::{ConeTemplate, WavelengthGrid};
 use serde::{Deserialize, Serialize};
@@ -126,7 +126,7 @@ impl RetinaConfig {
             layout_seed: 0,
             grid: GridConfig::default(),
             template: ConeTemplate::default(),
-            eye_motion: EyeMotionConfig::scaled_for_field(field_px),
+            eye_motion: EyeMotionConfig::official_for(field_px, n),
             noise: NoiseConfig::default(),
             lateral_inhibition: Some(DogConfig::default()),
             lif: LifConfig::default(),

@@ -3,9 +3,12 @@
 //! Training samples are two frames: frame 0 is the field at the centre of a crop that is
 //! `field_px + 2·max_shift_px` wide, frame 1 is the field moved by d = (dx, dy), each component
 //! drawn uniformly from the integers in `[−max_shift_px, max_shift_px − 1]` (the official
-//! `torch.randint(−MSS, MSS)`, upper bound exclusive; the paper says ±15). The official field is
-//! 512 px with MSS = 15; other fields scale it: `round(15 · field_px / 512)`, at least 1 (the
-//! sandbox preset sets its own value, 5, as the official sandbox does).
+//! `torch.randint(−MSS, MSS)`, upper bound exclusive; the paper says ±15). The official eye
+//! samples a 512-px field with 256 cones per side (2 px per cone) and shifts by MSS = 15 px,
+//! i.e. **7.5 mean cone spacings**. What the cortex sees is the shift in cones, so every eye
+//! keeps that: `max_shift_px = round(7.5 · field_px / cones_per_side)`, at least 1
+//! ([`EyeMotionConfig::official_for`]). The sandbox preset sets its own value, 5 px = 5 cones,
+//! as the official sandbox does.
 //!
 //! Sign convention: frame 1 samples the scene at `x + d`, i.e. the eye moved by +d and the image
 //! content moved by −d on the retina. `d` is returned in px as `[dx, dy]` (dx along columns, dy
@@ -17,10 +20,9 @@
 use rand::Rng;
 use serde::{Deserialize, Serialize};
 
-/// Official maximum shift, px of the 512-px field (official §2.4).
-pub const OFFICIAL_MAX_SHIFT_PX: i32 = 15;
-/// Field size the official shift refers to, px.
-pub const OFFICIAL_FIELD_PX: usize = 512;
+/// Official maximum shift in mean cone spacings: 15 px of a 512-px field sampled by 256 cones
+/// per side (official §2.4, §2.5; paper S-02 "±15 pixels").
+pub const OFFICIAL_MAX_SHIFT_CONES: f64 = 7.5;
 
 /// Eye-motion settings.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -30,12 +32,18 @@ pub struct EyeMotionConfig {
 }
 
 impl EyeMotionConfig {
-    /// The official shift scaled to a field of `field_px` (module docs).
-    pub fn scaled_for_field(field_px: usize) -> Self {
-        let m = (OFFICIAL_MAX_SHIFT_PX as f64 * field_px as f64 / OFFICIAL_FIELD_PX as f64)
-            .round()
-            .max(1.0) as i32;
+    /// The official shift in cone spacings, in px of a `field_px` field sampled by
+    /// `cones_per_side` cones per side: `round(7.5 · field_px / cones_per_side)`, at least 1.
+    pub fn official_for(field_px: usize, cones_per_side: usize) -> Self {
+        let px_per_cone = field_px as f64 / cones_per_side.max(1) as f64;
+        let m = (OFFICIAL_MAX_SHIFT_CONES * px_per_cone).round().max(1.0) as i32;
         EyeMotionConfig { max_shift_px: m }
+    }
+
+    /// The largest shift in mean cone spacings for a field of `field_px` sampled by
+    /// `cones_per_side` cones per side.
+    pub fn max_shift_cones(&self, field_px: usize, cones_per_side: usize) -> f64 {
+        self.max_shift_px as f64 * cones_per_side as f64 / field_px.max(1) as f64
     }
 
     /// One shift `[dx, dy]`, each uniform in `[−max, max − 1]`.
@@ -87,7 +95,7 @@ mod tests {
 
     #[test]
     fn shifts_cover_exactly_the_official_range() {
-        let e = EyeMotionConfig::scaled_for_field(512);
+        let e = EyeMotionConfig::official_for(512, 256);
         assert_eq!(e.max_shift_px, 15);
         let mut rng = StdRng::seed_from_u64(0);
         let mut seen = [0usize; 30];
@@ -103,8 +111,13 @@ mod tests {
             normalise_shift([-15, 14], 512),
             [-15.0 / 256.0, 14.0 / 256.0]
         );
-        assert_eq!(EyeMotionConfig::scaled_for_field(128).max_shift_px, 4);
-        assert_eq!(EyeMotionConfig::scaled_for_field(8).max_shift_px, 1);
+        // Every foveated preset has 2 px per cone: the same 7.5 cones, 15 px.
+        assert_eq!(EyeMotionConfig::official_for(128, 64).max_shift_px, 15);
+        assert_eq!(EyeMotionConfig::official_for(64, 32).max_shift_px, 15);
+        assert_eq!(EyeMotionConfig::official_for(64, 64).max_shift_px, 8);
+        assert_eq!(EyeMotionConfig::official_for(1, 64).max_shift_px, 1);
+        let e = EyeMotionConfig::official_for(128, 64);
+        assert_eq!(e.max_shift_cones(128, 64), 7.5);
     }
 
     #[test]

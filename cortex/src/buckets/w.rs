@@ -73,6 +73,12 @@ impl WBucket {
     pub fn kernel<T: Float>(&self, params: &ParamStore<T>, k: usize) -> Option<Tensor<f64>> {
         self.response.map(|id| response_kernel(params.get(id), k))
     }
+
+    /// The learned filter's gain at zero frequency (the sum of its kernel): the real part of the
+    /// response at the grid's origin. 1 for the initial identity; `None` in identity mode.
+    pub fn dc_gain<T: Float>(&self, params: &ParamStore<T>) -> Option<f64> {
+        self.response.map(|id| params.get(id).data()[0].as_f64())
+    }
 }
 
 #[cfg(test)]
@@ -107,6 +113,7 @@ mod tests {
         let dec = w.decode(&mut tape, r, xv);
         assert!(tape.value(enc).max_abs_diff(&x) < 1e-12);
         assert!(tape.value(dec).max_abs_diff(&x) < 1e-5);
+        assert!((w.dc_gain(&params).unwrap() - 1.0).abs() < 1e-12);
         let k = w.kernel(&params, 7).unwrap();
         assert!(
             (k.data()[24] - 1.0).abs() < 1e-12
@@ -151,5 +158,10 @@ mod tests {
         // the learned kernel read back from the response
         let k7 = w.kernel(&params, 7).unwrap();
         assert!(k7.max_abs_diff(&k) < 1e-12);
+        let dc = w.dc_gain(&params).unwrap();
+        assert!(
+            (dc - k.data().iter().sum::<f64>()).abs() < 1e-12,
+            "DC gain {dc}"
+        );
     }
 }

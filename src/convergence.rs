@@ -1,0 +1,303 @@
+//! Convergence of a run: every checkpoint of a run folder measured the same way — the learned
+//! invariants against the eye's truth ([`crate::invariants`]), optionally the calibrated
+//! CMF-SIM with the run's full budget, and the held-out prediction gain the run logged — so
+//! learning can be followed over steps (`colorvision convergence --run DIR [--cmf]`).
+//!
+//! Each checkpoint's measurement is kept in `DIR/convergence/step_<step>.json` and reused on
+//! the next call (a study of a run still training picks up only its new checkpoints). The
+//! table lands in `convergence.md` / `convergence.json`, the plots in `convergence_*.svg`.
+
+use crate::cli::ObserverKind;
+use crate::config::RunConfig;
+use crate::invariants::{self, Recovery};
+use crate::io::write_atomic;
+use crate::run::RunError;
+use colorimetry::plot::{LinePlot, Series};
+use cortex::Trainer;
+use retina::Retina;
+use serde::{Deserialize, Serialize};
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+/// CMF-SIM at one checkpoint, in brief.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct CmfPoint {
+    /// Colour dimensionality (0: undefined).
+    pub dimension: usize,
+    /// Σ base error / Σ percept energy (≥ 1: no colour constancy).
+    pub base_over_energy: f64,
+    /// Per K tried: `[K, passed (0/1), converged worst error/threshold of its best set]`.
+    pub per_k: Vec<[f64; 3]>,
+    /// Wall time of the measurement, s.
+    pub seconds: f64,
+}
+
+/// Everything measured at one checkpoint.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct StudyRow {
+    /// Training step of the checkpoint.
+    pub step: u64,
+    /// Held-out prediction error of "next = current" over the model's, logged by the run at
+    /// the last evaluation at or before `step`.
+    pub heldout_gain: Option<f64>,
+    /// Wall time of training up to the checkpoint, s, as the run recorded it.
+    pub wall_seconds: Option<f64>,
+    /// The learned invariants.
+    pub recovery: Recovery,
+    /// The calibrated CMF-SIM (with `--cmf`).
+    pub cmf: Option<CmfPoint>,
+}
+
+/// Measures every checkpoint of the run folder `dir` (CMF-SIM too when `with_cmf`), writes the
+/// table and plots, and returns the rows in step order.
+pub fn study(dir: &Path, with_cmf: bool) -> Result<Vec<StudyRow>, RunError> {
+    let config = crate::run_folder::read_config(dir)?;
+    config.validate().map_err(|e| RunError::Folder {
+        path: dir.join("config.toml"),
+        reason: e.to_string(),
+    })?;
+    let retina = Retina::new(config.retina.clone())?;
+    let gains = heldout_gains(&dir.join("metrics.csv"));
+    let out = dir.join("convergence");
+    std::fs::create_dir_all(&out).map_err(|source| crate::io::IoError::Fs {
+        path: out.clone(),
+        source,
+    })?;
+    let mut checkpoints = cortex::checkpoint::newest_first(&dir.join("checkpoints"))?;
+    checkpoints.reverse();
+    let mut rows = Vec::new();
+    for path in checkpoints {
+        match measure_checkpoint(&path, &config, &retina, &gains, &out, with_cmf) {
+            Ok(row) => rows.push(row),
+            Err(e) => println!("  {}: skipped ({e})", path.display()),
+        }
+    }
+    write_outputs(&out, &config, &rows)?;
+    Ok(rows)
+}
+
+fn row_path(out: &Path, step: u64) -> PathBuf {
+    out.join(format!("step_{step:08}.json"))
+}
+
+fn measure_checkpoint(
+    path: &Path,
+    config: &RunConfig,
+    retina: &Retina,
+    gains: &[(u64, f64)],
+    out: &Path,
+    with_cmf: bool,
+) -> Result<StudyRow, RunError> {
+    let meta = cortex::checkpoint::verify(path)?;
+    let cached = row_path(out, meta.step);
+    if let Ok(text) = std::fs::read_to_string(&cached) {
+        if let Ok(row) = serde_json::from_str::<StudyRow>(&text) {
+            if row.cmf.is_some() || !with_cmf {
+                return Ok(row);
+            }
+        }
+    }
+    let trainer = Trainer::continue_from(path, Some(config.cortex.clone()))?;
+    let recovery = invariants::measure(&trainer.cortex, retina);
+    let cmf = if with_cmf {
+        let r = crate::ladder::measure_observer(config, ObserverKind::Cortex, Some(&trainer))?;
+        let (base, energy): (f64, f64) = (r.base_error.iter().sum(), r.energy.iter().sum());
+        Some(CmfPoint {
+            dimension: r.dimension,
+            base_over_energy: base / energy.max(f64::MIN_POSITIVE),
+            per_k: r
+                .per_k
+                .iter()
+                .map(|k| {
+                    [
+                        k.n_primaries as f64,
+                        f64::from(u8::from(k.passed)),
+                        k.converged_worst_ratio,
+                    ]
+                })
+                .collect(),
+            seconds: r.seconds,
+        })
+    } else {
+        None
+    };
+    let wall_seconds = meta
+        .run_state
+        .as_ref()
+        .and_then(|s| s.get("wall_seconds"))
+        .and_then(|v| v.as_f64());
+    let row = StudyRow {
+        step: meta.step,
+        heldout_gain: gains
+            .iter()
+            .rev()
+            .find(|(s, _)| *s <= meta.step)
+            .map(|&(_, g)| g),
+        wall_seconds,
+        recovery,
+        cmf,
+    };
+    let text = serde_json::to_string_pretty(&row).expect("plain data");
+    write_atomic(&cached, text.as_bytes())?;
+    println!("  step {}: {}", row.step, describe_row(&row));
+    Ok(row)
+}
+
+/// `(step, improvement)` of every evaluated row of a run's metrics.csv (empty if unreadable).
+fn heldout_gains(path: &Path) -> Vec<(u64, f64)> {
+    let Ok(text) = std::fs::read_to_string(path) else {
+        return Vec::new();
+    };
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap_or("").split(',').collect();
+    let Some(col) = header.iter().position(|&h| h == "improvement") else {
+        return Vec::new();
+    };
+    lines
+        .filter_map(|l| {
+            let f: Vec<&str> = l.split(',').collect();
+            Some((f.first()?.parse().ok()?, f.get(col)?.parse().ok()?))
+        })
+        .collect()
+}
+
+fn describe_row(row: &StudyRow) -> String {
+    let mut s = String::new();
+    if let Some(g) = row.heldout_gain {
+        let _ = write!(s, "prediction {g:.1}× better than \"next = current\"; ");
+    }
+    if let Some(c) = &row.cmf {
+        let _ = write!(s, "CMF-SIM {}-D; ", c.dimension);
+    }
+    s + &row.recovery.describe().join("; ")
+}
+
+fn min_of(v: &[f64]) -> f64 {
+    v.iter().cloned().fold(f64::INFINITY, f64::min)
+}
+
+fn fmt_list(v: &[f64]) -> String {
+    v.iter()
+        .map(|x| format!("{x:.2}"))
+        .collect::<Vec<_>>()
+        .join("/")
+}
+
+/// The table in Markdown, one row per checkpoint.
+pub fn table(config: &RunConfig, rows: &[StudyRow]) -> String {
+    let mut md = format!(
+        "Convergence of `{}` {} (seed {}), every checkpoint. Gain: held-out prediction error of \
+         \"next = current\" over the model's. CMF-SIM: dimension, and per K the converged worst \
+         error/threshold of the best set (pass < 1). C recall per class (k-means matched / \
+         nearest class centre). W: surround r against the DoG and DC gain (true {}). P: position \
+         error after the affine gauge, cone spacings RMS.\n\n",
+        config.preset,
+        config.cones,
+        config.seed,
+        rows.iter()
+            .find_map(|r| r.recovery.w.as_ref())
+            .map_or("-".into(), |w| format!("{:.3}", w.true_dc_gain)),
+    );
+    md.push_str("| step | wall s | gain | CMF-SIM | C recall k-means | C recall centre | C d′ | W surround r | W DC | P error | P spacing r |\n");
+    md.push_str("|---|---|---|---|---|---|---|---|---|---|---|\n");
+    for r in rows {
+        let cmf = r.cmf.as_ref().map_or("-".into(), |c| {
+            let ks: Vec<String> = c
+                .per_k
+                .iter()
+                .map(|k| format!("K{}: {:.2}", k[0], k[2]))
+                .collect();
+            format!("{}-D ({})", c.dimension, ks.join(", "))
+        });
+        let (ck, cc, cd) =
+            r.recovery
+                .c
+                .as_ref()
+                .map_or(("-".into(), "-".into(), "-".into()), |c| {
+                    (
+                        fmt_list(&c.recall_kmeans),
+                        fmt_list(&c.recall_nearest_centroid),
+                        fmt_list(&c.dprime),
+                    )
+                });
+        let (ws, wd) = r.recovery.w.as_ref().map_or(("-".into(), "-".into()), |w| {
+            (format!("{:.2}", w.surround_r), format!("{:.3}", w.dc_gain))
+        });
+        let _ = writeln!(
+            md,
+            "| {} | {} | {} | {cmf} | {ck} | {cc} | {cd} | {ws} | {wd} | {:.2} | {:.2} |",
+            r.step,
+            r.wall_seconds.map_or("-".into(), |w| format!("{w:.0}")),
+            r.heldout_gain.map_or("-".into(), |g| format!("{g:.1}")),
+            r.recovery.p.position_error_rms_cones,
+            r.recovery.p.spacing_r,
+        );
+    }
+    md
+}
+
+fn write_outputs(out: &Path, config: &RunConfig, rows: &[StudyRow]) -> Result<(), RunError> {
+    let json = serde_json::to_string_pretty(rows).expect("plain data");
+    write_atomic(&out.join("convergence.json"), json.as_bytes())?;
+    write_atomic(&out.join("convergence.md"), table(config, rows).as_bytes())?;
+    let x: Vec<f64> = rows
+        .iter()
+        .map(|r| (r.step.max(1) as f64).log10())
+        .collect();
+    let series = |name: &str, f: &dyn Fn(&StudyRow) -> Option<f64>| {
+        let (xs, ys): (Vec<f64>, Vec<f64>) = rows
+            .iter()
+            .zip(&x)
+            .filter_map(|(r, &x)| f(r).map(|y| (x, y)))
+            .unzip();
+        Series::new(name, xs, ys)
+    };
+    let mut recovered = LinePlot::new(
+        "Learned invariants against the truth (1 = recovered)",
+        "log10 step",
+        "score",
+    );
+    recovered.y_min = Some(0.0);
+    recovered.y_max = Some(1.05);
+    recovered.push(series("C worst recall (k-means)", &|r| {
+        r.recovery.c.as_ref().map(|c| min_of(&c.recall_kmeans))
+    }));
+    recovered.push(series("C worst recall (nearest centre)", &|r| {
+        r.recovery
+            .c
+            .as_ref()
+            .map(|c| min_of(&c.recall_nearest_centroid))
+    }));
+    recovered.push(series("W surround r", &|r| {
+        r.recovery.w.as_ref().map(|w| w.surround_r)
+    }));
+    recovered.push(series("P spacing r", &|r| Some(r.recovery.p.spacing_r)));
+    write_atomic(
+        &out.join("convergence_invariants.svg"),
+        recovered.to_svg().as_bytes(),
+    )?;
+    let mut errors = LinePlot::new(
+        "Prediction gain, W DC factor, P error, CMF-SIM dimension",
+        "log10 step",
+        "value (log)",
+    );
+    errors.log_y = true;
+    errors.push(series("held-out prediction gain (×)", &|r| r.heldout_gain));
+    errors.push(series("W DC gain / true (factor ≥ 1)", &|r| {
+        r.recovery.w.as_ref().map(|w| w.dc_factor())
+    }));
+    errors.push(series("P error, cone spacings RMS", &|r| {
+        Some(r.recovery.p.position_error_rms_cones)
+    }));
+    errors.push(series("CMF-SIM dimension", &|r| {
+        r.cmf
+            .as_ref()
+            .filter(|c| c.dimension > 0)
+            .map(|c| c.dimension as f64)
+    }));
+    write_atomic(
+        &out.join("convergence_measures.svg"),
+        errors.to_svg().as_bytes(),
+    )?;
+    Ok(())
+}

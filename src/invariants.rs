@@ -1,0 +1,264 @@
+//! The learned invariants measured against the eye's truth (paper §6, Fig. 3.4: the cortex
+//! "accurately infers all retinal properties: spectral identity of each cell, cell positions
+//! and lateral inhibition neighbour weights"). Evaluation only: this module reads ground truth
+//! (cone classes, positions, the DoG kernel); nothing here feeds learning.
+//!
+//! - **C** (spectral identity), [`CRecovery`]: the learned C rows `(n², N)` against each cone's
+//!   dominant true class. k-means with restarts (k = number of classes) matched to the classes
+//!   gives the adjusted Rand index and a per-class recall; the nearest true-class centroid gives
+//!   a second recall that does not depend on the clustering's luck; d′ to the nearest other
+//!   class says how far apart the classes sit relative to their spread.
+//! - **W** (lateral inhibition), [`WRecovery`]: the learned 7×7 kernel against the true DoG —
+//!   correlation over all taps, over the 48 surround taps only (0 for the initial identity,
+//!   whose surround is flat), and the zero-frequency (DC) gain against the DoG's.
+//! - **P** (positions), [`PRecovery`]: learned positions `P(uv)` against the true positions
+//!   (both in the normalised field [−1, 1]²). Positions are identifiable only up to an affine
+//!   map (the cortex may shift, rotate, shear or scale its own coordinates), so the learned
+//!   ones are first mapped onto the truth by least squares; the error is then in local cone
+//!   spacings (the mean distance from each true cone to its lattice neighbours). The
+//!   spacing-map correlation compares the nearest-neighbour distance maps.
+
+use crate::stats;
+use cortex::Cortex;
+use retina::Retina;
+use serde::{Deserialize, Serialize};
+
+/// Restarts of the k-means behind [`CRecovery`] (deterministic seeds).
+const KMEANS_RESTARTS: usize = 10;
+/// Lloyd iterations per restart.
+const KMEANS_ITERATIONS: usize = 50;
+
+/// How well the learned C separates the true cone classes.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct CRecovery {
+    /// Class names in the order of the per-class vectors.
+    pub classes: Vec<String>,
+    /// Adjusted Rand index of the k-means clusters against the true classes (1: identical
+    /// partitions, ≈ 0: chance).
+    pub adjusted_rand_index: f64,
+    /// Per class: the fraction of its cones in the k-means cluster matched to it.
+    pub recall_kmeans: Vec<f64>,
+    /// Per class: the fraction of its cones nearest to their own class's centroid.
+    pub recall_nearest_centroid: Vec<f64>,
+    /// Per class: d′ to the nearest other class along the line joining their centroids.
+    pub dprime: Vec<f64>,
+}
+
+/// Measures C rows `(m, dim)` against `truth` labels in `0..classes.len()`.
+pub fn measure_c(c: &[f64], dim: usize, truth: &[usize], classes: &[String]) -> CRecovery {
+    let k = classes.len();
+    let clusters = stats::kmeans(c, dim, k, KMEANS_RESTARTS, KMEANS_ITERATIONS, 0);
+    CRecovery {
+        classes: classes.to_vec(),
+        adjusted_rand_index: stats::adjusted_rand_index(&clusters, truth),
+        recall_kmeans: stats::matched_recall(&clusters, truth, k),
+        recall_nearest_centroid: stats::nearest_centroid_recall(c, dim, truth, k),
+        dprime: stats::dprime_to_nearest(c, dim, truth, k),
+    }
+}
+
+/// How close the learned lateral-inhibition filter is to the true DoG.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct WRecovery {
+    /// Correlation of the learned 7×7 kernel with the DoG's, all 49 taps.
+    pub kernel_r: f64,
+    /// The same over the 48 surround taps (centre excluded); 0 when the learned surround is
+    /// flat (the initial identity).
+    pub surround_r: f64,
+    /// Learned filter's zero-frequency gain (1 for the initial identity).
+    pub dc_gain: f64,
+    /// The DoG's zero-frequency gain (the sum of its taps).
+    pub true_dc_gain: f64,
+}
+
+impl WRecovery {
+    /// `dc_gain / true_dc_gain`, as a factor ≥ 1 in either direction (∞ if of opposite sign).
+    pub fn dc_factor(&self) -> f64 {
+        let r = self.dc_gain / self.true_dc_gain;
+        if r > 0.0 {
+            r.max(1.0 / r)
+        } else {
+            f64::INFINITY
+        }
+    }
+}
+
+/// Measures a learned `k×k` kernel (origin at the centre) and its DC gain against the DoG.
+pub fn measure_w(learned: &[f64], learned_dc_gain: f64, dog: &[f64]) -> WRecovery {
+    assert_eq!(
+        learned.len(),
+        dog.len(),
+        "measure_w: learned kernel of {} taps vs DoG of {}",
+        learned.len(),
+        dog.len()
+    );
+    let centre = learned.len() / 2;
+    let ring = |k: &[f64]| -> Vec<f64> {
+        k.iter()
+            .enumerate()
+            .filter(|&(i, _)| i != centre)
+            .map(|(_, &v)| v)
+            .collect()
+    };
+    let (lr, peak) = (ring(learned), learned[centre].abs());
+    let flat = lr.iter().all(|v| v.abs() <= 1e-6 * peak);
+    let surround_r = stats::correlation(&lr, &ring(dog));
+    let kernel_r = stats::correlation(learned, dog);
+    WRecovery {
+        kernel_r: if kernel_r.is_finite() { kernel_r } else { 0.0 },
+        surround_r: if surround_r.is_finite() && !flat {
+            surround_r
+        } else {
+            0.0
+        },
+        dc_gain: learned_dc_gain,
+        true_dc_gain: dog.iter().sum(),
+    }
+}
+
+/// How close the learned positions are to the true ones.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PRecovery {
+    /// Correlation of the learned and true nearest-neighbour spacing maps.
+    pub spacing_r: f64,
+    /// RMS position error after the affine gauge, in local cone spacings.
+    pub position_error_rms_cones: f64,
+    /// Median position error after the affine gauge, in local cone spacings.
+    pub position_error_median_cones: f64,
+}
+
+/// Mean distance from each lattice cell to its 4-neighbours, `(n²)`.
+fn local_spacing(points: &[[f64; 2]], n: usize) -> Vec<f64> {
+    let d = |a: [f64; 2], b: [f64; 2]| ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2)).sqrt();
+    let mut out = Vec::with_capacity(n * n);
+    for y in 0..n {
+        for x in 0..n {
+            let here = points[y * n + x];
+            let mut sum = 0.0;
+            let mut count = 0;
+            for (dy, dx) in [(0i64, 1i64), (0, -1), (1, 0), (-1, 0)] {
+                let (yy, xx) = (y as i64 + dy, x as i64 + dx);
+                if (0..n as i64).contains(&yy) && (0..n as i64).contains(&xx) {
+                    sum += d(here, points[yy as usize * n + xx as usize]);
+                    count += 1;
+                }
+            }
+            out.push(sum / count as f64);
+        }
+    }
+    out
+}
+
+/// Measures learned positions against the truth, both `(n², 2)` on the same `n × n` lattice.
+pub fn measure_p(learned: &[[f64; 2]], truth: &[[f64; 2]], n: usize) -> PRecovery {
+    assert!(
+        learned.len() == n * n && truth.len() == n * n,
+        "measure_p: {} learned and {} true positions for a {n}² lattice",
+        learned.len(),
+        truth.len()
+    );
+    let spacing = local_spacing(truth, n);
+    let mapped = stats::fit_affine_2d(learned, truth);
+    let mut errors: Vec<f64> = mapped
+        .iter()
+        .zip(truth)
+        .zip(&spacing)
+        .map(|((m, t), s)| ((m[0] - t[0]).powi(2) + (m[1] - t[1]).powi(2)).sqrt() / s)
+        .collect();
+    let rms = (errors.iter().map(|e| e * e).sum::<f64>() / errors.len() as f64).sqrt();
+    errors.sort_by(f64::total_cmp);
+    let spacing_r = stats::correlation(&local_spacing(learned, n), &spacing);
+    PRecovery {
+        spacing_r: if spacing_r.is_finite() {
+            spacing_r
+        } else {
+            0.0
+        },
+        position_error_rms_cones: rms,
+        position_error_median_cones: errors[errors.len() / 2],
+    }
+}
+
+/// Every learned invariant of a cortex against the truth of its eye.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Recovery {
+    /// C against the true classes (`None` when C is not learned).
+    pub c: Option<CRecovery>,
+    /// W against the DoG (`None` without learned W or without lateral inhibition).
+    pub w: Option<WRecovery>,
+    /// P against the true positions.
+    pub p: PRecovery,
+}
+
+/// Measures every learned invariant of `cortex` against `retina`.
+pub fn measure(cortex: &Cortex, retina: &Retina) -> Recovery {
+    let n = retina.n();
+    let classes: Vec<String> = retina
+        .mosaic
+        .classes
+        .iter()
+        .map(|c| c.name.clone())
+        .collect();
+    let c = cortex.learned_c().map(|c| {
+        let dim = cortex.percept_dim();
+        measure_c(c.data(), dim, &retina.mosaic.dominant_class(), &classes)
+    });
+    let w = match (
+        cortex.learned_w_kernel(7),
+        cortex.learned_w_dc_gain(),
+        retina.dog_kernel(),
+    ) {
+        (Some(k), Some(dc), Some((dog, 7))) => Some(measure_w(k.data(), dc, dog)),
+        _ => None,
+    };
+    let learned = cortex.learned_positions();
+    let learned: Vec<[f64; 2]> = learned.data().chunks(2).map(|p| [p[0], p[1]]).collect();
+    let truth: Vec<[f64; 2]> = retina
+        .layout
+        .positions_normalised()
+        .iter()
+        .map(|p| [p[0] as f64, p[1] as f64])
+        .collect();
+    Recovery {
+        c,
+        w,
+        p: measure_p(&learned, &truth, n),
+    }
+}
+
+impl Recovery {
+    /// One line per invariant, in words.
+    pub fn describe(&self) -> Vec<String> {
+        let list = |v: &[f64]| {
+            v.iter()
+                .map(|x| format!("{x:.2}"))
+                .collect::<Vec<_>>()
+                .join("/")
+        };
+        let mut lines = Vec::new();
+        if let Some(c) = &self.c {
+            lines.push(format!(
+                "C (cone types, {}): recall by k-means {}, by nearest class centre {}; d′ {}; ARI {:.2}",
+                c.classes.join("/"),
+                list(&c.recall_kmeans),
+                list(&c.recall_nearest_centroid),
+                list(&c.dprime),
+                c.adjusted_rand_index
+            ));
+        }
+        if let Some(w) = &self.w {
+            lines.push(format!(
+                "W (lateral inhibition): kernel r {:.2}, surround r {:.2}, DC gain {:.3} vs true {:.3}",
+                w.kernel_r, w.surround_r, w.dc_gain, w.true_dc_gain
+            ));
+        }
+        lines.push(format!(
+            "P (positions): error after the affine gauge {:.2} cone spacings RMS ({:.2} median), spacing-map r {:.2}",
+            self.p.position_error_rms_cones, self.p.position_error_median_cones, self.p.spacing_r
+        ));
+        lines
+    }
+}
+
+#[cfg(test)]
+mod tests;
