@@ -1,7 +1,7 @@
 //! One training step at `quick` and `paper` (`cargo bench --bench cortex_step [quick|paper]
 //! [--profile]`).
 //!
-//! Targets (issue 4): the whole quick step, retina batch included, ≤ 61 ms (anchor: PyTorch
+//! Targets: the whole quick step, retina batch included, ≤ 61 ms (anchor: PyTorch
 //! 2.15 CPU, 2 threads, a 16/32/64 U-Net alone, forward + backward + Adam at batch 8, 64²).
 //! `quick` measures what `colorvision train` does per step — draw a batch from the LMS retina,
 //! then the cortex step (motion estimation, forward, backward, Adam) — for the quick preset
