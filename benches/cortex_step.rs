@@ -7,7 +7,7 @@
 //! then the cortex step (motion estimation, forward, backward, Adam) — for the quick preset
 //! with block-matching motion, the quick preset with the oracle motion (what the default run
 //! uses) and the sandbox preset, **interleaved step by step** so that the three see the same
-//! machine load (this VM's speed drifts by tens of per cent over minutes). `paper` runs the
+//! machine load (a shared VM's speed can drift by tens of per cent over minutes). `paper` runs the
 //! paper cortex on a synthetic batch (its retina is benchmarked in `benches/retina.rs`).
 //! Paper step: report time and peak memory (target ≤ 8 GiB).
 //!
@@ -155,7 +155,7 @@ fn main() {
     let profile = std::env::args().any(|a| a == "--profile");
     println!("rayon threads: {}", rayon::current_num_threads());
     if want("quick") {
-        // The whole step, retina batch included (the target), three presets in turn.
+        // The whole step, retina batch included (the target above), three presets in turn.
         let mut oracle = CortexConfig::quick();
         oracle.m.mode = MMode::Oracle;
         let cases = vec![
