@@ -1,7 +1,7 @@
 //! Convolution and U-Net speed (criterion; `cargo bench --bench conv`).
 //!
-//! Workloads and targets (PyTorch 2 threads, f32, channels-last, on the project machine; see
-//! issue 2):
+//! Workloads and targets (PyTorch 2 threads, f32, channels-last, on the same machine; the
+//! PyTorch scripts are in `benches/pytorch/`):
 //! - conv 3×3 reflect, forward + backward (∂x and ∂w), (8,16,64,64)→16 ≤ 3.1 ms,
 //!   (8,64,16,16)→64 ≤ 2.6 ms, (4,16,256,256)→16 ≤ 20.5 ms;
 //! - U-Net 8→16/32/64→8 on (8,8,64,64): forward + MSE + backward + Adam step ≤ 37 ms.

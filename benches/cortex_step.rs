@@ -1,13 +1,13 @@
 //! One training step at `quick` and `paper` (`cargo bench --bench cortex_step [quick|paper]
 //! [--profile]`).
 //!
-//! Targets (issue 4): the whole quick step, retina batch included, ≤ 61 ms (anchor: PyTorch
+//! Targets: the whole quick step, retina batch included, ≤ 61 ms (anchor: PyTorch
 //! 2.15 CPU, 2 threads, a 16/32/64 U-Net alone, forward + backward + Adam at batch 8, 64²).
 //! `quick` measures what `colorvision train` does per step — draw a batch from the LMS retina,
 //! then the cortex step (motion estimation, forward, backward, Adam) — for the quick preset
 //! with block-matching motion, the quick preset with the oracle motion (what the default run
 //! uses) and the sandbox preset, **interleaved step by step** so that the three see the same
-//! machine load (this VM's speed drifts by tens of per cent over minutes). `paper` runs the
+//! machine load (a shared VM's speed can drift by tens of per cent over minutes). `paper` runs the
 //! paper cortex on a synthetic batch (its retina is benchmarked in `benches/retina.rs`).
 //! Paper step: report time and peak memory (target ≤ 8 GiB).
 //!
@@ -155,7 +155,7 @@ fn main() {
     let profile = std::env::args().any(|a| a == "--profile");
     println!("rayon threads: {}", rayon::current_num_threads());
     if want("quick") {
-        // The whole step, retina batch included (the issue's target), three presets in turn.
+        // The whole step, retina batch included (the target above), three presets in turn.
         let mut oracle = CortexConfig::quick();
         oracle.m.mode = MMode::Oracle;
         let cases = vec![

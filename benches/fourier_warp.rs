@@ -1,6 +1,6 @@
 //! Fourier filtering, grid sampling and flow speed (criterion; `cargo bench --bench fourier_warp`).
 //!
-//! Workloads and targets (PyTorch 2 threads, f32, on the project machine; see issue 2):
+//! Workloads and targets (PyTorch 2 threads, f32, on the same machine):
 //! - FFT kernel multiply, forward + backward to the image and the response: real image
 //!   `(8, n, n)` → FFT → `complex_mul` by a learned `(n, n, 2)` response → inverse FFT → real
 //!   part; n = 64 ≤ 0.77 ms, n = 256 ≤ 6.1 ms. Two variants: "real" (`fft2_real`,
@@ -10,7 +10,7 @@
 //!   `(8, 8, 64, 64)` ≤ 2.8 ms, `(4, 8, 256, 256)` ≤ 39 ms, with a smooth warp that pushes
 //!   some samples past the border.
 //! - No target, for the cortex budget: the RealNVP cell-position flow (8 blocks, MLP 1→16→16→2)
-//!   on all 64² pixel coordinates, forward then inverse (the §3.7 warp), plus backward.
+//!   on all 64² pixel coordinates, forward then inverse (the warp, docs/references.md#warp), plus backward.
 //!
 //! Backward is seeded with a fixed random cotangent through [`InjectGrad`], a zero-cost op, so
 //! the timings hold only the measured ops' own forward and backward.

@@ -5,7 +5,7 @@
 //! inhibition and LI noise for both frames, samples in parallel — with the preset's pool refresh
 //! (one tile regenerated every `refresh_every_batches` calls) included, as in training.
 //!
-//! Target (issue 3): ≤ 10 % of one training step at the same scale, so the eye never limits
+//! Target: ≤ 10 % of one training step at the same scale, so the eye never limits
 //! learning — the quick step target is ~61 ms, so ≤ 6 ms here; paper scale proportionally.
 //! Pool construction (scene generation) happens once, outside the timing.
 

@@ -3,7 +3,7 @@
 //! - `tape_overhead/*`: forward + backward of a chain of `OPS_PER_CHAIN` tiny ops (scalars, or
 //!   16-element vectors), cycling through `mul`, `add`, `tanh`, `relu`, with `tape.clear()` each
 //!   iteration as a training loop does. The throughput line reads as ops per second:
-//!   ns per op = 1e3 / (Melem/s). Target (issue 2): ≤ 2 µs per op, against ~70 µs per autograd
+//!   ns per op = 1e3 / (Melem/s). Target: ≤ 2 µs per op, against ~70 µs per autograd
 //!   call in PyTorch.
 //! - `matmul_fwd_bwd/*`: `a @ b` forward plus both input gradients through faer's GEMM, f32.
 //!   The loss is `sum(a @ b)`. The throughput line counts multiply-adds: GFLOP/s = 2 × Gelem/s

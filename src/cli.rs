@@ -1,4 +1,8 @@
 //! The command line: one option vocabulary shared by every subcommand.
+//!
+//! Doc comments here are also clap's `--help` text, printed verbatim, so placeholders such as
+//! `<preset>` stay bare rather than in backticks.
+#![allow(rustdoc::invalid_html_tags)]
 
 use clap::{Args, Parser, Subcommand};
 use std::path::PathBuf;

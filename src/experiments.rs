@@ -165,7 +165,7 @@ fn baselines(options: &CommonOptions, out: &Path) -> Result<(), RunError> {
     Ok(())
 }
 
-/// Trains on `before`, then continues the same cortex on each of `after` (official §3.9: Adam
+/// Trains on `before`, then continues the same cortex on each of `after` (authors' code, docs/references.md#training: Adam
 /// recreated, step count continues).
 fn continued(
     options: &CommonOptions,

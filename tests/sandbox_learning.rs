@@ -1,4 +1,4 @@
-//! Learning works (issue #4, must-show 4): on the `sandbox` preset (the official sandbox: no
+//! Learning works: on the `sandbox` preset (the authors' sandbox, docs/references.md#sandbox: no
 //! foveation, no lateral inhibition, identity positions, integer shifts) with an LMS retina and
 //! the oracle eye motion, the cortex's held-out prediction error falls at least 5× below the
 //! error of predicting the next frame as the current one.

@@ -12,7 +12,7 @@
 //! - **Gradients.** `backward` computes `∂L/∂x` (the direction of *increase*); optimisers
 //!   subtract it. Op backwards *add* into their input slots.
 //! - **Errors.** A shape mismatch while recording is a programming error and panics, naming the
-//!   op and both shapes. I/O (safetensors) returns [`Error`].
+//!   op and both shapes. I/O (safetensors) returns [`params::SafetensorsError`].
 //! - **Memory.** [`Tape::clear`] recycles every buffer into a pool keyed by length; a training
 //!   loop with fixed shapes allocates no tensor buffers after its first step. Tensors from the
 //!   pool start on a 64-byte boundary (a cache line; kernels don't assume it, they are faster

@@ -1,9 +1,9 @@
 //! Per-op wall-clock profile of a tape: how long each op family spends in forward and backward.
 //!
-//! Opt-in and cheap: [`Tape::set_profiling`]`(true)` makes [`Tape::apply`] and the reverse loop
+//! Opt-in and cheap: [`Tape::set_profiling`](crate::Tape::set_profiling)`(true)` makes [`Tape::apply`](crate::Tape::apply) and the reverse loop
 //! read the clock around each op (two `Instant::now()` per op and direction, ≈ 50 ns); when off,
 //! nothing is timed. Times accumulate across steps and across `clear()` until
-//! [`Tape::take_profile`] hands them over and starts afresh, so one profile can cover many
+//! [`Tape::take_profile`](crate::Tape::take_profile) hands them over and starts afresh, so one profile can cover many
 //! training steps.
 //!
 //! Rows are keyed by [`Op::name`](crate::Op::name) (all conv2d calls share one row), in the order

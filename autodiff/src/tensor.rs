@@ -106,9 +106,7 @@ impl<const N: usize> From<[usize; N]> for Shape {
 /// Where the tape's buffers start: on a 64-byte boundary, a cache line and the width of an
 /// AVX-512 register, so that whole-vector loads and stores along a row split no cache line
 /// where the row itself is aligned (PyTorch's CPU allocator aligns to 64 bytes for the same
-/// reason). The system allocator places large blocks 16 bytes past a page boundary; the conv
-/// bench at (4,16,256,256) ran 0.93–0.95× the time with every large block aligned (session 8,
-/// README "Benchmarks").
+/// reason). The system allocator places large blocks 16 bytes past a page boundary.
 pub(crate) const ALIGN_BYTES: usize = 64;
 
 /// Extra elements a buffer needs so that an aligned run of `n` fits inside it.
@@ -130,7 +128,7 @@ pub(crate) fn aligned_start<T>(buf: &[T], n: usize) -> usize {
 ///
 /// The elements are `buf[start..start + numel]`: tensors made by the tape's
 /// [`BufferPool`](crate::BufferPool) sit in a slightly longer buffer so that they start on an
-/// [`ALIGN_BYTES`] boundary; every other constructor has `start == 0` and no extra elements.
+/// `ALIGN_BYTES` (64-byte) boundary; every other constructor has `start == 0` and no extra elements.
 pub struct Tensor<T> {
     shape: Shape,
     buf: Vec<T>,

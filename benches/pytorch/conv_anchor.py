@@ -8,7 +8,7 @@ Usage: conv_anchor.py [REPS [HEIGHT [LAYOUT]]]: REPS timed repetitions (default 
 images of that HEIGHT (64, 16 or 256) and only that LAYOUT (contiguous or channels_last) when
 given.
 
-Not part of the build or the tests. To compare in one sitting (this VM's speed drifts):
+Not part of the build or the tests. To compare in one sitting (a shared VM's speed drifts):
     python3 -m venv venv && venv/bin/pip install torch==2.15.0
     venv/bin/python benches/pytorch/conv_anchor.py 30
     cargo bench --bench conv -- "fwd_bwd/.*direct"

@@ -231,7 +231,7 @@ mod tests {
 
     #[test]
     fn d65_white_is_95_047_100_108_883() {
-        // data/README.md and FORMULAS.md §5: 1 nm tables, 360–830 nm.
+        // data/README.md and docs/references.md#colorimetry-formulas: 1 nm tables, 360–830 nm.
         let g = grid_1nm_full();
         let obs = CieObserver::cie1931(&g).unwrap();
         let d65 = data::d65().column_on("D65", &g).unwrap();

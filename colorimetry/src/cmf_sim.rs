@@ -1,4 +1,4 @@
-//! CMF-SIM: the colour dimensionality of a black-box observer (paper S-04; official §4).
+//! CMF-SIM: the colour dimensionality of a black-box observer (paper S-04; docs/references.md#cmf-sim).
 //!
 //! 1. Base error per test wavelength λ (100 from 400 to 700 nm): the same monochromatic light
 //!    shown at the two patches of random location pairs, `base(λ) = mean ‖Φ(t@b) − Φ(t@a)‖²`.

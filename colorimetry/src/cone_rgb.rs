@@ -1,4 +1,4 @@
-//! Linear sRGB ↔ cone excitations through CIE XYZ (official-implementation.md §2.9).
+//! Linear sRGB ↔ cone excitations through CIE XYZ (authors' code, docs/references.md#colour-transforms).
 //!
 //! 1. XYZ → cones (3×K): least-squares fit of the fundamentals `F` (grid × K) from the CIE 1931
 //!    CMFs `X̄` (grid × 3) on the fundamentals' grid: `A = argmin ‖X̄·A − F‖`. The fit is only
@@ -143,7 +143,7 @@ mod tests {
         )
         .unwrap();
         let m = ConeRgb::fit(&f).unwrap();
-        // official §2.9, 3 decimals; tolerance = rounding (5e-4) + 5e-4 for the official
+        // authors' code, docs/references.md#colour-transforms, 3 decimals; tolerance = rounding (5e-4) + 5e-4 for the official
         // cubic-spline vs our linear lens resampling between whole nm
         let want = [
             [0.247, 0.046, 0.018],

@@ -1,6 +1,7 @@
 //! Cone spectral sensitivities: pigment templates, lens filtering, peak normalisation.
 //!
-//! Templates (shared/data/FORMULAS.md §1–2, official-implementation.md §2.2):
+//! Templates (docs/references.md#govardovskii-template, #cone-template-formulas and, for the
+//! authors' choice, #cone-templates):
 //! - [`ConeTemplate::CarrollNeitz`]: the Carroll, McMahon, Neitz & Neitz (2000) template (the
 //!   Neitz-lab `spectsens`) with self-screening at peak optical density OD:
 //!   `(1 − 10^(−Z·ext)) / (1 − 10^(−Z))`, `Z = OD + 1e-8`. The official code uses OD = 0.001
@@ -12,7 +13,7 @@
 //!
 //! With `lens: true` an analytic template is multiplied by the lens transmittance
 //! `10^(−d_lens(λ))` (Stockman–Sharpe ocular media density, 32-year observer; no macular
-//! pigment — official §2.2). Every curve is then normalised to peak 1 over the grid's range; the
+//! pigment — authors' code, docs/references.md#cone-templates). Every curve is then normalised to peak 1 over the grid's range; the
 //! peak is found on a 0.1 nm sampling of that range, so the normalisation does not depend on the
 //! grid's spacing (the official code normalises on 400–700 nm at 1 nm).
 //!
@@ -28,7 +29,7 @@ use crate::error::{ColorimetryError, Result};
 use crate::grid::WavelengthGrid;
 use crate::table::interp_linear;
 
-/// λmax of the L pigment, nm (official §2.2, paper S-02).
+/// λmax of the L pigment, nm (authors' code, docs/references.md#cone-templates, paper S-02).
 pub const L_PEAK_NM: f64 = 560.0;
 /// λmax of the M pigment, nm.
 pub const M_PEAK_NM: f64 = 530.0;
@@ -38,7 +39,7 @@ pub const S_PEAK_NM: f64 = 419.0;
 pub const HUMAN_Q_PEAK_NM: f64 = 545.0;
 /// λmax of the pigeon-like fourth pigment Q, nm (paper S-07).
 pub const PIGEON_Q_PEAK_NM: f64 = 506.0;
-/// Peak optical density used by the official code's Carroll/Neitz template (official §2.2).
+/// Peak optical density used by the official code's Carroll/Neitz template (authors' code, docs/references.md#cone-templates).
 pub const OFFICIAL_OPTICAL_DENSITY: f64 = 0.001;
 /// Spacing (nm) of the dense sampling used to find each curve's peak for normalisation.
 pub const PEAK_SEARCH_STEP_NM: f64 = 0.1;
@@ -111,7 +112,7 @@ pub enum ConeTemplate {
 }
 
 impl Default for ConeTemplate {
-    /// The official choice: Carroll/Neitz, OD 0.001, with lens (official §2.2).
+    /// The official choice: Carroll/Neitz, OD 0.001, with lens (authors' code, docs/references.md#cone-templates).
     fn default() -> Self {
         ConeTemplate::CarrollNeitz {
             optical_density: OFFICIAL_OPTICAL_DENSITY,
@@ -152,7 +153,7 @@ fn phi(z: f64) -> f64 {
     (-0.5 * z * z).exp() / (2.0 * std::f64::consts::PI).sqrt()
 }
 
-/// log10 of the Carroll/Neitz low-density extinction (≈ 0 at the peak), FORMULAS.md §2.
+/// log10 of the Carroll/Neitz low-density extinction (≈ 0 at the peak), docs/references.md#cone-template-formulas.
 pub fn neitz_log10_extinction(peak_nm: f64, wavelength_nm: f64) -> f64 {
     let [a, b, c, d, e, f, g, h, i, j, k, l, m, n, o, p, q, r, s, t, u, v, w, x, y] = NEITZ;
     let z = peak_nm / 558.5 / wavelength_nm;
@@ -180,7 +181,7 @@ pub fn neitz_sensitivity(peak_nm: f64, wavelength_nm: f64, optical_density: f64)
     )
 }
 
-/// Govardovskii 2000 A1 α band, FORMULAS.md §1 (peak ≈ 1.0008, not renormalised).
+/// Govardovskii 2000 A1 α band, docs/references.md#govardovskii-template (peak ≈ 1.0008, not renormalised).
 pub fn govardovskii_alpha(peak_nm: f64, wavelength_nm: f64) -> f64 {
     let x = peak_nm / wavelength_nm;
     let a = 0.8795 + 0.0459 * (-(peak_nm - 300.0).powi(2) / 11940.0).exp();

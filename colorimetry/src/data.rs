@@ -238,7 +238,7 @@ mod tests {
         assert_eq!(photopic_v().columns, vec!["V"]);
         let od = ocular_media_density();
         assert_eq!(od.n_wavelengths(), 441);
-        // official-implementation.md §2.2: lens density 1.7649 at 400, 0.724 at 420, 0.263 at 450
+        // authors' code, docs/references.md#cone-templates: lens density 1.7649 at 400, 0.724 at 420, 0.263 at 450
         assert!((od.interpolate("ocular_media_od_32yr", 400.0).unwrap() - 1.7649).abs() < 1e-9);
         assert!((od.interpolate("ocular_media_od_32yr", 420.0).unwrap() - 0.724).abs() < 1e-3);
         assert!((od.interpolate("ocular_media_od_32yr", 450.0).unwrap() - 0.263).abs() < 1e-3);

@@ -3,17 +3,17 @@
 //! A [`WavelengthGrid`] is a strictly increasing list of finite wavelengths in nm. It need not be
 //! uniform. Spectra "on a grid" are `&[f64]` with one value per grid wavelength, in grid order.
 //!
-//! The default grid is 400–700 nm every 10 nm (31 samples), the project default of SPEC §3.1 and
-//! the NTIRE band layout of the official code (official-implementation.md §1). The official code
-//! works at 1 nm on 400–700 (301 samples): [`WavelengthGrid::official_1nm`].
+//! The default grid is 400–700 nm every 10 nm (31 samples), the NTIRE band layout of the
+//! authors' code (docs/references.md#spectral-grid). The authors' code works at 1 nm on 400–700
+//! (301 samples): [`WavelengthGrid::official_1nm`].
 
 use crate::error::{ColorimetryError, Result};
 
-/// Default first wavelength of the project grid, nm (SPEC §3.1).
+/// Default first wavelength of the project grid, nm.
 pub const DEFAULT_START_NM: f64 = 400.0;
-/// Default last wavelength of the project grid, nm (SPEC §3.1).
+/// Default last wavelength of the project grid, nm.
 pub const DEFAULT_END_NM: f64 = 700.0;
-/// Default spacing of the project grid, nm (SPEC §3.1).
+/// Default spacing of the project grid, nm.
 pub const DEFAULT_STEP_NM: f64 = 10.0;
 
 /// A strictly increasing list of wavelengths in nm.
@@ -83,7 +83,7 @@ impl WavelengthGrid {
         Self::new((0..n).map(|i| start_nm + i as f64 * step).collect())
     }
 
-    /// The official code's grid: 400–700 nm every 1 nm, 301 samples (official §1).
+    /// The official code's grid: 400–700 nm every 1 nm, 301 samples (authors' code, docs/references.md#spectral-grid).
     pub fn official_1nm() -> Self {
         Self::range(400.0, 700.0, 1.0).expect("constant grid is valid")
     }
@@ -156,7 +156,7 @@ impl WavelengthGrid {
 }
 
 impl Default for WavelengthGrid {
-    /// 400–700 nm every 10 nm (SPEC §3.1).
+    /// 400–700 nm every 10 nm (the NTIRE bands).
     fn default() -> Self {
         Self::range(DEFAULT_START_NM, DEFAULT_END_NM, DEFAULT_STEP_NM).expect("constant grid")
     }

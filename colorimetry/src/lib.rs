@@ -1,5 +1,5 @@
 //! colorimetry — spectra, CIE 1931 XYZ and sRGB, cone fundamentals, CMF-SIM, Neural Scope and
-//! the Stiles–Burch comparison (paper §5, S-04, RS-08; SPEC §5).
+//! the Stiles–Burch comparison (paper §5, S-04, RS-08).
 //!
 //! A leaf crate: `retina` uses it for spectra and cone sensitivities; the root package implements
 //! [`Observer`] for "retina + learned cortex" and runs [`run_cmf_sim`] on it.
@@ -9,7 +9,7 @@
 //! | wavelength grids, tables, embedded data | [`grid`], [`table`], [`data`], [`spectrum`] |
 //! | cone sensitivities (Carroll/Neitz, Govardovskii, Stockman–Sharpe) | [`cones`] |
 //! | CIE 1931 XYZ, chromaticity, daylight | [`cie`] |
-//! | sRGB, linear sRGB ↔ cones (official §2.9) | [`srgb`], [`cone_rgb`] |
+//! | sRGB, linear sRGB ↔ cones (authors' code, docs/references.md#colour-transforms) | [`srgb`], [`cone_rgb`] |
 //! | observer trait, analytic observers | [`observer`], [`analytic`] |
 //! | matching solver, CMF-SIM, its output | [`matching`], [`cmf_sim`], [`cmf_sim_output`] |
 //! | Stiles–Burch comparison, Neural Scope | [`stiles_burch`], [`scope`] |

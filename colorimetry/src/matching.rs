@@ -1,4 +1,4 @@
-//! The colour-matching solver of CMF-SIM (paper S-04; official §4.1–4.2).
+//! The colour-matching solver of CMF-SIM (paper S-04; docs/references.md#cmf-sim and #cmf-sim-defaults).
 //!
 //! For a test wavelength λ, primaries `p_1..p_K` (monochromatic, nm) and coefficients α (in
 //! units of the test light's intensity I), the two patches are
@@ -11,7 +11,7 @@
 //! fixed list of location pairs, each side with a fixed noise seed (common random numbers, so
 //! `E` is a deterministic function of α and finite differences work on noisy observers).
 //!
-//! α is found by Levenberg–Marquardt from α = 0 (official §4.2's "cheaper alternative"):
+//! α is found by Levenberg–Marquardt from α = 0 (the alternative to Adam in docs/references.md#cmf-sim-defaults):
 //!
 //! - **Jacobian.** Finite differences, one extra show per primary and pair on the side the
 //!   primary is on: `J⁺_i = ∂Φ(B)/∂α_i` for α_i > 0, `J⁻_i = −∂Φ(A)/∂α_i` for α_i < 0, and both
@@ -61,7 +61,7 @@ pub struct SolverSettings {
     pub max_iterations: usize,
     /// Finite-difference step, in units of the test intensity.
     pub fd_step: f64,
-    /// Stop when an accepted step improves E by less than this fraction (official §4.2 stops
+    /// Stop when an accepted step improves E by less than this fraction (docs/references.md#cmf-sim-defaults stops
     /// Adam at a relative improvement of 1e-3 over 20 iterations; one LM step does more).
     pub rel_tolerance: f64,
     /// Stop when E falls below this fraction of E(0) (an exact match).

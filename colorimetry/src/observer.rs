@@ -4,10 +4,10 @@
 //! - A [`Stimulus`] is either a spectral power distribution on the observer's grid or a list of
 //!   monochromatic components `(wavelength_nm, intensity)`. A component between two grid samples
 //!   is split between them with linear weights ([`Stimulus::add_to_grid`]), which for a linear
-//!   observer equals linearly interpolating its sensitivities (official §4.2 "Rendering").
+//!   observer equals linearly interpolating its sensitivities (docs/references.md#cmf-sim-defaults, rendering).
 //! - A location is a point of the observer's field in `[−1, 1]²` (x right, y down; the field's
 //!   centre is the origin). The patch is centred there on the observer's background (black by
-//!   default, official §4.2).
+//!   default, docs/references.md#cmf-sim-defaults).
 //! - The percept is a `Vec<f64>` of [`Observer::percept_dim`] values, e.g. the mean cortical
 //!   N-vector over the patch.
 //!
@@ -110,7 +110,7 @@ pub struct Show {
     pub noise_seed: u64,
 }
 
-/// Default patch placement (official §4.2), in field units (`[−1, 1]²`, so 1 unit = 256 px of
+/// Default patch placement (docs/references.md#cmf-sim-defaults), in field units (`[−1, 1]²`, so 1 unit = 256 px of
 /// the 512-px field): patch centres stay ≥ 24 px from the border.
 pub const DEFAULT_BORDER_MARGIN: f64 = 24.0 / 256.0;
 /// Minimum distance between the two patches of a pair (64 px of 512), field units.
@@ -132,7 +132,7 @@ pub trait Observer: Sync {
     fn percepts(&self, shows: &[Show], out: &mut [f64]);
 
     /// Intensity of a monochromatic test light that puts it in the observer's working range
-    /// (official §4.2: largest single-cone response ≈ 0.5–0.8). CMF-SIM uses it for the test
+    /// (docs/references.md#cmf-sim-defaults: largest single-cone response ≈ 0.5–0.8). CMF-SIM uses it for the test
     /// lights and as the unit of α. Default 1.
     fn stimulus_intensity(&self) -> f64 {
         1.0

@@ -1,5 +1,5 @@
 //! Neural Scope: the least-squares affine map from N-dimensional percepts to linear sRGB
-//! (paper §5; official §3.10 and §4.3).
+//! (paper §5; authors' code, docs/references.md#neural-scope).
 //!
 //! `rgb = W·p + b`, `W` is `(3 × N)` row-major, fitted in closed form on (percept, linear sRGB)
 //! pairs — the optimum the official code reaches online with Adam. The fit accumulates the normal

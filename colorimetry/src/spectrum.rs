@@ -7,7 +7,7 @@ use crate::error::{ColorimetryError, Result};
 use crate::grid::WavelengthGrid;
 use crate::table::interp_linear;
 
-/// Second radiation constant used by CIE illuminant A, nm·K (CIE 015:2018; FORMULAS.md §5).
+/// Second radiation constant used by CIE illuminant A, nm·K (CIE 015:2018).
 pub const CIE_A_C2_NM_K: f64 = 1.435e7;
 /// Temperature of CIE illuminant A with c2 = 1.435e7 nm·K, K (equivalent to 2856 K with the
 /// modern c2 = 1.4388e7 nm·K).
@@ -83,7 +83,7 @@ fn planck_with_c2(t: f64, c2: f64, grid: &WavelengthGrid) -> Vec<f64> {
     grid.as_slice().iter().map(|&w| 100.0 * f(w) / r).collect()
 }
 
-/// CIE illuminant A from its formula (FORMULAS.md §5): Planck with c2 = 1.435e7 nm·K at 2848 K,
+/// CIE illuminant A from its formula (CIE 015:2018): Planck with c2 = 1.435e7 nm·K at 2848 K,
 /// 100 at 560 nm.
 pub fn illuminant_a_formula(grid: &WavelengthGrid) -> Vec<f64> {
     planck_with_c2(CIE_A_TEMPERATURE_K, CIE_A_C2_NM_K, grid)
@@ -96,7 +96,7 @@ mod tests {
 
     #[test]
     fn illuminant_a_formula_matches_the_table() {
-        // FORMULAS.md §5: relative error < 5e-6
+        // relative error < 5e-6
         let t = data::illuminant_a();
         let g = t.grid();
         let a = illuminant_a_formula(&g);

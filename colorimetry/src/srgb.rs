@@ -146,7 +146,7 @@ mod tests {
     /// table (Pascale 2006, "dark skin 115 82 68 …") is not reproducible from the spectra
     /// shipped here (differences up to 14 units on "blue", with and without a D50 + Bradford
     /// path), because it derives from the manufacturer's D50 Lab data of another chart batch.
-    /// So, as the brief allows, we check against the values listed in data/README.md: the
+    /// So we check against the values listed in data/README.md: the
     /// neutral patches' Y under D65 (88.7 / 58.4 / 35.8 / 20.3 / 9.3 / 3.4, one decimal) must be
     /// recovered from the 8-bit encoded sRGB of each patch (decode, then the Y row of the sRGB
     /// matrix), within the tabulated rounding plus the 8-bit quantisation.

@@ -1,5 +1,5 @@
 //! The colour-matching experiment with the Stiles & Burch (1955) primaries, compared with their
-//! 2° CMFs (paper RS-08, Fig. 11; official §4.4).
+//! 2° CMFs (paper RS-08, Fig. 11; docs/references.md#stiles-burch).
 //!
 //! For every Stiles–Burch wavelength inside the observer's grid (5 nm steps), an equal-energy
 //! test light of intensity I is matched with the fixed primaries 645.2 / 526.3 / 444.4 nm by the
@@ -244,7 +244,7 @@ mod tests {
 
     #[test]
     fn stockman_sharpe_observer_matches_stiles_burch() {
-        // issue 5, must show 3: correlation ≥ 0.98 per channel.
+        // correlation ≥ 0.98 per channel.
         let g = WavelengthGrid::range(390.0, 730.0, 1.0).unwrap();
         let o =
             ConeObserver::new(&ConeClass::lms(), &ConeTemplate::StockmanSharpe2deg, &g).unwrap();
@@ -261,7 +261,7 @@ mod tests {
             );
             assert!(ch.correlation >= 0.98, "{ch:?}");
         }
-        // the simulated curves cross zero at the other primaries, as the real ones (FORMULAS §5):
+        // the simulated curves cross zero at the other primaries, as the real ones (docs/references.md#colorimetry-formulas):
         // r̄ is negative between the blue and green primaries
         let i505 = r.wavelengths_nm.iter().position(|&w| w == 505.0).unwrap();
         assert!(r.simulated[0][i505] < 0.0);

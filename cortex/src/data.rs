@@ -4,7 +4,7 @@
 //! Layout of [`TrainingBatch::ons`]: `(B, 2, n, n)` row-major f32; axis 1 is time (frame t,
 //! frame t+1); axes 2, 3 are ONS rows (y) and columns (x).
 //!
-//! Motion convention (official §3.6, §2.10): `oracle_motion[b] = [dx, dy]`, the eye shift
+//! Motion convention (authors' code, docs/references.md#motion-estimation and #retina-data-flow): `oracle_motion[b] = [dx, dy]`, the eye shift
 //! divided by R/2 (R = side of the visual field in px), so that the field spans [−1, 1].
 //! x is the column axis, y the row axis (the `grid_sample` order). Sign: frame t+1 at position p
 //! shows what frame t showed at p + d.

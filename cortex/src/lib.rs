@@ -1,7 +1,7 @@
 //! # cortex — learning to see from the optic nerve signal alone
 //!
 //! The cortical model of Kotani & Ng (ICLR 2025, paper §4 and S-03; official code described in
-//! `official-implementation.md` §3), on the `autodiff` tape. It receives optic-nerve arrays and,
+//! authors' code, docs/references.md#cortex-pipeline), on the `autodiff` tape. It receives optic-nerve arrays and,
 //! only when a run asks for it, the oracle eye motion ([`TrainingBatch`]); it never depends on
 //! the retina crate.
 //!

@@ -1,13 +1,14 @@
-//! The cortex: buckets W, C, D, P and M wired into decode, translate and re-encode (official
-//! §3.1; paper §4, S-03).
+//! The cortex: buckets W, C, D, P and M wired into decode, translate and re-encode (authors'
+//! code, docs/references.md#cortex-pipeline; paper §4, S-03).
 //!
 //! One prediction, for ONS `O_t`, `O_{t+1}` of shape `(B, 1, n, n)`:
 //! 1. decode Φ: `pa = Φ_W(O_t)` (guarded inverse filter) → `X = pa·C` → `V_t = D(X)`
-//!    `(B, N, n, n)`. The percept stays in ONS coordinates (official §3.1).
+//!    `(B, N, n, n)`. The percept stays in ONS coordinates (authors' code, docs/references.md#cortex-pipeline).
 //! 2. motion d̂ from M (oracle, block matching, or learned), no gradient.
-//! 3. translate Ω through P: `V̂_{t+1}, mask = warp(V_t, d̂)` (official §3.7).
+//! 3. translate Ω through P: `V̂_{t+1}, mask = warp(V_t, d̂)` (authors' code, docs/references.md#warp).
 //! 4. re-encode Ψ: `Ô_{t+1} = Ψ_W(⟨V̂_{t+1}, C⟩)`.
-//! 5. loss = masked squared error with a `border_px` border, official normalisation (§3.8);
+//! 5. loss = masked squared error with a `border_px` border, the authors' normalisation
+//!    (docs/references.md#loss);
 //!    plus, for the learned M, `blur_loss_weight ×` the same error between the warped blurred
 //!    `B(O_t)` and `B(O_{t+1})`; and for any estimated M, `gauge_weight ×` the distance of P's
 //!    affine fit from the identity (it leaves P's affine part free: [`crate::motion::gauge`]).

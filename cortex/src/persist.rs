@@ -120,7 +120,7 @@ impl Trainer {
     }
 
     /// Keeps training the cortex of the checkpoint at `path` on a **new** data source
-    /// (dimensionality boosting, gene therapy; official §3.9): parameters are loaded, Adam is
+    /// (dimensionality boosting, gene therapy; authors' code, docs/references.md#training): parameters are loaded, Adam is
     /// recreated (its state is not restored, as official), the step count continues.
     /// `config` may change training settings (steps, learning rate, M); the buckets' shapes
     /// must match the checkpoint.

@@ -1,4 +1,4 @@
-//! Neural Scope, online (paper §5; official §3.10): a least-squares map from the N-channel
+//! Neural Scope, online (paper §5; authors' code, docs/references.md#neural-scope): a least-squares map from the N-channel
 //! percept to linear sRGB (with bias), fitted on **detached** percepts. Evaluation only: the
 //! cortex never learns from it; the trainer hands out the last percept
 //! ([`crate::Trainer::last_percept`]) and the caller, who knows the scene, supplies the target.

@@ -12,7 +12,7 @@
 //!    `margin + s`, so frame t+1 at p shows frame t at p + s (the cortex's sign convention).
 //! 3. Cone activation = the channel of the cell's cone type (mosaic drawn once, probabilities
 //!    `cone_probabilities`).
-//! 4. ONS = 7×7 difference of Gaussians (σ 0.15 and 0.9 px, surround 0.91, official §2.7) as a
+//! 4. ONS = 7×7 difference of Gaussians (σ 0.15 and 0.9 px, surround 0.91, authors' code, docs/references.md#lateral-inhibition) as a
 //!    zero-padded linear convolution, unless `lateral_inhibition` is off (the S-05 baseline
 //!    "cone activations as ONS").
 //! 5. Oracle motion `d = s / motion_px_per_unit` in field units.

@@ -8,7 +8,7 @@
 //! - Checkpoints ([`crate::checkpoint`]) hold parameters, Adam state, step, config, RNG and the
 //!   data source's state; [`Trainer::resume`] continues bit-identically (same seed, same
 //!   thread count). [`Trainer::continue_from`] keeps the cortex and recreates Adam, as the
-//!   official dimensionality boosting / gene therapy does (official §3.9).
+//!   official dimensionality boosting / gene therapy does (authors' code, docs/references.md#training).
 //! - Neural Scope stays outside: with [`Trainer::set_keep_percept`] the trainer keeps a detached
 //!   copy of the last percept for the caller to fit; nothing flows back.
 
@@ -30,7 +30,7 @@ pub struct StepStats {
     pub step: u64,
     /// The training loss (main + blurred objective when M is learned).
     pub loss: f64,
-    /// The main prediction loss (official §3.8 normalisation).
+    /// The main prediction loss (authors' code, docs/references.md#loss normalisation).
     pub main_loss: f64,
     /// Forward time per bucket, indexed by [`Bucket`] (M is motion estimation).
     pub forward_ms: [f64; BUCKETS],

@@ -1,4 +1,4 @@
-//! Checkpoints (issue 4, must-show 5): resume is bit-identical, writes are atomic, a NaN loss
+//! Checkpoints: resume is bit-identical, writes are atomic, a NaN loss
 //! stops the run with a clear message and the last good checkpoint intact.
 
 use cortex::checkpoint::{latest_checkpoint, read_meta};

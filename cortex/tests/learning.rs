@@ -1,4 +1,4 @@
-//! Learning works on a synthetic stream (issue 4, must-show 4, crate-level version; the ≥ 5×
+//! Learning works on a synthetic stream (crate-level version; the ≥ 5×
 //! sandbox test with the real retina lives in the root package's tests).
 
 use cortex::config::{CortexConfig, PMode};

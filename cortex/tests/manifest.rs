@@ -1,4 +1,4 @@
-//! The structural proof that the cortex learns from the optic nerve alone (issue 4, must-show 6):
+//! The structural proof that the cortex learns from the optic nerve alone:
 //! its manifest has no `retina` dependency, and the training input carries ONS and optional
 //! oracle motion only.
 

@@ -1,4 +1,4 @@
-//! Bucket identities and the warp (issue 4, must-shows 1 and 2).
+//! Bucket identities and the warp.
 
 use autodiff::{Tape, Tensor};
 use cortex::config::{CortexConfig, PMode};

@@ -1,4 +1,4 @@
-//! Photoreceptors: cone activation and photon noise (official §2.6, paper S-02).
+//! Photoreceptors: cone activation and photon noise (authors' code, docs/references.md#cone-activation-and-noise, paper S-02).
 //!
 //! Stage `Cones::compute(stack, origin, noise, out)`:
 //! - input: the scene tile's class planes as a [`MipStack`] `(levels, k, h, w)` — the scene
@@ -8,7 +8,7 @@
 //!   (official: `pa = Σ_c LMSQ_c · mosaic_c`).
 //!
 //! Photon noise: `a ← a + σ·ε`, ε ~ N(0, 1), `σ = 0.01 · r · √max(a, 0) + 1e-10`, where the noise
-//! ratio `r = k/10` with k uniform in {0, …, 10} is drawn once per batch (official §2.6; SNR
+//! ratio `r = k/10` with k uniform in {0, …, 10} is drawn once per batch (authors' code, docs/references.md#cone-activation-and-noise; SNR
 //! ≈ 100 at a = 1, r = 1, paper S-02). [`NoiseConfig::enabled`] = false gives the noise-free
 //! path.
 
@@ -19,13 +19,13 @@ use serde::{Deserialize, Serialize};
 use crate::foveation::{ConeSampler, MipStack};
 use crate::mosaic::Mosaic;
 
-/// Photon-noise scale at r = 1 (official §2.6).
+/// Photon-noise scale at r = 1 (authors' code, docs/references.md#cone-activation-and-noise).
 pub const OFFICIAL_PHOTON_NOISE_SCALE: f32 = 0.01;
-/// Lateral-inhibition noise scale at r = 1 (official §2.7).
+/// Lateral-inhibition noise scale at r = 1 (authors' code, docs/references.md#lateral-inhibition).
 pub const OFFICIAL_LI_NOISE_SCALE: f32 = 0.01;
-/// r = k / levels with k uniform in {0, …, levels} (official §2.6: 10).
+/// r = k / levels with k uniform in {0, …, levels} (authors' code, docs/references.md#cone-activation-and-noise: 10).
 pub const OFFICIAL_NOISE_LEVELS: u32 = 10;
-/// Floor added to the photon-noise σ (official §2.6).
+/// Floor added to the photon-noise σ (authors' code, docs/references.md#cone-activation-and-noise).
 pub const PHOTON_NOISE_SIGMA_FLOOR: f32 = 1e-10;
 
 /// Noise settings of the retina (photon noise and the multiplicative noise after LI).

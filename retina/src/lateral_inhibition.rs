@@ -1,4 +1,4 @@
-//! Lateral inhibition: difference-of-Gaussians on the cone lattice (official §2.7, paper S-02).
+//! Lateral inhibition: difference-of-Gaussians on the cone lattice (authors' code, docs/references.md#lateral-inhibition, paper S-02).
 //!
 //! Stage `LateralInhibition::compute(input, out)`:
 //! - input: cone activations `(n, n)` row-major f32 (lattice order, not visual space — the
@@ -26,11 +26,11 @@ use rustfft::num_complex::Complex64;
 use rustfft::{Fft, FftPlanner};
 use serde::{Deserialize, Serialize};
 
-/// Centre σ, lattice cells (official §2.7).
+/// Centre σ, lattice cells (authors' code, docs/references.md#lateral-inhibition).
 pub const OFFICIAL_SIGMA_CENTRE_CELLS: f64 = 0.15;
-/// Surround σ, lattice cells (official §2.7).
+/// Surround σ, lattice cells (authors' code, docs/references.md#lateral-inhibition).
 pub const OFFICIAL_SIGMA_SURROUND_CELLS: f64 = 0.9;
-/// Surround weight (official §2.7), giving DC gain 1 − 0.91 = 0.09.
+/// Surround weight (authors' code, docs/references.md#lateral-inhibition), giving DC gain 1 − 0.91 = 0.09.
 pub const OFFICIAL_SURROUND_WEIGHT: f64 = 0.91;
 
 /// Which convolution path.

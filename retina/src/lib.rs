@@ -1,5 +1,5 @@
 //! retina — the spectral eye simulation, from scene to optic nerve signal (paper S-02;
-//! official-implementation.md §2; SPEC §3).
+//! authors' code, docs/references.md#retina-data-flow).
 //!
 //! Stages, one noun and one `compute` each (inputs, outputs, shapes and units in each module):
 //!

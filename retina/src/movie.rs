@@ -126,7 +126,7 @@ mod tests {
 
     #[test]
     fn time_averaged_spikes_track_the_analog_signal() {
-        // Issue 3 must-show 6: ≥ 100 frames of a still eye with full photon and LI noise.
+        // ≥ 100 frames of a still eye with full photon and LI noise.
         // Four movies (different tiles) per preset; every one must reach 0.9.
         for preset in ["tiny", "quick"] {
             let r = Retina::new(RetinaConfig::preset(preset).unwrap()).unwrap();

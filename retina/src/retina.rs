@@ -12,7 +12,7 @@
 //! - the per-batch noise ratio r (official: one draw per batch), and for evaluation the tile and
 //!   frame-0 field origin of each sample.
 //!
-//! Data flow per sample (official §2.10): pick a pool tile and a field origin with room for any
+//! Data flow per sample (authors' code, docs/references.md#retina-data-flow): pick a pool tile and a field origin with room for any
 //! shift; for each frame, `Cones::compute` (weights · class planes, mip-mapped at the cone
 //! positions), photon noise, LI, LI noise. Samples run in parallel (rayon); each sample has its
 //! own RNG seeded from `rng`, so a batch is reproducible for a given `rng` state.

@@ -26,9 +26,9 @@
 
 use serde::{Deserialize, Serialize};
 
-/// Membrane decay per frame (official tutorial, official §2.8).
+/// Membrane decay per frame (official tutorial, authors' code, docs/references.md#spikes).
 pub const OFFICIAL_LIF_DECAY: f32 = 0.9;
-/// Firing threshold (official tutorial, official §2.8).
+/// Firing threshold (official tutorial, authors' code, docs/references.md#spikes).
 pub const OFFICIAL_LIF_THRESHOLD: f32 = 0.5;
 /// Input gain from the bipolar signal to the LIF drive (ours; module docs).
 pub const DEFAULT_LIF_DRIVE_GAIN: f32 = 4.0;

@@ -1,4 +1,4 @@
-//! One RealNVP affine coupling (official §3.5) as a single fused tape op.
+//! One RealNVP affine coupling (authors' code, docs/references.md#p-bucket) as a single fused tape op.
 //!
 //! Inputs, in order: points `x (P, 2)`, then the coupling MLP `w1 (1, H)`, `b1 (H,)`,
 //! `w2 (H, H)`, `b2 (H,)`, `w3 (H, 2)`, `b3 (2,)` (weights `(in, out)`, `x @ W` convention).

@@ -1,4 +1,4 @@
-//! RealNVP flow on 2-D points: the cell-position map P of the cortex (official §3.5).
+//! RealNVP flow on 2-D points: the cell-position map P of the cortex (authors' code, docs/references.md#p-bucket).
 //!
 //! `XY = P(UV)`: an ONS pixel's coordinates `uv ∈ [−1, 1]²` go to the position `xy` the cortex
 //! believes that cone has in visual space; [`RealNvp::inverse`] is `UV = P⁻¹(XY)`, exact.
@@ -34,9 +34,9 @@ use rayon::prelude::*;
 /// Shape of the flow. The official values are the defaults.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct RealNvpConfig {
-    /// Number of affine coupling blocks (official §3.5: 8).
+    /// Number of affine coupling blocks (authors' code, docs/references.md#p-bucket: 8).
     pub blocks: usize,
-    /// Width of the two hidden layers of each coupling MLP (official §3.5: 16).
+    /// Width of the two hidden layers of each coupling MLP (authors' code, docs/references.md#p-bucket: 16).
     pub hidden: usize,
 }
 

@@ -1,4 +1,4 @@
-//! The U-Net demosaicker D of the cortex (official §3.4, `Cx/D_demosaicing/D_Default.py`).
+//! The U-Net demosaicker D of the cortex (authors' code, docs/references.md#d-bucket, `Cx/D_demosaicing/D_Default.py`).
 //!
 //! Shapes: `x (B, in_channels, H, W)` → `(B, out_channels, H, W)`; `H` and `W` must be
 //! divisible by `2^(levels − 1)` where `levels = widths.len()`.
@@ -38,7 +38,7 @@ pub struct UNetConfig {
 }
 
 impl UNetConfig {
-    /// The official demosaicker: 8 → 16/32/64/128 → 8 (official §3.4).
+    /// The official demosaicker: 8 → 16/32/64/128 → 8 (authors' code, docs/references.md#d-bucket).
     pub fn official() -> Self {
         UNetConfig {
             in_channels: 8,
@@ -48,7 +48,7 @@ impl UNetConfig {
         }
     }
 
-    /// The Sandbox variant, two pooling levels: 8 → 16/32/64 → 8 (official §3.4).
+    /// The Sandbox variant, two pooling levels: 8 → 16/32/64 → 8 (authors' code, docs/references.md#d-bucket).
     pub fn quick() -> Self {
         UNetConfig {
             widths: vec![16, 32, 64],

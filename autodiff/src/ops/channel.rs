@@ -4,7 +4,7 @@
 //! - `slice(x, start, len)`: `(B, C, …)` → `(B, len, …)`, channels `start..start+len`.
 //! - `add_channel_bias(x, b)`: `x (B, C, …)`, `b (C,)` → `x + b[c]`.
 //! - `channel_dot(v, c)`: `v (B, N, …)`, `c (1|B, N, …)` → `(B, 1, …)`, `Σₙ vₙ·cₙ` per pixel
-//!   (the C bucket's sampling, official §3.3).
+//!   (the C bucket's sampling, authors' code, docs/references.md#c-bucket).
 //! - `channel_outer(p, c)`: `p (B, 1, …)`, `c (1|B, N, …)` → `(B, N, …)`, `p·cₙ` per pixel
 //!   (the C bucket's injection).
 //! - `normalize_channels(x, eps)`: `x / (‖x‖₂ + eps)` with the norm over axis 1 per pixel

@@ -19,17 +19,17 @@
 //! `dy` by `y > 0` while `dy` is being re-laid out anyway, so it costs no extra pass.
 //!
 //! Implementation: two paths, with identical results up to rounding.
-//! - Direct ([`direct`], 3×3 kernels on x86-64 CPUs with AVX-512F, f32 and f64): each image is
-//!   padded once, then register-blocked micro-kernels ([`kernels`]) accumulate blocks of 8
+//! - Direct (`direct`, 3×3 kernels on x86-64 CPUs with AVX-512F, f32 and f64): each image is
+//!   padded once, then register-blocked micro-kernels (`kernels`) accumulate blocks of 8
 //!   output channels × 3 vectors of output pixels over input channels and taps, writing `y`
 //!   (with the ReLU) directly; `∂x` is the same kernel over the padded `dy` with the flipped
 //!   kernel (plus the reflect border), `∂w` a reduction over pixels vectorised over output
 //!   channels of a channels-last copy of `dy`.
-//! - GEMM lowering ([`gemm_path`], any odd `k`, any CPU): `k²` accumulating faer GEMMs over
+//! - GEMM lowering (`gemm_path`, any odd `k`, any CPU): `k²` accumulating faer GEMMs over
 //!   shifted views of the padded image.
 //!
 //! [`ConvKernel`] picks the path per op (default: direct where available). Both run images in
-//! parallel on rayon, take scratch from a reused stash ([`lowering`]), and do not zero-fill the
+//! parallel on rayon, take scratch from a reused stash (`lowering`), and do not zero-fill the
 //! output first ([`Op::overwrites_output`]).
 
 #[cfg(target_arch = "x86_64")]

@@ -1,4 +1,4 @@
-//! Fourier-domain ops for the W bucket (official §3.2): 2-D FFT and inverse FFT, complex
+//! Fourier-domain ops for the W bucket (authors' code, docs/references.md#w-bucket): 2-D FFT and inverse FFT, complex
 //! pointwise multiply and guarded divide, moves in and out of the complex domain, zero-padding
 //! and cropping, and the "same-size linear convolution" composition the cortex calls.
 //!

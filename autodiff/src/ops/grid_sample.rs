@@ -1,4 +1,4 @@
-//! Bilinear grid sampling (the warp of official §3.7), with gradients to the image **and** to
+//! Bilinear grid sampling (the warp of the authors' code, docs/references.md#warp), with gradients to the image **and** to
 //! the sampling grid, plus the nearest-neighbour validity mask.
 //!
 //! Shapes: `img (B, C, H, W)`, `grid (B, Ho, Wo, 2)` → `out (B, C, Ho, Wo)`. `grid[b, i, j]` is
@@ -20,11 +20,11 @@
 //!   `px` or `py` crosses an integer (a pixel centre), so gradient checks avoid those points.
 //!
 //! Work is split across the batch with rayon (each item owns its slices of the output and of
-//! both gradients, so no atomics). Within an item, [`kernel`] computes each sample's taps once
+//! both gradients, so no atomics). Within an item, `kernel` computes each sample's taps once
 //! and reuses them for every channel; backward runs a load-only grid-gradient pass and a
 //! scatter for the image gradient, with interleaved accumulation chains. The
 //! op allocates nothing beyond its output and (in backward) one pooled scratch tensor for the
-//! grid gradient. Submodules: [`kernel`] (taps and loops), `tests`.
+//! grid gradient. Submodules: `kernel` (taps and loops), `tests`.
 
 mod kernel;
 #[cfg(test)]
@@ -144,7 +144,7 @@ impl<T: Float> Op<T> for GridSample {
 
 /// The validity mask of a warp: `(B, 1, Ho, Wo)`, 1 where the *nearest* pixel of the sample
 /// (PyTorch `grid_sample(mode="nearest", align_corners=True)` of an all-ones image, rounding
-/// half to even) lies inside the `h × w` image, else 0 (official §3.7 step 5). No gradient.
+/// half to even) lies inside the `h × w` image, else 0 (authors' code, docs/references.md#warp). No gradient.
 #[track_caller]
 pub fn grid_sample_mask<T: Float>(grid: &Tensor<T>, h: usize, w: usize) -> Tensor<T> {
     let g = grid.dims();

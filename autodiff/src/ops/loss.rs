@@ -4,7 +4,7 @@
 //!   `(B, C, H, W)` (the cortex uses `C = 1`). Over every site `(c, i, j)` at least `border_px`
 //!   from each image edge,
 //!   `L = Σ_sites [ Σ_b mask·(pred − target)² ] / ( Σ_b mask + 1 )`,
-//!   a per-pixel batch-masked mean summed over pixels — about `H'·W'` × the MSE (official §3.8,
+//!   a per-pixel batch-masked mean summed over pixels — about `H'·W'` × the MSE (authors' code, docs/references.md#loss,
 //!   `CortexModel.py`; the official border is ⌊7/2⌋ = 3 px). The mask is data: it gets no
 //!   gradient. `∂L/∂pred = 2·mask·(pred − target) / (Σ_b mask + 1)` inside the crop, 0 outside;
 //!   `∂L/∂target` is its negative.

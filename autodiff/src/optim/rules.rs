@@ -54,8 +54,8 @@ impl<T: Float> UpdateRule<T> for Sgd {
 /// `m ← β₁m + (1−β₁)g`, `v ← β₂v + (1−β₂)g²`,
 /// `θ ← θ − lr · (m / (1−β₁ᵗ)) / (√(v / (1−β₂ᵗ)) + ε)`.
 ///
-/// Defaults are the paper's and the official implementation's (official-implementation.md
-/// §3.9: lr 1e-3, β (0.9, 0.999), ε 1e-8, no weight decay).
+/// Defaults are the paper's and the authors' code's (docs/references.md#training: lr 1e-3,
+/// β (0.9, 0.999), ε 1e-8, no weight decay).
 #[derive(Clone, Copy, Debug)]
 pub struct Adam {
     /// Learning rate.

@@ -1,4 +1,4 @@
-//! CMF-SIM on analytic observers whose dimension is known (issue 5, "must show" 2).
+//! CMF-SIM on analytic observers whose dimension is known.
 //!
 //! Fast settings: 20 primary sets per K (the paper uses 500), one location pair per evaluation
 //! for the location-independent observers, the default 400–700 nm / 10 nm grid.

@@ -4,7 +4,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::matching::SolverSettings;
 
-/// CMF-SIM settings; defaults from the paper (S-04) and official §4.2.
+/// CMF-SIM settings; defaults from the paper (S-04) and docs/references.md#cmf-sim-defaults.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
 pub struct CmfSimSettings {
@@ -18,7 +18,7 @@ pub struct CmfSimSettings {
     pub max_primaries: usize,
     /// Primary sets drawn per K before K is declared failed (paper: 500).
     pub sets_per_k: usize,
-    /// Location pairs averaged per error evaluation (official §4.2: about 8).
+    /// Location pairs averaged per error evaluation (docs/references.md#cmf-sim-defaults: about 8).
     pub location_pairs: usize,
     /// Judge every match at the location pairs its base error was measured at (common random
     /// numbers: the pass test `error < 1.5 × base` then compares like with like). `false`
@@ -36,12 +36,12 @@ pub struct CmfSimSettings {
     pub first_round_wavelengths: usize,
     /// At a failed K, how many rejected sets (those with the lowest worst ratio over the
     /// wavelengths they were solved at) are then solved at every wavelength; the margin
-    /// reported is the best of them (see [`super::search`]).
+    /// reported is the best of them (see the search in `cmf_sim/search.rs`).
     pub converged_sets: usize,
     /// With `reuse_base_pairs`, measure the α = 0 Jacobians once per location pair through the
     /// observer's linear front end, if it has one ([`crate::matching::FrontEndJacobians`]).
     pub front_end_jacobians: bool,
-    /// Minimum spacing of two primaries, nm (official §4.2: 5).
+    /// Minimum spacing of two primaries, nm (docs/references.md#cmf-sim-defaults: 5).
     pub min_primary_separation_nm: f64,
     /// Test intensity; `None` = [`crate::observer::Observer::stimulus_intensity`].
     pub intensity: Option<f64>,

@@ -1,8 +1,9 @@
-//! Tests of the cone templates against shared/data/FORMULAS.md and official §2.2.
+//! Tests of the cone templates against the formulas' test values (docs/references.md#cone-template-formulas)
+//! and the authors' code (docs/references.md#cone-templates).
 
 use super::*;
 
-/// FORMULAS.md "Test values": (λmax, λ, Gov α, Gov α+β, Neitz ext, Neitz OD=0.2).
+/// Test values of docs/references.md#cone-template-formulas: (λmax, λ, Gov α, Gov α+β, Neitz ext, Neitz OD=0.2).
 const FORMULA_VALUES: [(f64, f64, f64, f64, f64, f64); 15] = [
     (420.0, 400.0, 0.870285, 0.877292, 0.853675, 0.880820),
     (420.0, 450.0, 0.648561, 0.648577, 0.675816, 0.724715),
@@ -47,7 +48,7 @@ fn formulas_md_template_values_are_reproduced() {
 
 #[test]
 fn raw_neitz_peak_sits_about_0_3_percent_below_lambda_max() {
-    // FORMULAS.md §2: λmax 559 → argmax ≈ 557.3; 530 → ≈ 528.4.
+    // docs/references.md#cone-template-formulas: λmax 559 → argmax ≈ 557.3; 530 → ≈ 528.4.
     for (peak, want) in [(559.0, 557.3), (530.0, 528.4)] {
         let (mut best, mut arg) = (f64::MIN, 0.0);
         for i in 0..4001 {
@@ -64,7 +65,7 @@ fn raw_neitz_peak_sits_about_0_3_percent_below_lambda_max() {
 
 #[test]
 fn effective_peaks_after_lens_match_official() {
-    // official-implementation.md §2.2 table: peaks after the lens on the 1 nm grid.
+    // authors' code, docs/references.md#cone-templates table: peaks after the lens on the 1 nm grid.
     let grid = WavelengthGrid::official_1nm();
     let classes = [
         (ConeClass::l(), 567.0),
@@ -90,7 +91,7 @@ fn effective_peaks_after_lens_match_official() {
 
 #[test]
 fn lens_off_keeps_raw_peak() {
-    // official §2.2: raw template peaks 558 / 528 / 418 for λmax 560 / 530 / 419.
+    // authors' code, docs/references.md#cone-templates: raw template peaks 558 / 528 / 418 for λmax 560 / 530 / 419.
     let grid = WavelengthGrid::official_1nm();
     let t = ConeTemplate::CarrollNeitz {
         optical_density: OFFICIAL_OPTICAL_DENSITY,

@@ -1,4 +1,4 @@
-//! C, the cone spectral types (official §3.3; paper S-03 "Learning Color Types"): an N-vector
+//! C, the cone spectral types (authors' code, docs/references.md#c-bucket; paper S-03 "Learning Color Types"): an N-vector
 //! per cell.
 //!
 //! - Parameter `c.raw`, shape `(1, N, n, n)`, channel 0 = 1 and the rest 0 at start: every cell

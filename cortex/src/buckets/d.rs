@@ -1,4 +1,4 @@
-//! D, the demosaicker (official §3.4; paper S-03 "Learning ... Interpolation D"): the U-Net of
+//! D, the demosaicker (authors' code, docs/references.md#d-bucket; paper S-03 "Learning ... Interpolation D"): the U-Net of
 //! `autodiff::nn::unet`, N channels in and out, no residual; or the identity (the S-05 baseline
 //! "no demosaicker").
 //!

@@ -1,10 +1,10 @@
-//! P, the cell positions (official §3.5, §3.7; paper S-03 "Learning Cell Positions"), and the
+//! P, the cell positions (authors' code, docs/references.md#p-bucket and #warp; paper S-03 "Learning Cell Positions"), and the
 //! efficient warp that predicts the next percept.
 //!
 //! - [`PMode::Flow`]: the RealNVP of `autodiff::nn::realnvp` (official: 8 couplings, MLP
 //!   1→16→16→2, last layer zero, so the identity at start; 2 704 parameters under `p.`).
 //!   `xy = P(uv)` is a cell's believed position in the visual field; `uv ∈ [−1, 1]²` is the ONS
-//!   grid (align-corners). The efficient warp (official §3.7), for every ONS pixel uv:
+//!   grid (align-corners). The efficient warp (authors' code, docs/references.md#warp), for every ONS pixel uv:
 //!   `xy = P(uv)`, `xy' = xy + d̂_b`, `uv' = P⁻¹(xy')`, `V̂(uv) = bilinear(V, uv')` (zeros
 //!   outside), `mask(uv)` = nearest sample of ones at uv'. Gradients reach P only through the
 //!   sampling coordinates uv'.

@@ -1,4 +1,4 @@
-//! The sandbox warp (official §3.5, sandbox P): identity positions, the motion rounded to whole
+//! The sandbox warp (authors' code, docs/references.md#p-bucket, sandbox P): identity positions, the motion rounded to whole
 //! ONS pixels and applied as a zero-padded gather. Exact, no interpolation.
 //!
 //! `out[b, c, y, x] = v[b, c, y + s_y, x + s_x]` when inside, else 0; `mask[b, 0, y, x]` is 1

@@ -1,4 +1,4 @@
-//! W, the lateral-inhibition weights (official §3.2; paper S-03 "Learning Lateral Inhibition
+//! W, the lateral-inhibition weights (authors' code, docs/references.md#w-bucket; paper S-03 "Learning Lateral Inhibition
 //! Neighbor Weights"): a free complex frequency response on the `(2n−1)²` zero-padded grid.
 //!
 //! - Parameter `w.response`, shape `(2n−1, 2n−1, 2)` (re, im), natural FFT order, the kernel's
@@ -8,7 +8,7 @@
 //!   the identity at step 0 (decode exactly `x/(1 + ε)`).
 //! - Encode Ψ_W: same-size linear convolution, `fft_convolve_same`.
 //! - Decode Φ_W: the guarded inverse `X·conj(W)/(|W|² + ε)`, ε = `w.inverse_guard` (1e-6,
-//!   official §11; the official code divides unguarded).
+//!   docs/references.md#guarded-w-inverse; the official code divides unguarded).
 //! - No constraint on symmetry, realness or support (as official).
 //! - [`WMode::Identity`]: both are no-ops and there is no parameter (official sandbox).
 //!
@@ -121,7 +121,7 @@ mod tests {
         );
     }
 
-    /// Issue 4, must-show 1: W inverse∘forward = identity to 1e-5 (f64 path), for a learned,
+    /// W inverse∘forward = identity to 1e-5 (f64 path), for a learned,
     /// non-trivial response (a random 7×7 kernel, |W| ≥ 0.5). The crop of the forward filter cuts
     /// what spills over the image edge, so the image is zero within the kernel radius of it.
     #[test]

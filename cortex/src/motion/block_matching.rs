@@ -1,4 +1,4 @@
-//! The official motion estimator (official §3.6, `M_Default`): coarse-to-fine pyramid block
+//! The official motion estimator (authors' code, docs/references.md#motion-estimation, `M_Default`): coarse-to-fine pyramid block
 //! matching on Gaussian-blurred ONS de-warped with the current P. No parameters, no gradients.
 //!
 //! Steps, per sample:
@@ -89,7 +89,7 @@ impl DewarpGrid {
     }
 }
 
-/// The pyramid search's settings (official §3.6).
+/// The pyramid search's settings (authors' code, docs/references.md#motion-estimation).
 #[derive(Clone, Debug)]
 pub struct BlockMatcher {
     pub blur_kernel_px: usize,

@@ -1,4 +1,4 @@
-//! B, the low-pass operator of motion estimation (official §3.6; paper S-03 "B"): a separable
+//! B, the low-pass operator of motion estimation (authors' code, docs/references.md#motion-estimation; paper S-03 "B"): a separable
 //! Gaussian of side `k` (official 9) and σ (official 2 px) with reflect padding of ⌊k/2⌋, which
 //! roughly halves the highest frequencies. Plain f32 → f32, no gradients (M runs under no-grad).
 //!

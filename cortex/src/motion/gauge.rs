@@ -23,7 +23,7 @@
 //! **The gauge term.** Fix the representative: the least-squares affine fit of `xy = P(uv)`
 //! over the ONS grid, `xy ≈ A·uv + c`, must be the identity (`A = I`, `c = 0`), the layout P
 //! starts from. The loss gets `gauge_weight · S · (‖A − I‖²_F + ‖c‖²)` with `S` the number of
-//! sites the main loss sums over (official §3.8 normalisation), so that the pull is measured
+//! sites the main loss sums over (authors' code, docs/references.md#loss normalisation), so that the pull is measured
 //! in the loss's own units whatever n. Any P has a
 //! gauge-equivalent P̃ with this term zero and the same predictions, so the term changes
 //! which P represents the solution, not which predictions are reachable; the non-affine part

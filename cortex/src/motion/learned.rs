@@ -3,7 +3,7 @@
 //!
 //! The paper learns M jointly with P by minimising the blurred prediction error
 //! `‖B(O_{t+1}) − Ψ_P(Ω_M(Φ_P(B(O_t))))‖²`. The official code ships a non-learned pyramid search
-//! instead (official §3.6). Here:
+//! instead (authors' code, docs/references.md#motion-estimation). Here:
 //!
 //! 1. **Coarse estimate**: the official block matching ([`super::block_matching`]) on blurred,
 //!    P-de-warped ONS, an integer shift on the de-warped grid.

@@ -1,4 +1,4 @@
-//! M, eye-motion estimation (official §3.6; paper S-03): the oracle, the official pyramid block
+//! M, eye-motion estimation (authors' code, docs/references.md#motion-estimation; paper S-03): the oracle, the official pyramid block
 //! matching, and a learned sub-pixel estimator. Estimation runs without gradients; the learned
 //! estimator adds a blurred objective through which P learns.
 //!

@@ -1,7 +1,7 @@
 //! Radial cone-density profile and the area-preserving radial map from lattice to retina.
 //!
-//! No Curcio (1990) table is available here (shared/data/README.md), so the profile is built
-//! from the facts in shared/data/FORMULAS.md §4:
+//! The Curcio (1990) tables are not available as a data package, so the profile is built from
+//! the facts in docs/references.md#cone-density-formulas:
 //!
 //! ```text
 //! d(r) = dc0 · (1 + r / r_c)^(−2)        cones/deg², r = eccentricity in degrees
@@ -14,7 +14,7 @@
 //!   `r_c = 3.609 / (√10 − 1)`.
 //!
 //! The official layout uses only the temporal Curcio meridian for every direction, so its map is
-//! radially symmetric too (official §2.5).
+//! radially symmetric too (authors' code, docs/references.md#foveation).
 //!
 //! Lattice → retina: lattice cell (i, j) sits at lattice coordinates (u, v) in cells from the
 //! lattice centre, radius ρ = √(u² + v²). Each cell holds one cone, so the disc of lattice radius
@@ -25,7 +25,7 @@
 //! map is smooth and strictly increasing in ρ, and its Jacobian determinant is
 //! `r'(ρ)·r(ρ)/ρ > 0` everywhere, so the lattice never folds (retinotopy).
 
-/// Watson (2014) peak cone density from the Curcio (1990) data, cones/deg² (FORMULAS.md §4).
+/// Watson (2014) peak cone density from the Curcio (1990) data, cones/deg² (docs/references.md#cone-density-formulas).
 pub const WATSON_PEAK_CONE_DENSITY_PER_DEG2: f64 = 14_804.6;
 /// Eccentricity (deg) of 1 mm on the retina, Watson (2014) polynomial
 /// `r_deg = 3.556·r_mm + 0.05993·r_mm² − 0.007358·r_mm³ + 0.0003027·r_mm⁴` at 1 mm.

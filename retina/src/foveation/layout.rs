@@ -5,7 +5,7 @@
 //!   scene field the cones sample (x = column, y = row, pixel centres at integers, 0 … F−1).
 //!   Lattice cell (i, j) is row i, column j of every `(n, n)` cone array downstream.
 //!
-//! Foveated layout (official §2.5; paper S-02 "Foveation and Cone Positions"):
+//! Foveated layout (authors' code, docs/references.md#foveation; paper S-02 "Foveation and Cone Positions"):
 //! 1. Perlin jitter in lattice-index space (official run-time step 2): two independent fields
 //!    (x and y), 6 octaves from resolution 2 with persistence 0.8, generated on a lattice twice
 //!    the patch side whose centre is the patch (the official noise lives on the 512 lattice and
@@ -20,7 +20,7 @@
 //!    −1 and 1 the first and last pixel centres).
 //!
 //! The edge eccentricity default, 1.25°, is fitted so that the paper layout (256² cones in a
-//! 512-px field) has the official centre-to-edge spacing ratio ≈ 1.9 (official §2.5 step 5:
+//! 512-px field) has the official centre-to-edge spacing ratio ≈ 1.9 (authors' code, docs/references.md#foveation, step 5:
 //! ≈1.3 px at the centre, ≈2.5 px at the patch edge), with spacing = mean distance to the 4
 //! lattice neighbours, "centre" = the central 4×4 cells and "edge" = the outermost ring. Our
 //! absolute spacings come out ≈1.15 px and ≈2.2 px: the radial map pushes the lattice corners
@@ -50,7 +50,7 @@ pub const JITTER_LATTICE_OVERSIZE: usize = 2;
 /// one (even n: a 4×4 block).
 pub const CENTRE_BLOCK_HALF: usize = 1;
 
-/// Perlin jitter settings (official §2.5).
+/// Perlin jitter settings (authors' code, docs/references.md#foveation).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct JitterConfig {
     /// Number of octaves (official 6).
@@ -247,7 +247,7 @@ impl ConeLayout {
         out
     }
 
-    /// The official rule for the field resolution a layout needs (official §2.5 step 4):
+    /// The official rule for the field resolution a layout needs (authors' code, docs/references.md#foveation, step 4):
     /// `2^ceil(log2(1/s))`, s = mean of the 10 smallest neighbour spacings in [0, 1] field units.
     pub fn required_field_px(&self) -> usize {
         let (n, p) = (self.n, &self.positions_px);

@@ -3,7 +3,7 @@
 //! One octave on a `(rows, cols)` array with `(res_rows, res_cols)` noise periods: random unit
 //! gradients at the `(res+1)²` lattice corners (angles uniform in [0, 2π)), dot products with the
 //! offsets to the four corners, blended with the quintic fade `6t⁵ − 15t⁴ + 10t³`, times √2 —
-//! the public-domain algorithm the official code uses (official §2.5, run-time step 2). Octaves:
+//! the public-domain algorithm the official code uses (authors' code, docs/references.md#foveation, step 2). Octaves:
 //! the resolution doubles and the amplitude is multiplied by the persistence each octave. The
 //! official call is 6 octaves from resolution (2, 2) with persistence 0.8 on the 512² lattice,
 //! which gives a std of about 0.5 lattice cells.
@@ -14,11 +14,11 @@
 use rand::Rng;
 use std::f64::consts::{PI, SQRT_2};
 
-/// Number of octaves (official §2.5).
+/// Number of octaves (authors' code, docs/references.md#foveation).
 pub const OFFICIAL_OCTAVES: usize = 6;
-/// Amplitude ratio between successive octaves (official §2.5).
+/// Amplitude ratio between successive octaves (authors' code, docs/references.md#foveation).
 pub const OFFICIAL_PERSISTENCE: f64 = 0.8;
-/// Noise periods across the official 512-cell lattice in the first octave (official §2.5).
+/// Noise periods across the official 512-cell lattice in the first octave (authors' code, docs/references.md#foveation).
 pub const OFFICIAL_BASE_RESOLUTION: usize = 2;
 
 fn fade(t: f64) -> f64 {
@@ -111,7 +111,7 @@ mod tests {
     #[test]
     fn official_octaves_have_std_about_half_a_cell() {
         // Average over seeds: the first octave has only 3×3 gradients, so one field's std
-        // varies a lot; the official figure (≈ 0.5, official §2.5 [A]) is typical.
+        // varies a lot; the official figure (≈ 0.5, computed, docs/references.md#foveation) is typical.
         let mut stds = vec![];
         for seed in 0..8 {
             let mut rng = StdRng::seed_from_u64(seed);

@@ -1,6 +1,6 @@
 //! Anti-aliased (mip-mapped) sampling of scene planes at the cone positions.
 //!
-//! Official §2.5 run-time step 6: per cone, level ℓ = log2(max(row spacing, column spacing)) in
+//! Authors' code, docs/references.md#foveation, step 6: per cone, level ℓ = log2(max(row spacing, column spacing)) in
 //! field pixels (the last row and column reuse the previous spacing); each level is the scene
 //! box-filtered over 2^ℓ pixels; the cone's value blends levels ⌊ℓ⌋ and ⌈ℓ⌉ linearly
 //! (trilinear), each sampled bilinearly.

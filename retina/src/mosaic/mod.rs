@@ -5,9 +5,9 @@
 //!   lattice side `n` (cells) and a seed;
 //! - output: a [`Mosaic`] holding the distinct classes (name + λmax) and per-cell weights over
 //!   them, row-major `(n·n, k)`, each row summing to 1. Weights are fractional only for
-//!   co-expression (official §2.3: "entries may be fractional").
+//!   co-expression (authors' code, docs/references.md#cone-mosaic: "entries may be fractional").
 //!
-//! Generation (official §2.3, `generate_cone_mosaic.py`):
+//! Generation (authors' code, docs/references.md#cone-mosaic, `generate_cone_mosaic.py`):
 //! - trichromat: every cell L with probability r/(1+r) (r = 1.92) else M, i.i.d.; then cells are
 //!   visited in random order and a cell becomes S when the window rows `[i−3, i+3)` × cols
 //!   `[j−3, j+3)` (clipped at the borders) holds no S yet. At 256² this gives L .624 / M .321 /

@@ -3,7 +3,7 @@
 //! A [`MosaicSpec`] is parsed from a short string (the `--cones` argument of the CLI and the
 //! `cones` field of a configuration). Grammar — comma-separated tokens:
 //!
-//! | string | meaning (official §2.3) |
+//! | string | meaning (authors' code, docs/references.md#cone-mosaic) |
 //! |---|---|
 //! | `LMS` | trichromat: L:M = 1.92:1 i.i.d., then S inserted on a sparse lattice |
 //! | `L`, `M`, `S` | monochromat |
@@ -20,10 +20,10 @@
 //!
 //! Modifications are `<NEW>_<mode>_<TARGETS>[@fraction]` with mode `replace`, `coexpress` or
 //! `ratio`; TARGETS lists one-letter class names; the fraction (probability that an eligible
-//! cone is affected) defaults to 0.5, the official code's value (official §2.3; the paper says
+//! cone is affected) defaults to 0.5, the official code's value (authors' code, docs/references.md#cone-mosaic; the paper says
 //! ≈60 % for gene therapy, S-06).
 //!
-//! Default peaks (λmax, nm; official §2.2, paper S-02/S-07): L 560, M 530, S 419, Q 545.
+//! Default peaks (λmax, nm; authors' code, docs/references.md#cone-templates, paper S-02/S-07): L 560, M 530, S 419, Q 545.
 //! Any other class name needs an explicit peak (`X:600`).
 
 use colorimetry::cones::{ConeClass, HUMAN_Q_PEAK_NM, L_PEAK_NM, M_PEAK_NM, S_PEAK_NM};
@@ -31,12 +31,12 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::{Result, RetinaError};
 
-/// L:M ratio of the trichromat mosaic (official §2.3, `generate_cone_mosaic.py`).
+/// L:M ratio of the trichromat mosaic (authors' code, docs/references.md#cone-mosaic, `generate_cone_mosaic.py`).
 pub const DEFAULT_L_TO_M_RATIO: f64 = 1.92;
-/// Side of the window (cells) in which no second S cone may lie (official §2.3: rows
+/// Side of the window (cells) in which no second S cone may lie (authors' code, docs/references.md#cone-mosaic: rows
 /// `[i−3, i+3)` × cols `[j−3, j+3)`).
 pub const DEFAULT_S_EXCLUSION_WINDOW_CELLS: usize = 6;
-/// Probability that an eligible cone is affected by a modification (official §2.3: 0.5).
+/// Probability that an eligible cone is affected by a modification (authors' code, docs/references.md#cone-mosaic: 0.5).
 pub const DEFAULT_MODIFICATION_FRACTION: f64 = 0.5;
 
 /// How the base classes are laid out before modifications.
@@ -55,7 +55,7 @@ pub enum Arrangement {
     Iid(Vec<(String, f64)>),
 }
 
-/// How an affected cone changes (official §2.3 and paper S-06, Fig. 9).
+/// How an affected cone changes (authors' code, docs/references.md#cone-mosaic and paper S-06, Fig. 9).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 pub enum Expression {
     /// The target opsin is replaced by the new one.

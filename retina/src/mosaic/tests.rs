@@ -1,4 +1,4 @@
-//! Issue 3, must-show 2: mosaic fractions and every variant's counts.
+//! Mosaic fractions and every variant's counts.
 
 use super::*;
 

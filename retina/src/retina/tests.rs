@@ -1,5 +1,5 @@
-//! Issue 3 must-show 1 (the retina uses the colorimetry templates), 5 (linearity) and batch
-//! mechanics. Must-show 6 (spikes) is in `spikes_tests.rs` via `Retina::time_averaged_spikes`.
+//! The retina uses the colorimetry templates, is linear in the scene, and batches correctly.
+//! The spiking path is tested in `movie.rs`, through `Retina::movie` and `Retina::spikes`.
 
 use super::*;
 use crate::cones::NoiseConfig;

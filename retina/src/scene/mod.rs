@@ -224,7 +224,7 @@ pub struct ClassPlanes {
 }
 
 impl ClassPlanes {
-    /// Per-image white balance (official §2.1 step 4): each plane divided by its maximum over
+    /// Per-image white balance (authors' code, docs/references.md#scenes): each plane divided by its maximum over
     /// the image, then multiplied by that class's response to the sRGB white (1, 1, 1)
     /// (`white`, one value per plane). Planes whose maximum is ≤ 0 are left unchanged.
     pub fn white_balance(&mut self, white: &[f64]) {

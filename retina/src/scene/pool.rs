@@ -10,13 +10,13 @@
 //! Sources, in order of precedence:
 //! 1. `files` — spectral OpenEXR (`.exr`, resampled onto the sensitivity grid) and RGB photographs
 //!    (`.png`, through the simulated display or the official matrix, `rgb_path`). Images
-//!    smaller than a tile are upscaled bilinearly so that their short side fits (official §2.1
+//!    smaller than a tile are upscaled bilinearly so that their short side fits (authors' code, docs/references.md#scenes
 //!    step 3); each tile is a random crop.
 //! 2. otherwise synthetic dead leaves ([`super::dead_leaves`]), with a fraction
 //!    `tetra.fraction` of tiles from a tetrachromatic environment ([`super::tetra`]; the
 //!    paper's 100 patches on 900 images is 0.1).
 //!
-//! White balance (official §2.1 step 4, per image and per plane: divide by the maximum, multiply
+//! White balance (authors' code, docs/references.md#scenes, per image and per plane: divide by the maximum, multiply
 //! by the class's response to the sRGB white) is applied to spectral sources — dead leaves,
 //! tetra environments, EXR files — when `white_balance` is on (the default). RGB photographs are
 //! not balanced: their white is already the sRGB white (the official RGB path has no balance).

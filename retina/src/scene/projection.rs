@@ -5,7 +5,7 @@
 //! retina's template) are shared with them when present and appended as `ref_L`, `ref_M`,
 //! `ref_S` otherwise. `white[c]` is plane c's response to the sRGB white (1, 1, 1) through the
 //! official least-squares matrix (`colorimetry::cone_rgb`; L ≈ 1.083, M ≈ 1.006, S ≈ 0.520),
-//! the target of the per-image white balance (official §2.1 step 4).
+//! the target of the per-image white balance (authors' code, docs/references.md#scenes).
 
 use colorimetry::cone_rgb::ConeRgb;
 use colorimetry::{sensitivities, ConeClass, ConeTemplate, WavelengthGrid};

@@ -12,7 +12,7 @@
 //!   intensities are set
 //!   so that RGB (1, 1, 1) has the D65 white's XYZ with Y = 1. A pixel's spectrum is
 //!   `Σ_c rgb_c · P_c(λ)` — every such scene spans exactly 3 spectral dimensions.
-//! - [`class_planes_by_matrix`] (official §2.9): class excitations = linear RGB · `rgb_to_cone`
+//! - [`class_planes_by_matrix`] (authors' code, docs/references.md#colour-transforms): class excitations = linear RGB · `rgb_to_cone`
 //!   of `colorimetry::cone_rgb::ConeRgb` (least-squares fit of the fundamentals from CIE XYZ,
 //!   composed with sRGB → XYZ). No spectra involved.
 
@@ -292,7 +292,7 @@ mod tests {
 
     #[test]
     fn official_matrix_rows_and_white() {
-        // Official §2.9: rows R, G, B of linear sRGB → LMS and the LMS of the sRGB white.
+        // Authors' code, docs/references.md#colour-transforms: rows R, G, B of linear sRGB → LMS and the LMS of the sRGB white.
         let g = WavelengthGrid::official_1nm();
         let f = sensitivities(&ConeClass::lms(), &ConeTemplate::default(), &g).unwrap();
         let m = ConeRgb::fit(&f).unwrap();

@@ -1,4 +1,4 @@
-//! Issue 3, must-show 8: spectral dimensionality and spatial statistics of the scenes; pool
+//! Spectral dimensionality and spatial statistics of the scenes; pool
 //! mechanics.
 
 use super::dead_leaves::{DeadLeavesConfig, LeafScene};

@@ -3,7 +3,7 @@
 //! The paper augments its natural images with colour patches of two kinds: colours from the
 //! observer's tetrachromatic hue sphere (Lee et al. 2024), and "idealised" colours where each
 //! cone channel may take any value — the theoretical maximum of chromatic contrast. Neither set
-//! is released (official §2.1). Ours:
+//! is released (authors' code, docs/references.md#scenes). Ours:
 //! - [`TetraEnvironment::Idealised`]: dead-leaves patches whose class excitations are drawn
 //!   independently and uniformly in [0, 1] per class and per patch (then shaded like any leaf).
 //!   This lives in class space — no spectrum produces it — exactly as the paper's third

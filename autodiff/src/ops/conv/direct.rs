@@ -119,8 +119,8 @@ fn groups(batch: usize, blocks: usize) -> usize {
 }
 
 /// Target working set of one row strip of an image, in elements (a tuning knob: 1 MiB in
-/// f32, half of this machine's 2 MiB L2; at 256² × 16 channels strips of 8 to 64 rows measured
-/// within noise of each other). An image up to twice this size is one strip, so the U-Net's
+/// f32, sized for half of a 2 MiB per-core L2; at 256² × 16 channels strips of 8 to 64 rows
+/// time the same within noise). An image up to twice this size is one strip, so the U-Net's
 /// images (64² with 16 channels, 32² with 32) stay whole. Tests shrink it to cut small images
 /// into several strips; results do not depend on it beyond float rounding.
 pub(crate) static STRIP_ELEMS: std::sync::atomic::AtomicUsize =

@@ -5,7 +5,7 @@
 //! - `complex_mul(a, b)`: `y = a·b`. `b`'s shape must be a suffix of `a`'s (it is broadcast over
 //!   `a`'s leading axes): the learned frequency response `(H, W, 2)` times a batch `(B, H, W, 2)`.
 //! - `complex_div_guarded(a, b, eps)`: `y = a·conj(b) / (|b|² + eps)`, the regularised inverse
-//!   filter of official-implementation.md §11 (eps = 1e-6). It equals `a / b` when
+//!   filter of docs/references.md#guarded-w-inverse (eps = 1e-6). It equals `a / b` when
 //!   `|b|² ≫ eps` and goes smoothly to 0 as `b → 0`, so it is differentiable everywhere.
 //!
 //! Derivatives (gradients stored as `(∂L/∂re, ∂L/∂im)`, see [`super`]):
@@ -243,7 +243,7 @@ impl<T: Float> Tape<T> {
 
     /// `a·conj(b) / (|b|² + eps)` elementwise, `b` broadcast as in [`Tape::complex_mul`]: a
     /// division by `b` that stays finite (and differentiable) where `|b| → 0`. The official
-    /// code divides unguarded; official-implementation.md §11 recommends `eps = 1e-6`.
+    /// code divides unguarded; docs/references.md#guarded-w-inverse recommends `eps = 1e-6`.
     #[track_caller]
     pub fn complex_div_guarded(&mut self, a: Var, b: Var, eps: f64) -> Var {
         assert!(

@@ -1,5 +1,5 @@
 //! Same-size linear convolution and deconvolution of real images by a learned frequency
-//! response: the W bucket of the cortex (official §3.2), composed from the ops of [`super`].
+//! response: the W bucket of the cortex (authors' code, docs/references.md#w-bucket), composed from the ops of [`super`].
 //!
 //! Geometry, for an image `x` of `H × W` pixels and a response `R` of shape
 //! `(2H − 1, 2W − 1, 2)` (complex, natural FFT order, no `fftshift`):
@@ -19,7 +19,7 @@
 //! class is the same.
 //!
 //! Deconvolution divides instead of multiplying, guarded:
-//! `X·conj(R)/(|R|² + eps)` (official-implementation.md §11, `eps = 1e-6`). The inverse of a
+//! `X·conj(R)/(|R|² + eps)` (docs/references.md#guarded-w-inverse, `eps = 1e-6`). The inverse of a
 //! kernel centred at `(H − 1, W − 1)` is centred at `(−(H − 1), −(W − 1))`, so deconvolution
 //! places the image at `(H − 1, W − 1)` and crops the window at `(0, 0)` (the mirror of
 //! steps 1 and 3). At the identity response it therefore returns exactly `x / (1 + eps)`, and
@@ -119,7 +119,7 @@ pub fn kernel_response<T: Float>(kernel: &Tensor<f64>, h: usize, w: usize) -> Te
 }
 
 /// The response of the identity filter for `n × n` images: the FFT of a delta at the centre
-/// `(n − 1, n − 1)` of the `(2n − 1)²` grid (official §3.2 initialisation, `|R| = 1`).
+/// `(n − 1, n − 1)` of the `(2n − 1)²` grid (authors' code, docs/references.md#w-bucket initialisation, `|R| = 1`).
 pub fn identity_response<T: Float>(n: usize) -> Tensor<T> {
     kernel_response(&Tensor::from_vec([1, 1], vec![1.0]), n, n)
 }

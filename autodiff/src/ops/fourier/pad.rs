@@ -2,7 +2,7 @@
 //! tensor `(…, H, W)` (any leading axes, rank ≥ 2).
 //!
 //! Linear convolution by FFT needs the image on a grid at least `image + kernel − 1` wide
-//! (`2n − 1` for a kernel as large as the image, official §3.2): pad, transform, multiply,
+//! (`2n − 1` for a kernel as large as the image, authors' code, docs/references.md#w-bucket): pad, transform, multiply,
 //! transform back, crop. The two ops are adjoint: the backward of `pad2d` crops the gradient and
 //! the backward of `crop2d` pads it.
 

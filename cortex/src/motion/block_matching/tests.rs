@@ -209,7 +209,7 @@ fn identity_grid_is_the_ons_grid() {
     }
 }
 
-/// Issue 4, must-show 3: random integer shifts in [−15, 14] on noise-free ONS (identity P)
+/// Random integer shifts in [−15, 14] on noise-free ONS (identity P)
 /// are recovered in ≥ 95 % of trials.
 #[test]
 fn block_matching_recovers_integer_shifts() {

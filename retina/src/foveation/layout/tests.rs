@@ -1,4 +1,4 @@
-//! Issue 3, must-show 3: spacing ratio, no flips, jitter magnitude.
+//! The foveated layout: spacing ratio, no flips, jitter magnitude.
 
 use super::*;
 

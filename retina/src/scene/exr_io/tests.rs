@@ -1,4 +1,4 @@
-//! Issue 3, must-show 7: EXR round trip and the four failure modes.
+//! EXR round trip and the four failure modes.
 
 use super::*;
 use exr::prelude::write_rgb_file;
