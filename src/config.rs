@@ -120,7 +120,7 @@ impl RunConfig {
             // The quick run uses the oracle eye motion (announced in its output), which keeps
             // it inside its time budget: the learned estimator (`[cortex.m] mode = "learned"`,
             // `oracle_motion = false` in a config file) trains stably since the gauge term
-            // (cortex::motion::gauge) but costs ~50 % more per step (session-3 note).
+            // (cortex::motion::gauge) but costs ~50 % more per step.
             cortex.m.mode = cortex::config::MMode::Oracle;
         }
         let (steps, cmf_every, sets_per_k, wavelengths, pairs) = match name {
@@ -131,24 +131,20 @@ impl RunConfig {
             "tiny" => (300, 0, 20, 30, 4),
             "sandbox" => (3000, 1000, 20, 50, 4),
             "paper" => (100_000, 10_000, 100, 100, 8),
-            // quick: CMF-SIM at the end with a paper-like budget (100 wavelengths, 8 pairs as
-            // official §4.2, 100 sets per K as the note's "all fail" budget; the paper used 500):
-            // 90–221 s on a trained quick LMS cortex on this 2-core machine under load. During
-            // training a smaller budget (below) draws the dimension over steps (Fig. 3.3).
-            // 6 000 steps: at 3 000 a quick LMS cortex measured 2-D with this budget (its best
-            // K = 2 set passed with 0.02 % to spare), at 6 000 3-D (session-3 note).
+            // quick: CMF-SIM at the end with a paper-like budget (100 wavelengths, 8 location
+            // pairs as the authors' code, docs/references.md#cmf-sim-defaults; 100 sets per K,
+            // the paper used 500): 1.5–4 min on a trained quick cortex. During training a
+            // smaller budget (below) draws the dimension over steps (Fig. 3.3).
             _ => (6000, 1500, 100, 100, 8),
         };
-        // Early measurements catch the growth of the dimension (a quick LMS cortex measured
-        // 2-D at step 250 and 3-D at 750 in a 3 000-step run).
+        // Early measurements catch the growth of the dimension (paper Fig. 3.3: 1-D, 2-D, 3-D).
         let extra_steps = match name {
             "quick" => vec![50, 100, 250, 500],
             _ => Vec::new(),
         };
-        // The budget during training: quick measures 7 times (37–106 s each under load), so
-        // each must stay near a minute. 30 sets per K: with 5, a quick MS dichromat's K = 2
-        // failed by chance (its 10th set passed; session-2 note): too few sets overstate the
-        // dimension.
+        // The budget during training: each measurement should stay near a minute. 30 sets per
+        // K: with 5, a quick MS dichromat's K = 2 failed by chance (its 10th set passed): too
+        // few sets overstate the dimension.
         let (checkpoint_sets, checkpoint_wavelengths, checkpoint_pairs) = match name {
             "quick" => (30, 50, 4),
             _ => (0, 0, 0),

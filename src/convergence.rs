@@ -301,3 +301,50 @@ fn write_outputs(out: &Path, config: &RunConfig, rows: &[StudyRow]) -> Result<()
     )?;
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::run::{run, RunMode};
+
+    #[test]
+    fn every_checkpoint_is_measured_once_and_tabled() {
+        let mut config = RunConfig::preset("tiny", "LM").unwrap();
+        config.steps = 20;
+        config.cortex.train.checkpoint_every_steps = 10;
+        let dir =
+            std::env::temp_dir().join(format!("colorvision_convergence_{}", std::process::id()));
+        std::fs::remove_dir_all(&dir).ok();
+        let mode = RunMode {
+            cmf_sim: false,
+            pictures: false,
+            progress: false,
+        };
+        run(&config, &dir, mode).unwrap();
+        let rows = study(&dir, false).unwrap();
+        assert_eq!(
+            rows.iter().map(|r| r.step).collect::<Vec<_>>(),
+            vec![10, 20]
+        );
+        assert!(rows
+            .iter()
+            .all(|r| r.cmf.is_none() && r.recovery.c.is_some()));
+        let md = std::fs::read_to_string(dir.join("convergence/convergence.md")).unwrap();
+        assert_eq!(
+            md.lines()
+                .filter(|l| l.starts_with("| 10 ") || l.starts_with("| 20 "))
+                .count(),
+            2
+        );
+        // A second call reads the kept measurements instead of measuring again.
+        let kept = dir.join("convergence/step_00000010.json");
+        let before = std::fs::metadata(&kept).unwrap().modified().unwrap();
+        let again = study(&dir, false).unwrap();
+        assert_eq!(
+            std::fs::metadata(&kept).unwrap().modified().unwrap(),
+            before
+        );
+        assert_eq!(again.len(), 2);
+        std::fs::remove_dir_all(&dir).ok();
+    }
+}

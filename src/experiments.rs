@@ -13,6 +13,7 @@
 //! | `boost` | LMS trained, then LMSQ, training continued | Fig. 6.2 |
 //! | `robustness` | L:M 1:1 and 1:2, three seeds | RS-08 |
 //! | `stiles-burch` | fixed primaries 444.4/526.3/645.2 nm vs Stiles & Burch 1955 (analytic and trained) | RS-08, Fig. 11 |
+//! | `w-oracle-init` | diagnostic: W starts at the eye's true DoG; does the loss keep it? | §6 (W recovered) |
 //! | `cmf-ladder` | CMF-SIM's known-answer observers through the real eye ([`crate::ladder`]) | S-04, S-05 |
 
 use crate::cli::CommonOptions;
@@ -51,6 +52,10 @@ pub const EXPERIMENTS: &[(&str, &str)] = &[
     (
         "stiles-burch",
         "CMFs with primaries 444.4/526.3/645.2 nm vs Stiles & Burch 1955",
+    ),
+    (
+        "w-oracle-init",
+        "diagnostic: the cortex's W starts at the eye's true DoG; does training keep it?",
     ),
     (
         "cmf-ladder",
@@ -189,6 +194,42 @@ fn continued(
     Ok(())
 }
 
+/// A diagnostic, not a learning result: the cortex's W starts at the eye's true DoG (read from
+/// the eye, which learning never does) and trains as usual. W staying near the DoG says the
+/// loss prefers it (a W learned from identity is then slow, not wrong); drifting away says
+/// the loss does not single it out. Compare `colorvision convergence --run` of this run with a
+/// normal one.
+fn w_oracle_init(options: &CommonOptions, out: &Path) -> Result<(), RunError> {
+    let config = RunConfig::resolve(options, "quick")?;
+    let start = out.join("start").join("checkpoints");
+    let checkpoint = start.join(cortex::checkpoint::checkpoint_name(0));
+    if !checkpoint.exists() {
+        let retina = Retina::new(config.retina.clone())?;
+        let Some((dog, size)) = retina.dog_kernel() else {
+            return Err(RunError::Config(crate::config::ConfigError::Invalid {
+                field: "retina.lateral_inhibition".into(),
+                reason: "this eye has no lateral inhibition to start W from".into(),
+            }));
+        };
+        let mut trainer = cortex::Trainer::new(config.cortex.clone())?;
+        let kernel = autodiff::Tensor::from_vec([size, size], dog.to_vec());
+        if !trainer.cortex.set_w_kernel(&kernel) {
+            return Err(RunError::Config(crate::config::ConfigError::Invalid {
+                field: "cortex.w.mode".into(),
+                reason: "W is not learned in this cortex".into(),
+            }));
+        }
+        trainer.save_checkpoint_with(&start, None, None)?;
+    }
+    println!("DIAGNOSTIC: the cortex's W starts at the eye's true DoG (not a learning result)");
+    let s = run::run_continued(&config, &sub(out, "run"), &checkpoint, options.folder())?;
+    println!(
+        "W started at the DoG: dimension {} after {} steps",
+        s.dimension, s.steps
+    );
+    Ok(())
+}
+
 fn stiles_burch(options: &CommonOptions, out: &Path) -> Result<(), RunError> {
     let config = RunConfig::resolve(&with_cones(options, "LMS"), "quick")?;
     let grid = colorimetry::WavelengthGrid::range(390.0, 730.0, 1.0)?;
@@ -280,6 +321,7 @@ pub fn run_named(name: &str, options: &CommonOptions) -> Result<(), RunError> {
         ),
         "boost" => continued(options, &out, "LMS", &["LMSQ,Q:506"]),
         "stiles-burch" => stiles_burch(options, &out),
+        "w-oracle-init" => w_oracle_init(options, &out),
         "cmf-ladder" => {
             let config = RunConfig::resolve(options, "quick")?;
             let rows = crate::ladder::run_ladder(&config, &out)?;

@@ -220,7 +220,7 @@ pub enum Origin<'a> {
     /// A fresh cortex.
     New,
     /// The cortex of another run's checkpoint, with Adam recreated and the step count
-    /// continued (gene therapy, dimensionality boosting; official §3.9).
+    /// continued (gene therapy, dimensionality boosting; authors' code, docs/references.md#training).
     Continue(&'a Path),
 }
 
@@ -231,7 +231,7 @@ pub fn run(config: &RunConfig, out: &Path, mode: RunMode) -> Result<Summary, Run
 }
 
 /// Continues training the cortex of `checkpoint` on the (changed) eye of `config` for
-/// `config.steps` more steps (gene therapy, dimensionality boosting; official §3.9: Adam is
+/// `config.steps` more steps (gene therapy, dimensionality boosting; authors' code, docs/references.md#training: Adam is
 /// recreated, the step count continues).
 pub fn run_continued(
     config: &RunConfig,
@@ -771,7 +771,7 @@ impl RunState<'_> {
         let out = self.out;
         self.write_metrics()?;
         let mut loss_plot = LinePlot::new(
-            "Training loss (official §3.8 normalisation)",
+            "Training loss (normalised as the authors' code)",
             "step",
             "loss",
         );

@@ -1,17 +1,17 @@
-//! Every number of the cortex as a config value, and the four presets (shared/SPEC.md §4).
+//! Every number of the cortex as a config value, and the four presets.
 //!
 //! A [`CortexConfig`] is plain data (serde, TOML-friendly: tables per bucket). Physical or
 //! pixel-valued numbers carry their unit in the name (`ons_size_px`, `blur_sigma_px`); each
-//! default cites its source: "official §x" is `shared/reference/official-implementation.md`,
-//! "paper S-03" the paper's supplement.
+//! default cites its source: the authors' code by an entry of `docs/references.md`, "paper
+//! S-03" the paper's supplement.
 //!
 //! Presets (named sets of values, [`CortexConfig::preset`]):
 //! - `tiny`: tests in seconds. 32×32 ONS, U-Net 8/16, N = 8, batch 4, oracle motion (block
 //!   matching, when switched on, starts at 8×8: a 4×4 level of a 32² ONS carries no signal).
 //! - `quick`: the default CPU run. 64×64 ONS, U-Net 16/32/64, learned W and P, block matching.
-//! - `sandbox`: the official sandbox (official §3.11): 64×64, W identity, P identity with
+//! - `sandbox`: the official sandbox (authors' code, docs/references.md#sandbox): 64×64, W identity, P identity with
 //!   integer shifts, oracle motion, U-Net 16/32/64.
-//! - `paper`: official everything (official §1, §3): 256×256, U-Net 16/32/64/128, block matching.
+//! - `paper`: official everything (authors' code, docs/references.md#cortex-pipeline): 256×256, U-Net 16/32/64/128, block matching.
 
 use serde::{Deserialize, Serialize};
 
@@ -19,9 +19,9 @@ use serde::{Deserialize, Serialize};
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum WMode {
-    /// Free complex frequency response on the (2n−1)² grid (official §3.2).
+    /// Free complex frequency response on the (2n−1)² grid (authors' code, docs/references.md#w-bucket).
     Learned,
-    /// No-op, as in the official sandbox (official §3.2 `Identity`).
+    /// No-op, as in the official sandbox (authors' code `Identity`, docs/references.md#w-bucket).
     Identity,
 }
 
@@ -29,7 +29,7 @@ pub enum WMode {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum DMode {
-    /// The U-Net (official §3.4).
+    /// The U-Net (authors' code, docs/references.md#d-bucket).
     UNet,
     /// D = identity: the "no demosaicker" baseline of paper S-05.
     Identity,
@@ -39,10 +39,10 @@ pub enum DMode {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum PMode {
-    /// RealNVP flow, identity at start, efficient warp (official §3.5, §3.7).
+    /// RealNVP flow, identity at start, efficient warp (authors' code, docs/references.md#p-bucket and #warp).
     Flow,
     /// Identity positions; the motion is rounded to whole ONS pixels and applied as a zero-padded
-    /// gather (official §3.5, sandbox variant). Nothing to learn.
+    /// gather (authors' code, docs/references.md#p-bucket, sandbox variant). Nothing to learn.
     IdentityIntegerShift,
 }
 
@@ -50,9 +50,9 @@ pub enum PMode {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum MMode {
-    /// The true motion supplied with the batch (official §3.6 `GroundTruth`).
+    /// The true motion supplied with the batch (authors' code `GroundTruth`, docs/references.md#motion-estimation).
     Oracle,
-    /// Coarse-to-fine pyramid block matching on blurred, P-de-warped ONS (official §3.6).
+    /// Coarse-to-fine pyramid block matching on blurred, P-de-warped ONS (authors' code, docs/references.md#motion-estimation).
     BlockMatching,
     /// Block matching refined to sub-pixel precision by Gauss–Newton on the blurred warp error,
     /// with P also trained on that blurred objective (paper S-03, "Learning Eye Motion
@@ -82,7 +82,7 @@ pub enum Baseline {
 pub struct WConfig {
     /// Learned or identity.
     pub mode: WMode,
-    /// ε of the guarded inverse X·conj(W)/(|W|² + ε) (official §11; the official code has none).
+    /// ε of the guarded inverse X·conj(W)/(|W|² + ε) (the authors' code has none; docs/references.md#guarded-w-inverse).
     pub inverse_guard: f64,
 }
 
@@ -90,7 +90,7 @@ pub struct WConfig {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct CConfig {
-    /// ε of the per-cell normalisation C = raw/(‖raw‖ + ε) (official §3.3: 1e-5).
+    /// ε of the per-cell normalisation C = raw/(‖raw‖ + ε) (authors' code, docs/references.md#c-bucket: 1e-5).
     pub norm_eps: f64,
 }
 
@@ -100,7 +100,7 @@ pub struct CConfig {
 pub struct DConfig {
     /// U-Net or identity.
     pub mode: DMode,
-    /// Encoder widths, one per level (official §3.4: 16/32/64/128; sandbox 16/32/64).
+    /// Encoder widths, one per level (authors' code, docs/references.md#d-bucket: 16/32/64/128; sandbox 16/32/64).
     pub widths: Vec<usize>,
 }
 
@@ -110,12 +110,12 @@ pub struct DConfig {
 pub struct PConfig {
     /// Flow or identity with integer shifts.
     pub mode: PMode,
-    /// Affine coupling blocks of the RealNVP (official §3.5: 8).
+    /// Affine coupling blocks of the RealNVP (authors' code, docs/references.md#p-bucket: 8).
     pub couplings: usize,
-    /// Hidden width of each coupling MLP 1→h→h→2 (official §3.5: 16).
+    /// Hidden width of each coupling MLP 1→h→h→2 (authors' code, docs/references.md#p-bucket: 16).
     pub hidden: usize,
     /// ONS pixels per unit of motion, used only by `identity_integer_shift` to turn d into whole
-    /// pixels. The oracle is shift/(R/2) with R the field in px (official §2.10); in the sandbox
+    /// pixels. The oracle is shift/(R/2) with R the field in px (authors' code, docs/references.md#retina-data-flow); in the sandbox
     /// the field is the ONS, so this is n/2.
     pub motion_ons_px_per_unit: f64,
 }
@@ -126,13 +126,13 @@ pub struct PConfig {
 pub struct MConfig {
     /// Oracle, block matching, or learned.
     pub mode: MMode,
-    /// Side of the Gaussian blur kernel B (official §3.6: 9).
+    /// Side of the Gaussian blur kernel B (authors' code, docs/references.md#motion-estimation: 9).
     pub blur_kernel_px: usize,
-    /// σ of B (official §3.6: 2 px).
+    /// σ of B (authors' code, docs/references.md#motion-estimation: 2 px).
     pub blur_sigma_px: f64,
-    /// Integer search radius per pyramid level (official §3.6: 2, i.e. 25 candidates).
+    /// Integer search radius per pyramid level (authors' code, docs/references.md#motion-estimation: 2, i.e. 25 candidates).
     pub search_radius_px: i32,
-    /// Side of the coarsest pyramid level (official §3.6: 4).
+    /// Side of the coarsest pyramid level (authors' code, docs/references.md#motion-estimation: 4).
     pub coarsest_level_px: usize,
     /// Block-matching candidates overlapping less than this fraction of the valid pixels are
     /// skipped (our addition; 0 = official behaviour, see [`crate::motion::block_matching`]).
@@ -169,7 +169,7 @@ fn default_gauge_weight() -> f64 {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct LossConfig {
-    /// Border dropped on each side (official §3.8: ⌊7/2⌋ = 3 px).
+    /// Border dropped on each side (authors' code, docs/references.md#loss: ⌊7/2⌋ = 3 px).
     pub border_px: usize,
 }
 
@@ -177,19 +177,19 @@ pub struct LossConfig {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct TrainConfig {
-    /// Samples per step (official §3.9: 8).
+    /// Samples per step (authors' code, docs/references.md#training: 8).
     pub batch_size: usize,
-    /// Adam learning rate (official §3.9: 1e-3).
+    /// Adam learning rate (authors' code, docs/references.md#training: 1e-3).
     pub learning_rate: f64,
-    /// Adam β₁ (official §3.9: PyTorch default 0.9).
+    /// Adam β₁ (authors' code, docs/references.md#training: PyTorch default 0.9).
     pub adam_beta1: f64,
-    /// Adam β₂ (official §3.9: 0.999).
+    /// Adam β₂ (authors' code, docs/references.md#training: 0.999).
     pub adam_beta2: f64,
-    /// Adam ε (official §3.9: 1e-8).
+    /// Adam ε (authors' code, docs/references.md#training: 1e-8).
     pub adam_eps: f64,
-    /// Seed of parameter initialisation (official §3.9: 1234).
+    /// Seed of parameter initialisation (authors' code, docs/references.md#training: 1234).
     pub seed: u64,
-    /// Gradient updates of a run (official §3.9: 100 000).
+    /// Gradient updates of a run (authors' code, docs/references.md#training: 100 000).
     pub steps: u64,
     /// Steps between checkpoints of a run (0: none but the last).
     pub checkpoint_every_steps: u64,
@@ -199,9 +199,9 @@ pub struct TrainConfig {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct CortexConfig {
-    /// Side n of the square ONS (official §1: 256).
+    /// Side n of the square ONS (authors' code, docs/references.md#retina-data-flow: 256).
     pub ons_size_px: usize,
-    /// Percept dimension N (official §1: 8).
+    /// Percept dimension N (authors' code, docs/references.md#cortex-pipeline: 8).
     pub percept_channels: usize,
     /// Baseline of paper S-05, or `none`.
     pub baseline: Baseline,
@@ -228,7 +228,7 @@ pub const MAX_BATCH_ONS_VALUES: usize = 1 << 26;
 pub const PRESETS: &[&str] = &["tiny", "quick", "sandbox", "paper"];
 
 impl CortexConfig {
-    /// The official full model (official §1, §3) at `paper` size.
+    /// The official full model (authors' code, docs/references.md#cortex-pipeline) at `paper` size.
     pub fn paper() -> Self {
         CortexConfig {
             ons_size_px: 256,
@@ -289,7 +289,7 @@ impl CortexConfig {
         c
     }
 
-    /// The official sandbox (official §3.11): W identity, P identity with integer shifts,
+    /// The official sandbox (authors' code, docs/references.md#sandbox): W identity, P identity with integer shifts,
     /// oracle motion, 2-level U-Net.
     pub fn sandbox() -> Self {
         let mut c = Self::quick();

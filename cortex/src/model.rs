@@ -331,6 +331,12 @@ impl Cortex {
         self.w.kernel(&self.params, k)
     }
 
+    /// Sets W to the filter of a `k×k` kernel (diagnostics only: see
+    /// [`crate::buckets::w::WBucket::set_kernel`]); `false` when W is not learned.
+    pub fn set_w_kernel(&mut self, kernel: &Tensor<f64>) -> bool {
+        self.w.set_kernel(&mut self.params, kernel)
+    }
+
     /// The learned lateral-inhibition filter's gain at zero frequency (the sum of its kernel).
     pub fn learned_w_dc_gain(&self) -> Option<f64> {
         self.w.dc_gain(&self.params)

@@ -1,4 +1,4 @@
-//! Eye motion: integer shifts of the field across the scene (official §2.4, paper S-02).
+//! Eye motion: integer shifts of the field across the scene (authors' code, docs/references.md#eye-motion; paper S-02).
 //!
 //! Training samples are two frames: frame 0 is the field at the centre of a crop that is
 //! `field_px + 2·max_shift_px` wide, frame 1 is the field moved by d = (dx, dy), each component
@@ -21,7 +21,7 @@ use rand::Rng;
 use serde::{Deserialize, Serialize};
 
 /// Official maximum shift in mean cone spacings: 15 px of a 512-px field sampled by 256 cones
-/// per side (official §2.4, §2.5; paper S-02 "±15 pixels").
+/// per side (authors' code, docs/references.md#eye-motion and #foveation; paper S-02 "±15 pixels").
 pub const OFFICIAL_MAX_SHIFT_CONES: f64 = 7.5;
 
 /// Eye-motion settings.

@@ -15,7 +15,7 @@
 //! Images are `(B, 1, n, n)`.
 
 use crate::config::{CortexConfig, WMode};
-use autodiff::ops::fourier::convolve::{identity_response, response_kernel};
+use autodiff::ops::fourier::convolve::{identity_response, kernel_response, response_kernel};
 use autodiff::{Float, ParamId, ParamStore, Tape, Tensor, Var};
 
 /// The W bucket: its parameter (if learned) and guard.
@@ -74,6 +74,19 @@ impl WBucket {
         self.response.map(|id| response_kernel(params.get(id), k))
     }
 
+    /// Sets the response to the filter of a `k×k` kernel (origin at its centre). For
+    /// diagnostics that start W somewhere chosen (e.g. at the eye's true kernel, to see whether
+    /// the loss keeps it); `false` in identity mode.
+    pub fn set_kernel<T: Float>(&self, params: &mut ParamStore<T>, kernel: &Tensor<f64>) -> bool {
+        let Some(id) = self.response else {
+            return false;
+        };
+        let n = (params.get(id).dims()[0] + 1) / 2;
+        let response: Tensor<T> = kernel_response(kernel, n, n);
+        *params.get_mut(id) = response;
+        true
+    }
+
     /// The learned filter's gain at zero frequency (the sum of its kernel): the real part of the
     /// response at the grid's origin. 1 for the initial identity; `None` in identity mode.
     pub fn dc_gain<T: Float>(&self, params: &ParamStore<T>) -> Option<f64> {
@@ -85,7 +98,6 @@ impl WBucket {
 mod tests {
     use super::*;
     use crate::rng::CortexRng;
-    use autodiff::ops::fourier::convolve::kernel_response;
 
     fn image(n: usize, border: usize, rng: &mut CortexRng) -> Tensor<f64> {
         Tensor::from_fn([2, 1, n, n], |i| {
