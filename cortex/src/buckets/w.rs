@@ -81,7 +81,7 @@ impl WBucket {
         let Some(id) = self.response else {
             return false;
         };
-        let n = (params.get(id).dims()[0] + 1) / 2;
+        let n = params.get(id).dims()[0].div_ceil(2);
         let response: Tensor<T> = kernel_response(kernel, n, n);
         *params.get_mut(id) = response;
         true
