@@ -188,6 +188,9 @@ pub struct ConvergenceOptions {
     /// Also run CMF-SIM (the run's full budget) at every checkpoint.
     #[arg(long)]
     pub cmf: bool,
+    /// With `--cmf`: only at these steps (comma-separated), e.g. `--cmf-steps 4000,16000`.
+    #[arg(long, value_delimiter = ',')]
+    pub cmf_steps: Vec<u64>,
 }
 
 /// Options of `experiment`.

@@ -155,7 +155,12 @@ pub fn convergence(options: &ConvergenceOptions) -> Result<(), RunError> {
         options.run.display(),
         if options.cmf { " (with CMF-SIM)" } else { "" }
     );
-    let rows = crate::convergence::study(&options.run, options.cmf)?;
+    let cmf = match (options.cmf, options.cmf_steps.is_empty()) {
+        (false, _) => crate::convergence::CmfAt::Never,
+        (true, true) => crate::convergence::CmfAt::Every,
+        (true, false) => crate::convergence::CmfAt::Steps(options.cmf_steps.clone()),
+    };
+    let rows = crate::convergence::study(&options.run, &cmf)?;
     println!(
         "{} checkpoints; wrote {}/convergence/convergence.md, .json and convergence_*.svg",
         rows.len(),

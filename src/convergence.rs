@@ -48,9 +48,30 @@ pub struct StudyRow {
     pub cmf: Option<CmfPoint>,
 }
 
-/// Measures every checkpoint of the run folder `dir` (CMF-SIM too when `with_cmf`), writes the
+/// At which checkpoints CMF-SIM measures.
+#[derive(Clone, Debug, PartialEq)]
+pub enum CmfAt {
+    /// Nowhere (invariants only).
+    Never,
+    /// At every checkpoint.
+    Every,
+    /// At these steps.
+    Steps(Vec<u64>),
+}
+
+impl CmfAt {
+    fn at(&self, step: u64) -> bool {
+        match self {
+            CmfAt::Never => false,
+            CmfAt::Every => true,
+            CmfAt::Steps(s) => s.contains(&step),
+        }
+    }
+}
+
+/// Measures every checkpoint of the run folder `dir` (CMF-SIM where `cmf` says), writes the
 /// table and plots, and returns the rows in step order.
-pub fn study(dir: &Path, with_cmf: bool) -> Result<Vec<StudyRow>, RunError> {
+pub fn study(dir: &Path, cmf: &CmfAt) -> Result<Vec<StudyRow>, RunError> {
     let config = crate::run_folder::read_config(dir)?;
     config.validate().map_err(|e| RunError::Folder {
         path: dir.join("config.toml"),
@@ -67,7 +88,7 @@ pub fn study(dir: &Path, with_cmf: bool) -> Result<Vec<StudyRow>, RunError> {
     checkpoints.reverse();
     let mut rows = Vec::new();
     for path in checkpoints {
-        match measure_checkpoint(&path, &config, &retina, &gains, &out, with_cmf) {
+        match measure_checkpoint(&path, &config, &retina, &gains, &out, cmf) {
             Ok(row) => rows.push(row),
             Err(e) => println!("  {}: skipped ({e})", path.display()),
         }
@@ -86,9 +107,10 @@ fn measure_checkpoint(
     retina: &Retina,
     gains: &[(u64, f64)],
     out: &Path,
-    with_cmf: bool,
+    cmf: &CmfAt,
 ) -> Result<StudyRow, RunError> {
     let meta = cortex::checkpoint::verify(path)?;
+    let with_cmf = cmf.at(meta.step);
     let cached = row_path(out, meta.step);
     if let Ok(text) = std::fs::read_to_string(&cached) {
         if let Ok(row) = serde_json::from_str::<StudyRow>(&text) {
@@ -321,7 +343,7 @@ mod tests {
             progress: false,
         };
         run(&config, &dir, mode).unwrap();
-        let rows = study(&dir, false).unwrap();
+        let rows = study(&dir, &CmfAt::Never).unwrap();
         assert_eq!(
             rows.iter().map(|r| r.step).collect::<Vec<_>>(),
             vec![10, 20]
@@ -339,7 +361,7 @@ mod tests {
         // A second call reads the kept measurements instead of measuring again.
         let kept = dir.join("convergence/step_00000010.json");
         let before = std::fs::metadata(&kept).unwrap().modified().unwrap();
-        let again = study(&dir, false).unwrap();
+        let again = study(&dir, &CmfAt::Never).unwrap();
         assert_eq!(
             std::fs::metadata(&kept).unwrap().modified().unwrap(),
             before

@@ -193,6 +193,15 @@ pub struct TrainConfig {
     pub steps: u64,
     /// Steps between checkpoints of a run (0: none but the last).
     pub checkpoint_every_steps: u64,
+    /// Factor on the learning rate of W's response (1: the authors' single learning rate).
+    /// W is identified only weakly by the loss (see `colorvision convergence`); a larger
+    /// factor lets Adam move it further per step.
+    #[serde(default = "unit_scale")]
+    pub w_learning_rate_scale: f64,
+}
+
+fn unit_scale() -> f64 {
+    1.0
 }
 
 /// The whole cortex configuration.
@@ -273,6 +282,7 @@ impl CortexConfig {
                 seed: 1234,
                 steps: 100_000,
                 checkpoint_every_steps: 1000,
+                w_learning_rate_scale: 1.0,
             },
         }
     }
@@ -404,6 +414,13 @@ impl CortexConfig {
             return bad(
                 "train.learning_rate",
                 format!("{} must be positive", self.train.learning_rate),
+            );
+        }
+        let w_scale = self.train.w_learning_rate_scale;
+        if !(w_scale.is_finite() && w_scale > 0.0) {
+            return bad(
+                "train.w_learning_rate_scale",
+                format!("{w_scale} must be positive and finite"),
             );
         }
         if self.p.mode == PMode::Flow && (self.p.couplings == 0 || self.p.hidden == 0) {

@@ -132,7 +132,7 @@ impl Trainer {
         let cfg = config.unwrap_or_else(|| meta.config.clone());
         let mut t = Trainer::new(cfg)?;
         checkpoint::load_params(path, &mut t.cortex.params)?;
-        t.optim = adam(&t.cortex.config);
+        t.optim = adam(&t.cortex);
         t.step = meta.step;
         t.rng = CortexRng::seed_from(t.cortex.config.train.seed ^ meta.step);
         t.continued_from_step = Some(meta.step);

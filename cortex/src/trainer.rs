@@ -112,22 +112,26 @@ pub struct Trainer {
     pub(crate) last_loss: Option<f64>,
 }
 
-pub(crate) fn adam(cfg: &CortexConfig) -> Optimizer<f32, Adam> {
-    let t = &cfg.train;
-    Optimizer::new(Adam {
+pub(crate) fn adam(cortex: &Cortex) -> Optimizer<f32, Adam> {
+    let t = &cortex.config.train;
+    let mut optim = Optimizer::new(Adam {
         lr: t.learning_rate,
         beta1: t.adam_beta1,
         beta2: t.adam_beta2,
         eps: t.adam_eps,
-    })
+    });
+    if let Some(w) = cortex.w.response {
+        optim.set_lr_scale(w, t.w_learning_rate_scale);
+    }
+    optim
 }
 
 impl Trainer {
     /// A fresh cortex from `config`, step 0.
     pub fn new(config: CortexConfig) -> Result<Self, CortexError> {
         let rng = CortexRng::seed_from(config.train.seed);
-        let optim = adam(&config);
         let cortex = Cortex::new(config)?;
+        let optim = adam(&cortex);
         Ok(Trainer {
             cortex,
             optim,

@@ -31,7 +31,9 @@ pub trait UpdateRule<T: Float> {
     fn slots(&self) -> &'static [&'static str];
     /// Updates `p` in place from its gradient `g`, state `slots` (in the order of
     /// [`UpdateRule::slots`]) and `step`, the 1-based count of updates of this parameter.
-    fn update(&self, p: &mut [T], g: &[T], slots: &mut [Tensor<T>], step: u64);
+    /// `lr_scale` multiplies the rule's learning rate for this parameter (1 unless the
+    /// optimiser was told otherwise, [`Optimizer::set_lr_scale`]).
+    fn update(&self, p: &mut [T], g: &[T], slots: &mut [Tensor<T>], step: u64, lr_scale: f64);
 }
 
 /// Why an optimiser step or a state load failed.
@@ -77,6 +79,7 @@ pub struct Optimizer<T: Float, R: UpdateRule<T>> {
     /// Error when a trainable parameter has no gradient (catches unused parameters).
     pub strict: bool,
     states: BTreeMap<ParamId, State<T>>,
+    lr_scales: BTreeMap<ParamId, f64>,
 }
 
 impl<T: Float, R: UpdateRule<T>> Optimizer<T, R> {
@@ -86,7 +89,13 @@ impl<T: Float, R: UpdateRule<T>> Optimizer<T, R> {
             rule,
             strict: false,
             states: BTreeMap::new(),
+            lr_scales: BTreeMap::new(),
         }
+    }
+
+    /// Multiplies the learning rate of parameter `id` by `scale` from the next step on.
+    pub fn set_lr_scale(&mut self, id: ParamId, scale: f64) {
+        self.lr_scales.insert(id, scale);
     }
 
     /// Updates every trainable parameter that has a gradient in `grads`.
@@ -134,6 +143,7 @@ impl<T: Float, R: UpdateRule<T>> Optimizer<T, R> {
                 g.data(),
                 &mut st.slots,
                 st.step,
+                self.lr_scales.get(&id).copied().unwrap_or(1.0),
             );
         }
         Ok(())

@@ -35,8 +35,8 @@ impl<T: Float> UpdateRule<T> for Sgd {
             &[]
         }
     }
-    fn update(&self, p: &mut [T], g: &[T], slots: &mut [Tensor<T>], _step: u64) {
-        let lr = T::of(self.lr);
+    fn update(&self, p: &mut [T], g: &[T], slots: &mut [Tensor<T>], _step: u64, lr_scale: f64) {
+        let lr = T::of(self.lr * lr_scale);
         match slots {
             [v] => {
                 let mu = T::of(self.momentum);
@@ -96,7 +96,7 @@ impl<T: Float> UpdateRule<T> for Adam {
     fn slots(&self) -> &'static [&'static str] {
         &["m", "v"]
     }
-    fn update(&self, p: &mut [T], g: &[T], slots: &mut [Tensor<T>], step: u64) {
+    fn update(&self, p: &mut [T], g: &[T], slots: &mut [Tensor<T>], step: u64, lr_scale: f64) {
         let [m, v] = slots else {
             panic!("adam: expects slots m, v")
         };
@@ -104,7 +104,7 @@ impl<T: Float> UpdateRule<T> for Adam {
         let bc1 = 1.0 - self.beta1.powi(t);
         let bc2 = 1.0 - self.beta2.powi(t);
         // θ −= (lr/bc1) · m / (√v / √bc2 + ε), PyTorch's arrangement.
-        let step_size = T::of(self.lr / bc1);
+        let step_size = T::of(self.lr * lr_scale / bc1);
         let inv_sqrt_bc2 = T::of(1.0 / bc2.sqrt());
         let (b1, b2, eps) = (T::of(self.beta1), T::of(self.beta2), T::of(self.eps));
         let (c1, c2) = (T::one() - b1, T::one() - b2);
@@ -127,7 +127,7 @@ mod tests {
         let mut p = vec![1.0f64, 1.0, 1.0];
         let g = [3.0, -0.5, 1e-3];
         let mut slots = vec![Tensor::zeros([3]), Tensor::zeros([3])];
-        rule.update(&mut p, &g, &mut slots, 1);
+        rule.update(&mut p, &g, &mut slots, 1, 1.0);
         for (i, &gi) in g.iter().enumerate() {
             let want = 1.0 - 0.01 * gi / (gi.abs() + 1e-8);
             assert!((p[i] - want).abs() < 1e-12, "{i}: {} vs {want}", p[i]);
@@ -141,13 +141,30 @@ mod tests {
         let rule = Adam::default();
         let mut p = vec![0.5f64];
         let mut s = vec![Tensor::zeros([1]), Tensor::zeros([1])];
-        rule.update(&mut p, &[2.0], &mut s, 1);
-        rule.update(&mut p, &[-1.0], &mut s, 2);
+        rule.update(&mut p, &[2.0], &mut s, 1, 1.0);
+        rule.update(&mut p, &[-1.0], &mut s, 2, 1.0);
         let (m, v) = (0.9 * 0.2 - 0.1, 0.999 * 0.004 + 0.001 * 1.0);
         let (mh, vh) = (m / (1.0 - 0.81), v / (1.0 - 0.999f64.powi(2)));
         let p1 = 0.5 - 1e-3 * 2.0 / (2.0 + 1e-8); // step 1: m̂ = 2, v̂ = 4
         let want = p1 - 1e-3 * mh / (vh.sqrt() + 1e-8);
         assert!((p[0] - want).abs() < 1e-12, "{} vs {want}", p[0]);
+    }
+
+    #[test]
+    fn lr_scale_multiplies_the_step() {
+        let rule = Adam::default();
+        let (mut a, mut b) = (vec![0.5f64], vec![0.5f64]);
+        let mut sa = vec![Tensor::zeros([1]), Tensor::zeros([1])];
+        let mut sb = vec![Tensor::zeros([1]), Tensor::zeros([1])];
+        for (step, g) in [(1, 2.0), (2, -1.0), (3, 0.5)] {
+            rule.update(&mut a, &[g], &mut sa, step, 1.0);
+            rule.update(&mut b, &[g], &mut sb, step, 10.0);
+        }
+        assert!(((b[0] - 0.5) - 10.0 * (a[0] - 0.5)).abs() < 1e-12);
+        let sgd = Sgd::new(0.1);
+        let mut p = vec![0.0f64];
+        sgd.update(&mut p, &[1.0], &mut [], 1, 3.0);
+        assert!((p[0] + 0.3).abs() < 1e-12);
     }
 
     #[test]
@@ -159,8 +176,8 @@ mod tests {
         let mut p = vec![0.0f32];
         let mut s = vec![Tensor::zeros([1])];
         assert_eq!(<Sgd as UpdateRule<f32>>::slots(&rule), &["velocity"]);
-        rule.update(&mut p, &[1.0], &mut s, 1);
-        rule.update(&mut p, &[1.0], &mut s, 2);
+        rule.update(&mut p, &[1.0], &mut s, 1, 1.0);
+        rule.update(&mut p, &[1.0], &mut s, 2, 1.0);
         // v: 1, 1.9; p: -0.1, -0.29
         assert!((p[0] + 0.29).abs() < 1e-6);
     }
