@@ -14,6 +14,7 @@ pub mod interrupt;
 pub mod invariants;
 pub mod io;
 pub mod ladder;
+pub mod measurement_dir;
 pub mod observer;
 pub mod pictures;
 pub mod run;
