@@ -123,12 +123,7 @@ pub fn resume(options: &ResumeOptions) -> Result<(), RunError> {
 pub fn simulate(options: &CommonOptions) -> Result<(), RunError> {
     let config = RunConfig::resolve(options, "quick")?;
     let out = run::out_dir(&config, options.out.as_ref(), "simulate");
-    if out.exists() && !out.is_dir() {
-        return Err(RunError::Folder {
-            path: out,
-            reason: "is a file, not a folder: choose another --out".into(),
-        });
-    }
+    crate::run_folder::refuse_file(&out)?;
     let retina = Retina::new(config.retina.clone())?;
     let mut rng = <rand::rngs::StdRng as rand::SeedableRng>::seed_from_u64(config.seed);
     let mut written = Vec::new();

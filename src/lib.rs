@@ -19,5 +19,6 @@ pub mod observer;
 pub mod pictures;
 pub mod run;
 pub mod run_folder;
+pub mod run_lock;
 pub mod source;
 pub mod stats;

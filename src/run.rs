@@ -248,7 +248,8 @@ pub fn run_continued(
 }
 
 /// A run in `out` as `folder` allows (new, resumed from its newest valid checkpoint, or
-/// replaced); a finished run returns its summary.
+/// replaced); a finished run returns its summary. The run holds the folder's lock
+/// ([`crate::run_lock`]) until it returns, so no other process trains into `out` meanwhile.
 pub fn run_in(
     config: &RunConfig,
     out: &Path,
@@ -256,6 +257,8 @@ pub fn run_in(
     folder: Folder,
     origin: Origin<'_>,
 ) -> Result<Summary, RunError> {
+    run_folder::refuse_file(out)?;
+    let _lock = crate::run_lock::RunLock::acquire(out)?;
     let opened = run_folder::open(out, config, folder)?;
     if opened == Opened::Finished {
         println!(

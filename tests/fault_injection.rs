@@ -111,13 +111,17 @@ fn outcome(out: &Path) -> Outcome {
 }
 
 /// Every file under `dir` parses by its kind. Hidden temporaries (`.NAME.tmp-PID`, a
-/// checkpoint moved aside) may remain after a kill, and are removed when the run resumes: with
-/// `temporaries_allowed` false there must be none.
+/// checkpoint moved aside) and the lock of the killed process (`.lock`) may remain after a
+/// kill, and are removed or taken over when the run resumes: with `temporaries_allowed` false
+/// there must be none.
 fn assert_files_parse(dir: &Path, temporaries_allowed: bool) {
     for entry in std::fs::read_dir(dir).unwrap() {
         let path = entry.unwrap().path();
         let name = path.file_name().unwrap().to_string_lossy().to_string();
-        let temporary = name.contains(".tmp") || name.contains(".old-") || name.contains("staging");
+        let temporary = name.contains(".tmp")
+            || name.contains(".old-")
+            || name.contains("staging")
+            || name == ".lock";
         assert!(
             temporaries_allowed || !temporary,
             "temporary left behind: {}",
