@@ -5,7 +5,7 @@
 //! the new one under the real name, never a half-written one; the temporaries it leaves are
 //! removed by [`clean_stale_temps`] when a run starts in that folder.
 
-use atomic_io::{sync_dir, FileError, TEMP_MARK};
+use atomic_io::{process_alive, sync_dir, FileError, TEMP_MARK};
 use std::fs;
 use std::path::{Path, PathBuf};
 
@@ -115,12 +115,6 @@ fn temp_owner(name: &str) -> Option<u32> {
     }
     let (_, pid) = name.rsplit_once(".tmp")?;
     digits(pid)
-}
-
-/// Whether a process with this id is running (Linux: `/proc/PID`; elsewhere only this
-/// process counts as running).
-pub fn process_alive(pid: u32) -> bool {
-    pid == std::process::id() || Path::new("/proc").join(pid.to_string()).exists()
 }
 
 /// Removes temporaries left in `dir` (recursively) by writers that were killed, and returns

@@ -12,8 +12,9 @@
 //! - [`RunLock`] removes `.lock` when dropped, on success, error and interrupt alike; a folder
 //!   it created for the lock alone is removed too, so a refused run leaves nothing behind.
 
-use crate::io::{fs_err, process_alive, IoError};
+use crate::io::{fs_err, IoError};
 use crate::run::RunError;
+use atomic_io::process_alive;
 use std::path::{Path, PathBuf};
 
 /// Name of the lock file in a run folder.

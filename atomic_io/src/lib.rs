@@ -4,7 +4,8 @@
 //! cannot cross file systems), which is synced and renamed over the target; then the folder is
 //! synced. A process killed at any point leaves either the old file or the new one under the
 //! real name, never a half-written one; the temporaries it leaves carry its process id
-//! ([`TEMP_MARK`]) so that a later run can tell them from a live writer's and remove them.
+//! ([`TEMP_MARK`]) so that a later run can tell them from a live writer's ([`process_alive`])
+//! and remove them.
 //!
 //! A leaf crate with no dependency on the others, so that every crate of the workspace
 //! (`autodiff`, `colorimetry`, the root package) writes through the same code.
@@ -43,6 +44,12 @@ pub fn temp_sibling(path: &Path) -> PathBuf {
         .unwrap_or_default();
     let dir = path.parent().unwrap_or(Path::new(""));
     dir.join(format!(".{name}{TEMP_MARK}{}", std::process::id()))
+}
+
+/// Whether the process with this id is running, i.e. whether a temporary or lock it left is
+/// still its own (Linux: `/proc/PID` exists; elsewhere only this process counts as running).
+pub fn process_alive(pid: u32) -> bool {
+    pid == std::process::id() || Path::new("/proc").join(pid.to_string()).exists()
 }
 
 /// Flushes a folder's entries (a rename into it) to disk. Only Unix can open a folder for
