@@ -6,9 +6,10 @@
 //!   a `.lock` is never seen empty or half-written.
 //! - A `.lock` whose process is running (Linux: `/proc/PID` exists; the caller's own id
 //!   counts) refuses the run with a one-line error naming the folder and the process.
-//! - A `.lock` whose process is gone (killed, machine rebooted) is taken over, and the run
-//!   says so: it is first renamed aside, so that of two processes taking over the same stale
-//!   lock only one removes it.
+//! - A `.lock` whose process is gone (killed), or written before the machine last booted
+//!   (its id may since belong to another process), is taken over, and the run says so: it is
+//!   first renamed aside, so that of two processes taking over the same stale lock only one
+//!   removes it.
 //! - [`RunLock`] removes `.lock` when dropped, on success, error and interrupt alike; a folder
 //!   it created for the lock alone is removed too, so a refused run leaves nothing behind.
 
@@ -31,6 +32,23 @@ pub struct RunLock {
 /// The process id a lock file names, if it names one.
 fn holder(path: &Path) -> Option<u32> {
     std::fs::read_to_string(path).ok()?.trim().parse().ok()
+}
+
+/// Seconds since the Unix epoch at which the machine booted (Linux: `btime` of `/proc/stat`).
+fn boot_time() -> Option<u64> {
+    let stat = std::fs::read_to_string("/proc/stat").ok()?;
+    stat.lines()
+        .find_map(|l| l.strip_prefix("btime "))
+        .and_then(|t| t.trim().parse().ok())
+}
+
+/// Whether the lock file was written before the machine last booted.
+fn before_boot(path: &Path) -> bool {
+    let written = std::fs::metadata(path)
+        .and_then(|m| m.modified())
+        .ok()
+        .and_then(|t| t.duration_since(std::time::UNIX_EPOCH).ok());
+    matches!((written, boot_time()), (Some(w), Some(b)) if w.as_secs() < b)
 }
 
 /// Links a file holding this process's id to `lock`; `Ok(false)` when `lock` exists.
@@ -75,7 +93,8 @@ impl RunLock {
                 return Ok(guard);
             }
             let pid = holder(&guard.path);
-            if let Some(pid) = pid.filter(|&p| process_alive(p)) {
+            let stale = before_boot(&guard.path);
+            if let Some(pid) = pid.filter(|&p| process_alive(p) && !stale) {
                 guard.created_dir = false;
                 return Err(RunError::Folder {
                     path: dir.to_path_buf(),
@@ -87,9 +106,14 @@ impl RunLock {
             }
             remove_stale(&guard.path, pid)?;
             println!(
-                "  took over the lock of {} from process {}, which is no longer running",
+                "  took over the lock of {} from process {}, which {}",
                 dir.display(),
-                pid.map_or_else(|| "(unreadable)".to_string(), |p| p.to_string())
+                pid.map_or_else(|| "(unreadable)".to_string(), |p| p.to_string()),
+                if stale {
+                    "wrote it before the machine last booted"
+                } else {
+                    "is no longer running"
+                }
             );
         }
         guard.created_dir = false;
@@ -143,6 +167,16 @@ mod tests {
         let lock = RunLock::acquire(&dir).unwrap();
         assert_eq!(holder(&dir.join(LOCK_FILE)), Some(std::process::id()));
         drop(lock);
+        if boot_time().is_some() {
+            // A live id in a lock written before the last boot names another process now.
+            let path = dir.join(LOCK_FILE);
+            std::fs::write(&path, format!("{}\n", std::process::id())).unwrap();
+            let long_ago = std::time::UNIX_EPOCH + std::time::Duration::from_secs(1000);
+            let f = std::fs::File::options().write(true).open(&path).unwrap();
+            f.set_modified(long_ago).unwrap();
+            drop(f);
+            drop(RunLock::acquire(&dir).unwrap());
+        }
         let left: Vec<_> = std::fs::read_dir(&dir).unwrap().collect();
         assert!(left.is_empty(), "{left:?}");
         std::fs::remove_dir_all(dir).ok();
