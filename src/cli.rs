@@ -36,9 +36,11 @@ pub enum Command {
     Train(CommonOptions),
     /// Run CMF-SIM on a trained run folder (`--run DIR`) or on an observer whose answer is
     /// known (`--observer identity|cones|oracle|oracle-mosaic|analytic`, with `--cones`), and
-    /// write cmf_sim.json and SVG plots.
+    /// write cmf_sim.json and SVG plots (into --out, or DIR/cmf-sim/ for a run folder; the
+    /// run's own files are never overwritten).
     CmfSim(CmfSimOptions),
-    /// Fit Neural Scope on held-out scenes for a trained run and write percept pictures.
+    /// Fit Neural Scope on held-out scenes for a trained run and write percept pictures (into
+    /// --out, or DIR/scope/; the run's own pictures/ are never overwritten).
     Scope(RunDirOptions),
     /// Measure every checkpoint of a run folder — the learned invariants against the eye's
     /// truth and, with `--cmf`, the calibrated CMF-SIM — and write convergence.md/json and plots

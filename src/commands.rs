@@ -6,6 +6,7 @@ use crate::cli::{
 };
 use crate::config::RunConfig;
 use crate::experiments;
+use crate::measurement_dir::measurement_dir;
 use crate::observer::ReadoutMode;
 use crate::run::{self, RunError, RunMode};
 use crate::run_folder::Folder;
@@ -122,12 +123,7 @@ pub fn resume(options: &ResumeOptions) -> Result<(), RunError> {
 pub fn simulate(options: &CommonOptions) -> Result<(), RunError> {
     let config = RunConfig::resolve(options, "quick")?;
     let out = run::out_dir(&config, options.out.as_ref(), "simulate");
-    if out.exists() && !out.is_dir() {
-        return Err(RunError::Folder {
-            path: out,
-            reason: "is a file, not a folder: choose another --out".into(),
-        });
-    }
+    crate::run_folder::refuse_file(&out)?;
     let retina = Retina::new(config.retina.clone())?;
     let mut rng = <rand::rngs::StdRng as rand::SeedableRng>::seed_from_u64(config.seed);
     let mut written = Vec::new();
@@ -208,17 +204,13 @@ pub fn cmf_sim(options: &CmfSimOptions) -> Result<(), RunError> {
     });
     let (mut config, trainer, out) = match (&options.run, kind) {
         (Some(dir), ObserverKind::Cortex) => {
+            let out = measurement_dir(dir, options.common.out.as_ref(), "cmf-sim")?;
             let (config, trainer, checkpoint) = load_run(dir)?;
             println!(
                 "colorvision cmf-sim: {} (checkpoint {})",
                 dir.display(),
                 checkpoint.display()
             );
-            let out = options
-                .common
-                .out
-                .clone()
-                .unwrap_or_else(|| dir.join("cmf-sim"));
             (config, Some(trainer), out)
         }
         (None, ObserverKind::Cortex) => {
@@ -293,8 +285,10 @@ fn invalid_option(option: &str, reason: &str) -> RunError {
     })
 }
 
-/// `colorvision scope`: Neural Scope pictures and invariants of a trained run.
+/// `colorvision scope`: Neural Scope pictures and invariants of a trained run, written to
+/// `--out` or `DIR/scope/` (never over the run's own `pictures/`).
 pub fn scope(options: &RunDirOptions) -> Result<(), RunError> {
+    let dir = measurement_dir(&options.run, options.common.out.as_ref(), "scope")?;
     let (config, trainer, _) = load_run(&options.run)?;
     let retina = Retina::new(config.retina.clone())?;
     let mut heldout = crate::source::RetinaSource::new(
@@ -302,7 +296,6 @@ pub fn scope(options: &RunDirOptions) -> Result<(), RunError> {
         config.seed ^ 0xA5A5,
         false,
     );
-    let dir = options.run.join("pictures");
     let inv = crate::pictures::write_all(&dir, &config, &retina, &mut heldout, &trainer)?;
     println!("Neural Scope pictures in {}", dir.display());
     println!(

@@ -1,12 +1,12 @@
 //! Files a run folder holds: NumPy `.npy` arrays, PNG pictures, JSON and CSV. Every file goes
-//! through one helper, [`write_via`]: the bytes land in a hidden temporary sibling
-//! (`.NAME.tmp-PID`, same folder, so the rename cannot cross file systems), which is synced and
-//! renamed over the target, and the folder is synced. A killed run therefore leaves either the
-//! old file or the new one under the real name, never a half-written one; the temporaries it
-//! leaves are removed by [`clean_stale_temps`] when a run starts in that folder.
+//! through the workspace's one atomic writer, [`atomic_io::write_atomic`]: the bytes land in a
+//! hidden temporary sibling (`.NAME.tmp-PID`, same folder), which is synced and renamed over
+//! the target, and the folder is synced. A killed run therefore leaves either the old file or
+//! the new one under the real name, never a half-written one; the temporaries it leaves are
+//! removed by [`clean_stale_temps`] when a run starts in that folder.
 
+use atomic_io::{process_alive, sync_dir, FileError, TEMP_MARK};
 use std::fs;
-use std::io::Write;
 use std::path::{Path, PathBuf};
 
 /// An I/O failure, naming the file.
@@ -38,66 +38,18 @@ pub fn fs_err(path: &Path) -> impl FnOnce(std::io::Error) -> IoError + '_ {
     }
 }
 
-/// Marks a temporary file or folder: `.NAME.tmp-PID`.
-const TEMP_MARK: &str = ".tmp-";
-
-/// The temporary sibling `path` is written through: `.NAME.tmp-PID` in the same folder.
-pub fn temp_sibling(path: &Path) -> PathBuf {
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    let dir = path.parent().unwrap_or(Path::new(""));
-    dir.join(format!(".{name}{TEMP_MARK}{}", std::process::id()))
+impl From<FileError> for IoError {
+    fn from(e: FileError) -> Self {
+        IoError::Fs {
+            path: e.path,
+            source: e.source,
+        }
+    }
 }
 
-/// Flushes a folder's entries (a rename into it) to disk. Only Unix can open a folder for
-/// syncing; elsewhere the rename's own ordering is what there is.
-pub fn sync_dir(dir: &Path) -> Result<(), IoError> {
-    let dir = if dir.as_os_str().is_empty() {
-        Path::new(".")
-    } else {
-        dir
-    };
-    if cfg!(unix) {
-        fs::File::open(dir)
-            .and_then(|f| f.sync_all())
-            .map_err(fs_err(dir))?;
-    }
-    Ok(())
-}
-
-/// The one way this crate writes a file: `write` fills a temporary sibling of `path` (created
-/// with its parent folders), which is synced and renamed over `path`; the folder is synced.
-/// On an error the temporary is removed and `path` is untouched.
-pub fn write_via<E: From<IoError>>(
-    path: &Path,
-    write: impl FnOnce(&Path) -> Result<(), E>,
-) -> Result<(), E> {
-    let dir = path.parent().unwrap_or(Path::new(""));
-    if !dir.as_os_str().is_empty() {
-        fs::create_dir_all(dir).map_err(fs_err(dir))?;
-    }
-    let tmp = temp_sibling(path);
-    let result = write(&tmp).and_then(|()| {
-        let f = fs::File::open(&tmp).map_err(fs_err(&tmp))?;
-        f.sync_all().map_err(fs_err(&tmp))?;
-        drop(f);
-        fs::rename(&tmp, path).map_err(fs_err(path))?;
-        Ok(sync_dir(dir)?)
-    });
-    if result.is_err() {
-        let _ = fs::remove_file(&tmp);
-    }
-    result
-}
-
-/// Writes `bytes` to `path` atomically (see [`write_via`]), creating parent folders.
+/// Writes `bytes` to `path` atomically ([`atomic_io::write_atomic`]), creating parent folders.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), IoError> {
-    write_via(path, |tmp| {
-        let mut f = fs::File::create(tmp).map_err(fs_err(tmp))?;
-        f.write_all(bytes).map_err(fs_err(tmp))
-    })
+    Ok(atomic_io::write_atomic(path, bytes)?)
 }
 
 /// Copies the file `from` to `to` atomically.
@@ -147,7 +99,7 @@ fn publish(staging: &Path, dir: &Path) -> Result<(), IoError> {
             fs::rename(&from, &to).map_err(fs_err(&to))?;
         }
     }
-    sync_dir(dir)
+    Ok(sync_dir(dir)?)
 }
 
 /// Whether `name` is a temporary this crate or its dependencies write (`.NAME.tmp-PID`,
@@ -163,12 +115,6 @@ fn temp_owner(name: &str) -> Option<u32> {
     }
     let (_, pid) = name.rsplit_once(".tmp")?;
     digits(pid)
-}
-
-/// Whether a process with this id is running (Linux: `/proc/PID`; elsewhere assumed not, so a
-/// run folder is never shared by two runs at once there).
-fn process_alive(pid: u32) -> bool {
-    pid == std::process::id() || Path::new("/proc").join(pid.to_string()).exists()
 }
 
 /// Removes temporaries left in `dir` (recursively) by writers that were killed, and returns

@@ -248,7 +248,8 @@ pub fn run_continued(
 }
 
 /// A run in `out` as `folder` allows (new, resumed from its newest valid checkpoint, or
-/// replaced); a finished run returns its summary.
+/// replaced); a finished run returns its summary. The run holds the folder's lock
+/// ([`crate::run_lock`]) until it returns, so no other process trains into `out` meanwhile.
 pub fn run_in(
     config: &RunConfig,
     out: &Path,
@@ -256,6 +257,8 @@ pub fn run_in(
     folder: Folder,
     origin: Origin<'_>,
 ) -> Result<Summary, RunError> {
+    run_folder::refuse_file(out)?;
+    let _lock = crate::run_lock::RunLock::acquire(out)?;
     let opened = run_folder::open(out, config, folder)?;
     if opened == Opened::Finished {
         println!(
@@ -347,10 +350,23 @@ impl<'a> RunState<'a> {
             None
         };
         let was_resumed = resumed.is_some();
-        let (trainer, progress) = match resumed {
+        let (mut trainer, progress) = match resumed {
             Some(x) => x,
-            None => (new_trainer(config, origin)?, Progress::default()),
+            None => {
+                if let Origin::Continue(checkpoint) = origin {
+                    println!(
+                        "  continuing the cortex of {} on cones `{}`",
+                        checkpoint.display(),
+                        config.cones
+                    );
+                }
+                (new_trainer(config, origin)?, Progress::default())
+            }
         };
+        if config.learning_rule == "feedback-alignment" {
+            let rule = feedback_alignment(config, &trainer, was_resumed, origin)?;
+            trainer.set_learning_rule(Box::new(rule));
+        }
         let mut state = RunState {
             config,
             out,
@@ -451,14 +467,7 @@ impl<'a> RunState<'a> {
             );
         }
         if c.learning_rule == "feedback-alignment" {
-            self.trainer
-                .set_learning_rule(Box::new(autodiff::learn::FeedbackAlignment::new(
-                    c.seed ^ 0xFA,
-                )));
             println!("  learning rule: feedback alignment (fixed random backward weights for conv/matmul kernels)");
-            if resumed_at.is_some() {
-                println!("  (feedback alignment scales its backward weights to the weights at their first use, so a resumed run is not bit-identical to an uninterrupted one)");
-            }
         }
         let retina = &self.source.retina;
         println!(
@@ -486,7 +495,8 @@ impl<'a> RunState<'a> {
     }
 }
 
-/// A fresh trainer, or one continued from another run's checkpoint.
+/// A fresh trainer, or one continued from another run's checkpoint: the state the run starts
+/// from, the same each time it is built.
 fn new_trainer(config: &RunConfig, origin: Origin<'_>) -> Result<Trainer, RunError> {
     Ok(match origin {
         Origin::New => {
@@ -495,13 +505,27 @@ fn new_trainer(config: &RunConfig, origin: Origin<'_>) -> Result<Trainer, RunErr
             Trainer::new(cortex_config)?
         }
         Origin::Continue(checkpoint) => {
-            println!(
-                "  continuing the cortex of {} on cones `{}`",
-                checkpoint.display(),
-                config.cones
-            );
             Trainer::continue_from(checkpoint, Some(config.cortex.clone()))?
         }
+    })
+}
+
+/// Feedback alignment with backward weights drawn from the run's seed and scaled to the
+/// parameters the run started from (`autodiff::learn::FeedbackAlignment::scaled_to`). A
+/// resumed run rebuilds that start ([`new_trainer`]: the seeded initialisation, or the
+/// checkpoint it continued), so it draws the backward weights of the run that never stopped.
+fn feedback_alignment(
+    config: &RunConfig,
+    trainer: &Trainer,
+    resumed: bool,
+    origin: Origin<'_>,
+) -> Result<autodiff::learn::FeedbackAlignment<f32>, RunError> {
+    let seed = config.seed ^ 0xFA;
+    Ok(if resumed {
+        let start = new_trainer(config, origin)?;
+        autodiff::learn::FeedbackAlignment::scaled_to(seed, &start.cortex.params)
+    } else {
+        autodiff::learn::FeedbackAlignment::scaled_to(seed, &trainer.cortex.params)
     })
 }
 

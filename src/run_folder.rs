@@ -6,6 +6,7 @@
 use crate::config::RunConfig;
 use crate::io::{fs_err, IoError};
 use crate::run::RunError;
+use crate::run_lock::LOCK_FILE;
 use std::path::Path;
 
 /// What to do with a run folder that already holds files.
@@ -39,15 +40,22 @@ fn refuse(out: &Path, reason: String) -> RunError {
     }
 }
 
-/// Whether `dir` is absent or holds nothing.
-fn is_empty(dir: &Path) -> Result<bool, IoError> {
-    if !dir.exists() {
-        return Ok(true);
+/// The entries of `dir` a run wrote: all but the lock of the run now starting
+/// ([`LOCK_FILE`]).
+fn run_entries(dir: &Path) -> Result<Vec<std::path::PathBuf>, IoError> {
+    let mut paths = Vec::new();
+    for entry in std::fs::read_dir(dir).map_err(fs_err(dir))? {
+        let path = entry.map_err(fs_err(dir))?.path();
+        if path.file_name() != Some(std::ffi::OsStr::new(LOCK_FILE)) {
+            paths.push(path);
+        }
     }
-    Ok(std::fs::read_dir(dir)
-        .map_err(fs_err(dir))?
-        .next()
-        .is_none())
+    Ok(paths)
+}
+
+/// Whether `dir` is absent or holds nothing but a run lock.
+fn is_empty(dir: &Path) -> Result<bool, IoError> {
+    Ok(!dir.exists() || run_entries(dir)?.is_empty())
 }
 
 /// The first setting in which `a` and `b` differ, as `name`, value in `a`, value in `b`.
@@ -105,7 +113,7 @@ pub fn read_config(out: &Path) -> Result<RunConfig, RunError> {
     Ok(config)
 }
 
-/// Removes everything in the run folder `out` (which must hold a `config.toml`).
+/// Removes everything in the run folder `out` (which must hold a `config.toml`) but its lock.
 fn empty_run_folder(out: &Path) -> Result<(), RunError> {
     if !out.join("config.toml").is_file() {
         return Err(refuse(
@@ -115,8 +123,7 @@ fn empty_run_folder(out: &Path) -> Result<(), RunError> {
                 .into(),
         ));
     }
-    for entry in std::fs::read_dir(out).map_err(fs_err(out))? {
-        let path = entry.map_err(fs_err(out))?.path();
+    for path in run_entries(out)? {
         let r = if path.is_dir() {
             std::fs::remove_dir_all(&path)
         } else {
@@ -127,14 +134,20 @@ fn empty_run_folder(out: &Path) -> Result<(), RunError> {
     Ok(())
 }
 
-/// Decides how the run of `config` starts in `out` (see [`Folder`]).
-pub fn open(out: &Path, config: &RunConfig, folder: Folder) -> Result<Opened, RunError> {
+/// Refuses an `out` that is a file.
+pub fn refuse_file(out: &Path) -> Result<(), RunError> {
     if out.exists() && !out.is_dir() {
         return Err(refuse(
             out,
             "is a file, not a folder: choose another --out".into(),
         ));
     }
+    Ok(())
+}
+
+/// Decides how the run of `config` starts in `out` (see [`Folder`]).
+pub fn open(out: &Path, config: &RunConfig, folder: Folder) -> Result<Opened, RunError> {
+    refuse_file(out)?;
     if is_empty(out)? {
         return Ok(Opened::Fresh);
     }

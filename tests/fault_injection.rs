@@ -60,7 +60,12 @@ fn text(o: &Output) -> String {
 
 /// A run of `command` in `dir/out`, optionally with a fault.
 fn start(dir: &Path, command: &str, fault: Option<&str>) -> Output {
-    std::fs::write(dir.join("config.toml"), CONFIG).unwrap();
+    start_with(dir, command, CONFIG, fault)
+}
+
+/// A run of `command` with the settings `config` in `dir/out`, optionally with a fault.
+fn start_with(dir: &Path, command: &str, config: &str, fault: Option<&str>) -> Output {
+    std::fs::write(dir.join("config.toml"), config).unwrap();
     colorvision(
         dir,
         &[command, "--config", "config.toml", "--out", "out"],
@@ -111,13 +116,17 @@ fn outcome(out: &Path) -> Outcome {
 }
 
 /// Every file under `dir` parses by its kind. Hidden temporaries (`.NAME.tmp-PID`, a
-/// checkpoint moved aside) may remain after a kill, and are removed when the run resumes: with
-/// `temporaries_allowed` false there must be none.
+/// checkpoint moved aside) and the lock of the killed process (`.lock`) may remain after a
+/// kill, and are removed or taken over when the run resumes: with `temporaries_allowed` false
+/// there must be none.
 fn assert_files_parse(dir: &Path, temporaries_allowed: bool) {
     for entry in std::fs::read_dir(dir).unwrap() {
         let path = entry.unwrap().path();
         let name = path.file_name().unwrap().to_string_lossy().to_string();
-        let temporary = name.contains(".tmp") || name.contains(".old-") || name.contains("staging");
+        let temporary = name.contains(".tmp")
+            || name.contains(".old-")
+            || name.contains("staging")
+            || name == ".lock";
         assert!(
             temporaries_allowed || !temporary,
             "temporary left behind: {}",
@@ -389,6 +398,41 @@ fn a_continued_run_killed_in_its_second_stage_resumes_bit_identically() {
         std::fs::read(dir.join(stage)).unwrap() == std::fs::read(reference.join(stage)).unwrap(),
         "the continued stage's final parameters differ"
     );
+    std::fs::remove_dir_all(reference).ok();
+    std::fs::remove_dir_all(dir).ok();
+}
+
+#[test]
+fn a_feedback_alignment_run_killed_between_steps_resumes_bit_identically() {
+    // The fixed random backward weights are scaled to the parameters the run started from;
+    // the run resumed at step 4 must draw the same ones, not ones scaled to step 4's weights.
+    let config = format!("learning_rule = \"feedback-alignment\"\n{CONFIG}");
+    let final_state = |out: &Path| {
+        let ck = out.join("checkpoints").join("step_00000012");
+        (
+            std::fs::read(ck.join("params.safetensors")).unwrap(),
+            std::fs::read(ck.join("optim.safetensors")).unwrap(),
+        )
+    };
+    let reference = scratch("fa_reference");
+    let o = start_with(&reference, "train", &config, None);
+    assert!(o.status.success(), "{}", text(&o));
+    let dir = scratch("fa");
+    let o = start_with(&dir, "train", &config, Some("abort@step:6"));
+    assert_eq!(exit_code(&o), Some(ABORT), "{}", text(&o));
+    assert_files_parse(&dir.join("out"), true);
+    let o = resume(&dir, "train");
+    let log = text(&o);
+    assert!(o.status.success(), "{log}");
+    assert!(log.contains("resuming at step 4"), "{log}");
+    assert!(log.contains("feedback alignment"), "{log}");
+    assert_files_parse(&dir.join("out"), false);
+    let (got, want) = (
+        final_state(&dir.join("out")),
+        final_state(&reference.join("out")),
+    );
+    assert!(got.0 == want.0, "final parameters differ");
+    assert!(got.1 == want.1, "final optimiser state differs");
     std::fs::remove_dir_all(reference).ok();
     std::fs::remove_dir_all(dir).ok();
 }

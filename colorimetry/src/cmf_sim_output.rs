@@ -55,19 +55,13 @@ impl CmfSimResult {
         serde_json::to_string_pretty(self).expect("CmfSimResult serialises")
     }
 
-    /// Write `cmf_sim.json` and `cmf_sim_errors.svg` into `dir` (created if missing). Returns
-    /// the paths written.
+    /// Write `cmf_sim.json` and `cmf_sim_errors.svg` into `dir` (created if missing), each
+    /// atomically ([`atomic_io::write_atomic`]): a file is either the old one or the new one,
+    /// never half-written. Returns the paths written.
     pub fn save(&self, dir: impl AsRef<Path>) -> Result<Vec<PathBuf>> {
         let dir = dir.as_ref();
-        std::fs::create_dir_all(dir).map_err(|source| ColorimetryError::Io {
-            path: dir.to_path_buf(),
-            source,
-        })?;
         let json = dir.join(CMF_SIM_JSON);
-        std::fs::write(&json, self.to_json()).map_err(|source| ColorimetryError::Io {
-            path: json.clone(),
-            source,
-        })?;
+        atomic_io::write_atomic(&json, self.to_json().as_bytes())?;
         let svg = dir.join(CMF_SIM_SVG);
         self.error_plot().save(&svg)?;
         Ok(vec![json, svg])

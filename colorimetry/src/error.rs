@@ -92,3 +92,12 @@ impl ColorimetryError {
         }
     }
 }
+
+impl From<atomic_io::FileError> for ColorimetryError {
+    fn from(e: atomic_io::FileError) -> Self {
+        ColorimetryError::Io {
+            path: e.path,
+            source: e.source,
+        }
+    }
+}

@@ -15,7 +15,7 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
-use crate::error::{ColorimetryError, Result};
+use crate::error::Result;
 
 /// Default colour cycle (Okabe–Ito palette, colour-blind safe).
 pub const PALETTE: [&str; 8] = [
@@ -272,13 +272,12 @@ impl LinePlot {
         s
     }
 
-    /// Write the SVG to `path`.
+    /// Write the SVG to `path` atomically ([`atomic_io::write_atomic`]), creating its folder.
     pub fn save(&self, path: impl AsRef<Path>) -> Result<()> {
-        let path = path.as_ref();
-        std::fs::write(path, self.to_svg()).map_err(|source| ColorimetryError::Io {
-            path: path.to_path_buf(),
-            source,
-        })
+        Ok(atomic_io::write_atomic(
+            path.as_ref(),
+            self.to_svg().as_bytes(),
+        )?)
     }
 }
 

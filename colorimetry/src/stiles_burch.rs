@@ -215,20 +215,13 @@ impl StilesBurchResult {
         p
     }
 
-    /// Write `stiles_burch.json` and `stiles_burch.svg` into `dir`.
+    /// Write `stiles_burch.json` and `stiles_burch.svg` into `dir` (created if missing), each
+    /// atomically ([`atomic_io::write_atomic`]).
     pub fn save(&self, dir: impl AsRef<Path>) -> Result<Vec<PathBuf>> {
         let dir = dir.as_ref();
-        let io = |path: &Path| {
-            let path = path.to_path_buf();
-            move |source| ColorimetryError::Io { path, source }
-        };
-        std::fs::create_dir_all(dir).map_err(io(dir))?;
         let json = dir.join("stiles_burch.json");
-        std::fs::write(
-            &json,
-            serde_json::to_string_pretty(self).expect("serialises"),
-        )
-        .map_err(io(&json))?;
+        let text = serde_json::to_string_pretty(self).expect("serialises");
+        atomic_io::write_atomic(&json, text.as_bytes())?;
         let svg = dir.join("stiles_burch.svg");
         self.plot().save(&svg)?;
         Ok(vec![json, svg])

@@ -175,7 +175,7 @@ pub fn write_checkpoint(
     std::fs::create_dir_all(dir).map_err(io(dir))?;
     let name = checkpoint_name(meta.step);
     let fin = dir.join(&name);
-    let tmp = dir.join(format!(".{name}.tmp-{}", std::process::id()));
+    let tmp = atomic_io::temp_sibling(&fin);
     if tmp.exists() {
         std::fs::remove_dir_all(&tmp).map_err(io(&tmp))?;
     }
@@ -369,8 +369,7 @@ pub fn latest_valid(dir: &Path) -> Result<Result<Valid, Vec<(PathBuf, CortexErro
 }
 
 fn process_alive(pid: &str) -> bool {
-    pid.parse::<u32>()
-        .is_ok_and(|p| p == std::process::id() || Path::new("/proc").join(pid).exists())
+    pid.parse::<u32>().is_ok_and(atomic_io::process_alive)
 }
 
 /// Tidies `dir` after a killed writer: a checkpoint moved aside by an interrupted re-save is
@@ -402,7 +401,7 @@ pub fn recover(dir: &Path) -> Result<Vec<String>, CortexError> {
                 std::fs::rename(&path, &fin).map_err(io(&path))?;
                 done.push(format!("restored {}", fin.display()));
             }
-        } else if let Some((_, pid)) = rest.split_once(".tmp-") {
+        } else if let Some((_, pid)) = rest.split_once(atomic_io::TEMP_MARK) {
             if !process_alive(pid) {
                 std::fs::remove_dir_all(&path).map_err(io(&path))?;
                 done.push(format!("removed {}", path.display()));

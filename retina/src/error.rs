@@ -106,3 +106,9 @@ impl RetinaError {
         }
     }
 }
+
+impl From<atomic_io::FileError> for RetinaError {
+    fn from(e: atomic_io::FileError) -> Self {
+        RetinaError::io(e.path, e.source)
+    }
+}

@@ -69,28 +69,41 @@ impl Picture {
         out
     }
 
-    /// Write as PNG.
+    /// Write as PNG, atomically ([`atomic_io::write_via`]).
     pub fn write_png(&self, path: &Path) -> Result<()> {
-        let file = File::create(path).map_err(|e| RetinaError::io(path, e))?;
-        let mut enc = png::Encoder::new(BufWriter::new(file), self.w as u32, self.h as u32);
-        enc.set_color(png::ColorType::Rgb);
-        enc.set_depth(png::BitDepth::Eight);
-        let err = |e: png::EncodingError| RetinaError::Png {
-            path: path.to_path_buf(),
-            message: e.to_string(),
-        };
-        let mut w = enc.write_header().map_err(err)?;
-        w.write_image_data(&self.rgb).map_err(err)?;
-        w.finish().map_err(err)
+        atomic_io::write_via(path, |tmp| {
+            let file = File::create(tmp).map_err(|e| RetinaError::io(tmp, e))?;
+            let mut enc = png::Encoder::new(BufWriter::new(file), self.w as u32, self.h as u32);
+            enc.set_color(png::ColorType::Rgb);
+            enc.set_depth(png::BitDepth::Eight);
+            let err = |e: png::EncodingError| RetinaError::Png {
+                path: path.to_path_buf(),
+                message: e.to_string(),
+            };
+            let mut w = enc.write_header().map_err(err)?;
+            w.write_image_data(&self.rgb).map_err(err)?;
+            w.finish().map_err(err)
+        })
     }
 }
 
-/// Write equally sized pictures as an animated PNG (`delay_ms` per frame, looping).
+/// Write equally sized pictures as an animated PNG (`delay_ms` per frame, looping),
+/// atomically ([`atomic_io::write_via`]).
 pub fn write_apng(frames: &[Picture], delay_ms: u16, path: &Path) -> Result<()> {
     let first = frames
         .first()
         .ok_or_else(|| RetinaError::setting("apng", "no frames"))?;
-    let file = File::create(path).map_err(|e| RetinaError::io(path, e))?;
+    atomic_io::write_via(path, |tmp| encode_apng(frames, first, delay_ms, path, tmp))
+}
+
+fn encode_apng(
+    frames: &[Picture],
+    first: &Picture,
+    delay_ms: u16,
+    path: &Path,
+    tmp: &Path,
+) -> Result<()> {
+    let file = File::create(tmp).map_err(|e| RetinaError::io(tmp, e))?;
     let err = |e: png::EncodingError| RetinaError::Png {
         path: path.to_path_buf(),
         message: e.to_string(),

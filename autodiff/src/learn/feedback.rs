@@ -12,10 +12,13 @@
 //!
 //! `B` is drawn once per parameter, on first use, from `N(0, σ²)` with a generator seeded by
 //! `(seed, ParamId)`, so it does not depend on the order layers are met. `σ` matches the weight's
-//! scale: the RMS of `W` at that moment, or, for an all-zero `W`, `1/√fan_in` with
-//! `fan_in = dims[0]` for a rank-2 `(in, out)` matmul weight and `numel / dims[0]` for a
-//! `(out, in, kh, kw)` kernel. A weight that reaches an op through another op (a reshape, a
-//! scale) is not a parameter node there and gets ordinary backprop.
+//! scale: the RMS of `W`, or, for an all-zero `W`, `1/√fan_in` with `fan_in = dims[0]` for a
+//! rank-2 `(in, out)` matmul weight and `numel / dims[0]` for a `(out, in, kh, kw)` kernel.
+//! [`FeedbackAlignment::new`] takes `W` at its first use; [`FeedbackAlignment::scaled_to`]
+//! takes it from a given set of parameters (those a run started from), so that a run resumed
+//! from a checkpoint draws the same `B` as the run that never stopped: `B` is then a function
+//! of the seed and the starting parameters alone. A weight that reaches an op through another
+//! op (a reshape, a scale) is not a parameter node there and gets ordinary backprop.
 //!
 //! [`Op::weight_inputs`]: crate::Op::weight_inputs
 
@@ -31,15 +34,28 @@ use std::collections::BTreeMap;
 pub struct FeedbackAlignment<T: Float = f32> {
     seed: u64,
     feedback: BTreeMap<ParamId, Tensor<T>>,
+    /// `σ` of each parameter's `B`, fixed in advance ([`FeedbackAlignment::scaled_to`]).
+    scales: BTreeMap<ParamId, f64>,
 }
 
 impl<T: Float> FeedbackAlignment<T> {
-    /// A rule whose feedback matrices are drawn from `seed`.
+    /// A rule whose feedback matrices are drawn from `seed`, each scaled to its weight at the
+    /// weight's first use.
     pub fn new(seed: u64) -> Self {
         FeedbackAlignment {
             seed,
             feedback: BTreeMap::new(),
+            scales: BTreeMap::new(),
         }
+    }
+
+    /// A rule whose feedback matrices are drawn from `seed`, each scaled to that parameter's
+    /// value in `start` (the parameters the training started from), whatever the weight is at
+    /// its first use.
+    pub fn scaled_to(seed: u64, start: &ParamStore<T>) -> Self {
+        let mut rule = Self::new(seed);
+        rule.scales = start.ids().map(|id| (id, scale(start.get(id)))).collect();
+        rule
     }
 
     /// The feedback matrix of parameter `id`, once it has been drawn.
@@ -54,19 +70,7 @@ impl<T: Float> FeedbackAlignment<T> {
     }
 
     fn draw(&self, id: ParamId, w: &Tensor<T>) -> Tensor<T> {
-        let n = w.numel().max(1);
-        let rms = (w.sum_sq() / n as f64).sqrt();
-        let sigma = if rms > 0.0 {
-            rms
-        } else {
-            let d = w.dims();
-            let fan_in = match d.len() {
-                0 => 1,
-                2 => d[0],
-                _ => n / d[0].max(1),
-            };
-            1.0 / (fan_in.max(1) as f64).sqrt()
-        };
+        let sigma = self.scales.get(&id).copied().unwrap_or_else(|| scale(w));
         // SplitMix-style mixing so neighbouring ids get unrelated streams.
         let mut s = self.seed ^ (u64::from(id.0) + 1).wrapping_mul(0x9E37_79B9_7F4A_7C15);
         s = (s ^ (s >> 31)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
@@ -76,6 +80,22 @@ impl<T: Float> FeedbackAlignment<T> {
             T::of(sigma * z)
         })
     }
+}
+
+/// `σ` of the feedback matrix of weight `w` (module docs).
+fn scale<T: Float>(w: &Tensor<T>) -> f64 {
+    let n = w.numel().max(1);
+    let rms = (w.sum_sq() / n as f64).sqrt();
+    if rms > 0.0 {
+        return rms;
+    }
+    let d = w.dims();
+    let fan_in = match d.len() {
+        0 => 1,
+        2 => d[0],
+        _ => n / d[0].max(1),
+    };
+    1.0 / (fan_in.max(1) as f64).sqrt()
 }
 
 struct Hooks<'a, T: Float> {
@@ -230,5 +250,24 @@ mod tests {
         let rms = |t: &Tensor<f64>| (t.sum_sq() / t.numel() as f64).sqrt();
         let ratio = rms(&b) / rms(p.get(ParamId(1)));
         assert!((0.3..3.0).contains(&ratio), "B scale ratio {ratio}");
+    }
+
+    #[test]
+    fn feedback_scaled_to_the_start_does_not_depend_on_the_weights_at_first_use() {
+        let start = params();
+        let mut trained = params();
+        for id in trained.ids().collect::<Vec<_>>() {
+            let w = trained.get(id).clone();
+            *trained.get_mut(id) = Tensor::from_fn(w.shape(), |i| 3.0 * w.data()[i] + 0.1);
+        }
+        let mut from_start = FeedbackAlignment::scaled_to(7, &start);
+        let mut resumed = FeedbackAlignment::scaled_to(7, &start);
+        let mut first_use = FeedbackAlignment::new(7);
+        run(&mut from_start, &start);
+        run(&mut resumed, &trained);
+        run(&mut first_use, &trained);
+        let b = |fa: &FeedbackAlignment<f64>| fa.feedback(ParamId(1)).unwrap().clone();
+        assert_eq!(b(&from_start), b(&resumed));
+        assert_ne!(b(&from_start), b(&first_use));
     }
 }

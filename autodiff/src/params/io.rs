@@ -6,8 +6,9 @@
 //! - Tensors are written with the dtype of the tape's float (`F32` or `F64`). Reading accepts
 //!   both and converts to the requested float (f32 → f64 is exact; f64 → f32 rounds). Same-dtype
 //!   round trips are bit-exact.
-//! - Writes are atomic: the bytes go to a temporary file in the same directory, which is then
-//!   renamed over the target, so a crash never leaves a half-written checkpoint.
+//! - Writes are atomic ([`atomic_io::write_atomic`]): the bytes go to a temporary file in the
+//!   same directory, synced, then renamed over the target, so a crash never leaves a
+//!   half-written checkpoint.
 //! - Every error names the file, and the tensor when one is involved.
 
 use crate::tensor::MAX_RANK;
@@ -15,7 +16,6 @@ use crate::{Float, Shape, Tensor};
 use safetensors::tensor::{Dtype, SafeTensors, TensorView, View};
 use std::borrow::Cow;
 use std::collections::{BTreeMap, HashMap};
-use std::io::Write;
 use std::path::{Path, PathBuf};
 
 /// What went wrong reading or writing a safetensors file.
@@ -142,27 +142,9 @@ pub fn write_safetensors<T: Float>(
         reason,
     })?;
 
-    let dir = path
-        .parent()
-        .filter(|d| !d.as_os_str().is_empty())
-        .unwrap_or(Path::new("."));
-    let file = path
-        .file_name()
-        .map(|f| f.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    let tmp = dir.join(format!(".{file}.tmp{}", std::process::id()));
-    let write = || -> std::io::Result<()> {
-        let mut f = std::fs::File::create(&tmp)?;
-        f.write_all(&buf)?;
-        f.sync_all()
-    };
-    if let Err(e) = write() {
-        let _ = std::fs::remove_file(&tmp);
-        return Err(io_err(&tmp)(e));
-    }
-    std::fs::rename(&tmp, path).map_err(|e| {
-        let _ = std::fs::remove_file(&tmp);
-        io_err(path)(e)
+    atomic_io::write_atomic(path, &buf).map_err(|e| SafetensorsError::Io {
+        path: e.path,
+        source: e.source,
     })
 }
 

@@ -85,7 +85,7 @@ pub fn write_spectral_exr(img: &SpectralImage, path: impl AsRef<Path>) -> Result
             path: path.to_path_buf(),
             message: e.to_string(),
         })?;
-    std::fs::write(path, bytes.into_inner()).map_err(|e| RetinaError::io(path, e))
+    Ok(atomic_io::write_atomic(path, &bytes.into_inner())?)
 }
 
 /// Read a spectral EXR (module docs), on the file's own wavelengths.

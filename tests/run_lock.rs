@@ -1,0 +1,80 @@
+//! A run folder is trained into by one process at a time: a `.lock` naming a running process
+//! refuses the run with a one-line error naming the folder and the process and leaves the
+//! folder as it was; a `.lock` naming a process that no longer runs is taken over; the lock is
+//! gone when the run ends, finished or stopped.
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+const BIN: &str = env!("CARGO_BIN_EXE_colorvision");
+
+/// Above Linux's largest possible process id (`PID_MAX_LIMIT` = 2²²), so never running.
+const DEAD_PID: u32 = 4_194_305;
+
+fn train(dir: &Path, fault: Option<&str>) -> Output {
+    let mut c = Command::new(BIN);
+    c.args(["train", "--preset", "tiny", "--steps", "2", "--out", "out"])
+        .current_dir(dir)
+        .env_remove("COLORVISION_FAULT");
+    if let Some(f) = fault {
+        c.env("COLORVISION_FAULT", f);
+    }
+    c.output().expect("the binary runs")
+}
+
+fn text(o: &Output) -> String {
+    format!(
+        "{}{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    )
+}
+
+#[test]
+fn a_live_lock_is_refused_and_a_stale_one_taken_over() {
+    let dir = std::env::temp_dir().join(format!("cv_run_lock_{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let (out, lock) = (dir.join("out"), dir.join("out").join(".lock"));
+    std::fs::create_dir_all(&out).unwrap();
+
+    let me = std::process::id();
+    std::fs::write(&lock, format!("{me}\n")).unwrap();
+    let o = train(&dir, None);
+    let err = String::from_utf8_lossy(&o.stderr).to_string();
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+    assert!(
+        err.contains("out: is in use by process") && err.contains(&me.to_string()),
+        "{err}"
+    );
+    let left: Vec<_> = std::fs::read_dir(&out).unwrap().collect();
+    assert_eq!(
+        left.len(),
+        1,
+        "the refused run wrote into the folder: {left:?}"
+    );
+    assert_eq!(std::fs::read_to_string(&lock).unwrap(), format!("{me}\n"));
+
+    std::fs::write(&lock, format!("{DEAD_PID}\n")).unwrap();
+    let o = train(&dir, Some("interrupt@step:1"));
+    assert_eq!(o.status.code(), Some(130), "{}", text(&o));
+    assert!(
+        text(&o).contains(&format!(
+            "took over the lock of out from process {DEAD_PID}"
+        )),
+        "{}",
+        text(&o)
+    );
+    assert!(!lock.exists(), "a stopped run leaves its lock behind");
+
+    let o = Command::new(BIN)
+        .args(["resume", "out"])
+        .current_dir(&dir)
+        .env_remove("COLORVISION_FAULT")
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(!text(&o).contains("took over"), "{}", text(&o));
+    assert!(!lock.exists(), "a finished run leaves its lock behind");
+    std::fs::remove_dir_all(dir).ok();
+}

@@ -1,0 +1,108 @@
+//! Measuring a finished run (`cmf-sim --run DIR`, `scope --run DIR`) leaves the run's own
+//! record byte for byte as it was: without `--out` the measurements land in `DIR/cmf-sim/`
+//! and `DIR/scope/`, with `--out X` in `X`, and an `--out` inside the record is refused.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+const BIN: &str = env!("CARGO_BIN_EXE_colorvision");
+
+fn colorvision(dir: &Path, args: &[&str]) -> Output {
+    Command::new(BIN)
+        .args(args)
+        .current_dir(dir)
+        .env_remove("COLORVISION_FAULT")
+        .output()
+        .expect("the binary runs")
+}
+
+fn text(o: &Output) -> String {
+    format!(
+        "{}{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    )
+}
+
+/// Every file under `dir` (relative path → bytes), leaving out the sub-folders named `skip`.
+fn snapshot(dir: &Path, skip: &[&str]) -> BTreeMap<PathBuf, Vec<u8>> {
+    fn walk(root: &Path, dir: &Path, skip: &[&str], out: &mut BTreeMap<PathBuf, Vec<u8>>) {
+        for entry in std::fs::read_dir(dir).unwrap() {
+            let path = entry.unwrap().path();
+            let rel = path.strip_prefix(root).unwrap().to_path_buf();
+            if skip.iter().any(|s| rel == Path::new(s)) {
+                continue;
+            }
+            if path.is_dir() {
+                walk(root, &path, skip, out);
+            } else {
+                out.insert(rel, std::fs::read(&path).unwrap());
+            }
+        }
+    }
+    let mut out = BTreeMap::new();
+    walk(dir, dir, skip, &mut out);
+    out
+}
+
+#[test]
+fn measurements_of_a_run_never_touch_its_record() {
+    let dir = std::env::temp_dir().join(format!("cv_record_{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let o = colorvision(
+        &dir,
+        &["run", "--preset", "tiny", "--steps", "3", "--out", "run"],
+    );
+    assert!(o.status.success(), "{}", text(&o));
+    let run = dir.join("run");
+    for f in ["summary.json", "cmf_sim.json", "pictures"] {
+        assert!(run.join(f).exists(), "the run wrote no {f}");
+    }
+    let before = snapshot(&run, &[]);
+    let measurements: [&[&str]; 4] = [
+        &["cmf-sim", "--run", "run", "--sets-per-k", "2"],
+        &["scope", "--run", "run"],
+        &["cmf-sim", "--run", "run", "--sets-per-k", "2", "--out", "x"],
+        &["scope", "--run", "run", "--out", "y"],
+    ];
+    for args in measurements {
+        let o = colorvision(&dir, args);
+        assert!(o.status.success(), "{args:?}: {}", text(&o));
+    }
+    assert_eq!(
+        snapshot(&run, &["cmf-sim", "scope"]),
+        before,
+        "the run's own files changed"
+    );
+    for f in [
+        "cmf-sim/cmf_sim.json",
+        "scope/scope.png",
+        "x/cmf_sim.json",
+        "y/scope.png",
+    ] {
+        assert!(
+            dir.join(if f.starts_with(['x', 'y']) { "" } else { "run" })
+                .join(f)
+                .is_file(),
+            "no {f}"
+        );
+    }
+    for (command, out) in [
+        ("cmf-sim", "run"),
+        ("scope", "run/pictures"),
+        ("scope", "run/./"),
+    ] {
+        let o = colorvision(&dir, &[command, "--run", "run", "--out", out]);
+        assert_eq!(
+            o.status.code(),
+            Some(1),
+            "{command} --out {out}: {}",
+            text(&o)
+        );
+        assert!(text(&o).contains("(--out)"), "{}", text(&o));
+    }
+    assert_eq!(snapshot(&run, &["cmf-sim", "scope"]), before);
+    std::fs::remove_dir_all(dir).ok();
+}
