@@ -201,6 +201,8 @@ fn continued(
 /// normal one.
 fn w_oracle_init(options: &CommonOptions, out: &Path) -> Result<(), RunError> {
     let config = RunConfig::resolve(options, "quick")?;
+    // The start checkpoint is this experiment's own: no second process may write it at once.
+    let start_lock = crate::run_lock::RunLock::acquire(&out.join("start"))?;
     let start = out.join("start").join("checkpoints");
     let checkpoint = start.join(cortex::checkpoint::checkpoint_name(0));
     if !checkpoint.exists() {
@@ -221,6 +223,7 @@ fn w_oracle_init(options: &CommonOptions, out: &Path) -> Result<(), RunError> {
         }
         trainer.save_checkpoint_with(&start, None, None)?;
     }
+    drop(start_lock);
     println!("DIAGNOSTIC: the cortex's W starts at the eye's true DoG (not a learning result)");
     let s = run::run_continued(&config, &sub(out, "run"), &checkpoint, options.folder())?;
     println!(
@@ -255,6 +258,8 @@ fn stiles_burch(options: &CommonOptions, out: &Path) -> Result<(), RunError> {
         options.folder(),
         Origin::New,
     )?;
+    // The run's lock again while its folder is read and the comparison written into it.
+    let _lock = crate::run_lock::RunLock::acquire(&trained)?;
     let (_, trainer, _) = crate::commands::load_run(&trained)?;
     let retina = Retina::new(config.retina.clone())?;
     let observer = EyeObserver::cortex(&retina, &trainer.cortex, config.observer.clone());
