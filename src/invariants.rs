@@ -179,6 +179,16 @@ pub fn measure_p(learned: &[[f64; 2]], truth: &[[f64; 2]], n: usize) -> PRecover
     }
 }
 
+/// The true cone positions in the normalised field [−1, 1]², `(n²)` row-major.
+pub fn true_positions(retina: &Retina) -> Vec<[f64; 2]> {
+    retina
+        .layout
+        .positions_normalised()
+        .iter()
+        .map(|p| [p[0] as f64, p[1] as f64])
+        .collect()
+}
+
 /// Every learned invariant of a cortex against the truth of its eye.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Recovery {
@@ -213,16 +223,10 @@ pub fn measure(cortex: &Cortex, retina: &Retina) -> Recovery {
     };
     let learned = cortex.learned_positions();
     let learned: Vec<[f64; 2]> = learned.data().chunks(2).map(|p| [p[0], p[1]]).collect();
-    let truth: Vec<[f64; 2]> = retina
-        .layout
-        .positions_normalised()
-        .iter()
-        .map(|p| [p[0] as f64, p[1] as f64])
-        .collect();
     Recovery {
         c,
         w,
-        p: measure_p(&learned, &truth, n),
+        p: measure_p(&learned, &true_positions(retina), n),
     }
 }
 

@@ -40,12 +40,6 @@ impl EyeMotionConfig {
         EyeMotionConfig { max_shift_px: m }
     }
 
-    /// The largest shift in mean cone spacings for a field of `field_px` sampled by
-    /// `cones_per_side` cones per side.
-    pub fn max_shift_cones(&self, field_px: usize, cones_per_side: usize) -> f64 {
-        self.max_shift_px as f64 * cones_per_side as f64 / field_px.max(1) as f64
-    }
-
     /// One shift `[dx, dy]`, each uniform in `[−max, max − 1]`.
     pub fn draw_shift<R: Rng + ?Sized>(&self, rng: &mut R) -> [i32; 2] {
         let m = self.max_shift_px;
@@ -116,8 +110,6 @@ mod tests {
         assert_eq!(EyeMotionConfig::official_for(64, 32).max_shift_px, 15);
         assert_eq!(EyeMotionConfig::official_for(64, 64).max_shift_px, 8);
         assert_eq!(EyeMotionConfig::official_for(1, 64).max_shift_px, 1);
-        let e = EyeMotionConfig::official_for(128, 64);
-        assert_eq!(e.max_shift_cones(128, 64), 7.5);
     }
 
     #[test]

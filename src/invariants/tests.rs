@@ -74,12 +74,7 @@ fn w_equal_to_the_dog_is_recovered_and_the_identity_is_not() {
 fn positions_equal_up_to_an_affine_map_are_recovered_and_jittered_ones_are_not() {
     let (_, retina) = tiny_eye();
     let n = retina.n();
-    let truth: Vec<[f64; 2]> = retina
-        .layout
-        .positions_normalised()
-        .iter()
-        .map(|p| [p[0] as f64, p[1] as f64])
-        .collect();
+    let truth = true_positions(&retina);
     let affine: Vec<[f64; 2]> = truth
         .iter()
         .map(|p| {
