@@ -58,6 +58,11 @@ pub enum Command {
 pub struct ResumeOptions {
     /// The run folder of the stopped run.
     pub dir: PathBuf,
+    /// Train on to this many steps in all, past the run's planned end (a finished run too:
+    /// its summary.json is kept as summary_step_<old steps>.json). A cosine learning-rate
+    /// schedule then spans the new count from the checkpoint on.
+    #[arg(long)]
+    pub steps: Option<u64>,
 }
 
 /// Options every subcommand understands.

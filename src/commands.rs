@@ -102,8 +102,11 @@ pub fn resume(options: &ResumeOptions) -> Result<(), RunError> {
         path: marker_path.clone(),
         reason: format!("invalid run marker: {e}"),
     })?;
-    let config = crate::run_folder::read_config(dir)?;
+    let mut config = crate::run_folder::read_config(dir)?;
     config.validate()?;
+    if let Some(steps) = options.steps {
+        extend_run(dir, &mut config, steps)?;
+    }
     install_signals()?;
     let mode = RunMode {
         cmf_sim: marker.cmf_sim,
@@ -116,6 +119,37 @@ pub fn resume(options: &ResumeOptions) -> Result<(), RunError> {
     };
     let summary = run::run_in(&config, dir, mode, Folder::Resume, origin)?;
     run::print_outcome(dir, &summary);
+    Ok(())
+}
+
+/// `resume --steps N`: raise the run's step count to `steps` (never lower it). A finished
+/// run's summary.json is first renamed to summary_step_<old>.json, then config.toml is
+/// rewritten (each step atomic: a stop between them leaves the old run, unfinished).
+fn extend_run(dir: &Path, config: &mut RunConfig, steps: u64) -> Result<(), RunError> {
+    let old = config.steps;
+    if steps < old {
+        return Err(RunError::Config(crate::config::ConfigError::Invalid {
+            field: "--steps".into(),
+            reason: format!(
+                "{steps} is below the run's {old} steps in {}: a run can be extended, not shortened",
+                dir.join("config.toml").display()
+            ),
+        }));
+    }
+    if steps == old {
+        return Ok(());
+    }
+    config.steps = steps;
+    config.cortex.train.steps = steps;
+    config.validate()?;
+    let summary = dir.join("summary.json");
+    if summary.is_file() {
+        let kept = dir.join(format!("summary_step_{old}.json"));
+        std::fs::rename(&summary, &kept).map_err(crate::io::fs_err(&summary))?;
+        println!("  the finished run's summary is kept as {}", kept.display());
+    }
+    crate::io::write_atomic(&dir.join("config.toml"), config.to_toml().as_bytes())?;
+    println!("  extending the run from {old} to {steps} steps");
     Ok(())
 }
 

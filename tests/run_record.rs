@@ -106,3 +106,39 @@ fn measurements_of_a_run_never_touch_its_record() {
     assert_eq!(snapshot(&run, &["cmf-sim", "scope"]), before);
     std::fs::remove_dir_all(dir).ok();
 }
+
+#[test]
+fn resume_with_more_steps_extends_a_finished_run_like_a_longer_one() {
+    let dir = std::env::temp_dir().join(format!("cv_extend_{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let run = |args: &[&str]| {
+        let o = colorvision(&dir, args);
+        assert!(o.status.success(), "{args:?}: {}", text(&o));
+    };
+    run(&[
+        "train", "--preset", "tiny", "--steps", "3", "--out", "short",
+    ]);
+    run(&["resume", "short", "--steps", "5"]);
+    run(&["train", "--preset", "tiny", "--steps", "5", "--out", "long"]);
+    let losses = |name: &str| -> Vec<String> {
+        std::fs::read_to_string(dir.join(name).join("metrics.csv"))
+            .unwrap()
+            .lines()
+            .skip(1)
+            .map(|l| l.split(',').take(2).collect::<Vec<_>>().join(","))
+            .collect()
+    };
+    assert_eq!(losses("short"), losses("long"), "step,loss rows");
+    assert!(dir.join("short/summary_step_3.json").is_file());
+    let summary = std::fs::read_to_string(dir.join("short/summary.json")).unwrap();
+    assert!(summary.contains("\"steps\": 5"), "{summary}");
+    let o = colorvision(&dir, &["resume", "short", "--steps", "4"]);
+    assert!(!o.status.success());
+    assert!(
+        text(&o).contains("--steps") && text(&o).contains("shortened"),
+        "{}",
+        text(&o)
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
