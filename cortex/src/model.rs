@@ -23,9 +23,10 @@
 //! blocks. The prediction `Ô_{t+1}` is the output whose error such rules use; translate and
 //! re-encode Ψ∘Ω (P's warp, C's sampling, W's forward filter) form the output mapping and are
 //! not tagged: under direct feedback alignment they take the true error, as the output layer
-//! does in Nøkland (2016). With `V̂_{t+1}` and `⟨V̂, C⟩` tagged as well, the quick cortex's loss
-//! ran away within 50 steps (150 → 1e14): C's sampling and W's encode, being unit-norm and
-//! shared with decode, cannot align with a feedback of the wrong sign.
+//! does in Nøkland (2016). On the quick cortex with seed 0's feedback draw the loss runs away
+//! within 50 steps (150 → 1e14) whether or not `V̂_{t+1}` and `⟨V̂, C⟩` are tagged too; with
+//! another draw it falls: C's sampling and W's encode, unit-norm and shared with decode, are a
+//! poor output layer to align with a feedback of the wrong sign.
 
 use crate::buckets::{c::CBucket, d::DBucket, p::PBucket, w::WBucket};
 use crate::config::{Baseline, CortexConfig, MMode};

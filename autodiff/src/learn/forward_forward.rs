@@ -18,7 +18,7 @@
 //!    used.
 //!
 //! Objectives ([`threshold_goodness_loss`], Hinton's; [`pairwise_goodness_loss`], a
-//! positive/negative pair compared directly) are helpers a model may use to build its local
+//! positive/negative pair compared directly) are functions a model may use to build its local
 //! losses; the rule does not depend on them.
 //!
 //! Sign convention: what is returned is `∂(Σ local losses)/∂θ` with cross-scope paths cut;
