@@ -7,7 +7,10 @@
 //! then the cortex step (motion estimation, forward, backward, Adam) — for the quick preset
 //! with block-matching motion, the quick preset with the oracle motion (what the default run
 //! uses) and the sandbox preset, **interleaved step by step** so that the three see the same
-//! machine load (a shared VM's speed can drift by tens of per cent over minutes). `paper` runs the
+//! machine load (a shared VM's speed can drift by tens of per cent over minutes). `rules` runs
+//! the default quick step (oracle motion) under each learning rule (`cortex::RuleKind`),
+//! interleaved the same way, and prints each rule's cortex step relative to backprop's (only when
+//! named: `cargo bench --bench cortex_step -- rules`). `paper` runs the
 //! paper cortex on a synthetic batch (its retina is benchmarked in `benches/retina.rs`).
 //! Paper step: report time and peak memory (target ≤ 8 GiB).
 //!
@@ -22,7 +25,7 @@ use colorvision::source::RetinaSource;
 use cortex::config::{CortexConfig, MMode};
 use cortex::model::{BUCKETS, BUCKET_NAMES};
 use cortex::synthetic::{SyntheticConfig, SyntheticSource};
-use cortex::{DataSource, StepStats, Trainer};
+use cortex::{DataSource, RuleKind, StepStats, Trainer};
 use retina::Retina;
 
 fn median(mut v: Vec<f64>) -> f64 {
@@ -65,6 +68,18 @@ impl Case {
             batch_ms: Vec::new(),
             stats: Vec::new(),
         }
+    }
+
+    /// The same case trained by `rule` (random state from seed 1).
+    fn with_rule(mut self, rule: RuleKind) -> Self {
+        let built = rule.build(1, &self.trainer.cortex.params);
+        self.trainer.set_learning_rule(built);
+        self
+    }
+
+    /// Median cortex step, ms.
+    fn cortex_ms(&self) -> f64 {
+        median(self.stats.iter().map(|s| s.total_ms).collect())
     }
 
     /// One training step as `colorvision train` runs it: draw a batch, then step.
@@ -179,6 +194,35 @@ fn main() {
             ),
         ];
         bench(cases, 3, 30, profile);
+    }
+    if args.iter().any(|a| a == "rules") {
+        let mut oracle = CortexConfig::quick();
+        oracle.m.mode = MMode::Oracle;
+        let mut cases: Vec<Case> = RuleKind::ALL
+            .iter()
+            .map(|&rule| {
+                Case::new(
+                    rule.name(),
+                    oracle.clone(),
+                    retina_source("quick", true),
+                    true,
+                )
+                .with_rule(rule)
+            })
+            .collect();
+        for k in 0..3 + 20 {
+            for case in &mut cases {
+                case.step(k >= 3, false);
+            }
+        }
+        let base = cases[0].cortex_ms();
+        for case in &mut cases {
+            case.report(false);
+            println!(
+                "  cortex step relative to backprop: {:.2}×",
+                case.cortex_ms() / base
+            );
+        }
     }
     if want("paper") {
         // The paper cortex on a synthetic batch (its retina is benchmarked in `benches/retina.rs`).

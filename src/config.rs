@@ -91,9 +91,9 @@ pub struct RunConfig {
     pub steps: u64,
     /// Use the oracle eye motion (said in the run's output when on).
     pub oracle_motion: bool,
-    /// Credit assignment: `backprop` (default) or `feedback-alignment` (fixed random backward
-    /// weights for every conv and matmul kernel; forward unchanged).
-    pub learning_rule: String,
+    /// Credit assignment: `backprop` (default), `feedback-alignment`,
+    /// `direct-feedback-alignment` or `forward-forward` (`cortex::rule`).
+    pub learning_rule: cortex::RuleKind,
     /// The eye.
     pub retina: RetinaConfig,
     /// The cortex.
@@ -164,7 +164,7 @@ impl RunConfig {
             seed: 0,
             steps,
             oracle_motion: matches!(cortex.m.mode, cortex::config::MMode::Oracle),
-            learning_rule: "backprop".to_string(),
+            learning_rule: cortex::RuleKind::Backprop,
             retina,
             cortex,
             cmf_sim,
@@ -355,18 +355,6 @@ impl RunConfig {
             }
             other => invalid("cortex", other.to_string()),
         })?;
-        if !matches!(
-            self.learning_rule.as_str(),
-            "backprop" | "feedback-alignment"
-        ) {
-            return Err(invalid(
-                "learning_rule",
-                format!(
-                    "`{}` is not backprop or feedback-alignment",
-                    self.learning_rule
-                ),
-            ));
-        }
         if self.steps == 0 {
             return Err(invalid("steps", "must be at least 1".into()));
         }

@@ -363,9 +363,9 @@ impl<'a> RunState<'a> {
                 (new_trainer(config, origin)?, Progress::default())
             }
         };
-        if config.learning_rule == "feedback-alignment" {
-            let rule = feedback_alignment(config, &trainer, was_resumed, origin)?;
-            trainer.set_learning_rule(Box::new(rule));
+        if config.learning_rule != cortex::RuleKind::Backprop {
+            let rule = learning_rule(config, &trainer, was_resumed, origin)?;
+            trainer.set_learning_rule(rule);
         }
         let mut state = RunState {
             config,
@@ -466,8 +466,8 @@ impl<'a> RunState<'a> {
                 "  the cortex receives the optic nerve signal only (eye motion estimated by bucket M)"
             );
         }
-        if c.learning_rule == "feedback-alignment" {
-            println!("  learning rule: feedback alignment (fixed random backward weights for conv/matmul kernels)");
+        if c.learning_rule != cortex::RuleKind::Backprop {
+            println!("  learning rule: {}", c.learning_rule.describe());
         }
         let retina = &self.source.retina;
         println!(
@@ -510,22 +510,22 @@ fn new_trainer(config: &RunConfig, origin: Origin<'_>) -> Result<Trainer, RunErr
     })
 }
 
-/// Feedback alignment with backward weights drawn from the run's seed and scaled to the
-/// parameters the run started from (`autodiff::learn::FeedbackAlignment::scaled_to`). A
-/// resumed run rebuilds that start ([`new_trainer`]: the seeded initialisation, or the
-/// checkpoint it continued), so it draws the backward weights of the run that never stopped.
-fn feedback_alignment(
+/// The run's learning rule, its random state drawn from the run's seed and fitted to the
+/// parameters the run started from (`cortex::RuleKind::build`). A resumed run rebuilds that
+/// start ([`new_trainer`]: the seeded initialisation, or the checkpoint it continued), so it
+/// draws the backward weights of the run that never stopped.
+fn learning_rule(
     config: &RunConfig,
     trainer: &Trainer,
     resumed: bool,
     origin: Origin<'_>,
-) -> Result<autodiff::learn::FeedbackAlignment<f32>, RunError> {
+) -> Result<Box<dyn autodiff::learn::LearningRule<f32>>, RunError> {
     let seed = config.seed ^ 0xFA;
     Ok(if resumed {
         let start = new_trainer(config, origin)?;
-        autodiff::learn::FeedbackAlignment::scaled_to(seed, &start.cortex.params)
+        config.learning_rule.build(seed, &start.cortex.params)
     } else {
-        autodiff::learn::FeedbackAlignment::scaled_to(seed, &trainer.cortex.params)
+        config.learning_rule.build(seed, &trainer.cortex.params)
     })
 }
 

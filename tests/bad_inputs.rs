@@ -181,7 +181,20 @@ const CASES: &[Case] = &[
         "learning rule",
         Some("learning_rule = \"hebb\""),
         &[],
-        &["bad.toml", "learning_rule"],
+        &[
+            "bad.toml",
+            "learning_rule",
+            "backprop",
+            "feedback-alignment",
+            "direct-feedback-alignment",
+            "forward-forward",
+        ],
+    ),
+    case(
+        "learning rule, snake case",
+        Some("learning_rule = \"forward_forward\""),
+        &[],
+        &["bad.toml", "learning_rule", "forward-forward"],
     ),
     case(
         "steps string",

@@ -402,11 +402,10 @@ fn a_continued_run_killed_in_its_second_stage_resumes_bit_identically() {
     std::fs::remove_dir_all(dir).ok();
 }
 
-#[test]
-fn a_feedback_alignment_run_killed_between_steps_resumes_bit_identically() {
-    // The fixed random backward weights are scaled to the parameters the run started from;
-    // the run resumed at step 4 must draw the same ones, not ones scaled to step 4's weights.
-    let config = format!("learning_rule = \"feedback-alignment\"\n{CONFIG}");
+/// A run under learning rule `rule` killed at step 6 and resumed ends with the final
+/// parameters and optimiser state of the run that never stopped; its log names the rule.
+fn a_rule_run_resumes_bit_identically(rule: &str, logged: &str) {
+    let config = format!("learning_rule = \"{rule}\"\n{CONFIG}");
     let final_state = |out: &Path| {
         let ck = out.join("checkpoints").join("step_00000012");
         (
@@ -414,10 +413,10 @@ fn a_feedback_alignment_run_killed_between_steps_resumes_bit_identically() {
             std::fs::read(ck.join("optim.safetensors")).unwrap(),
         )
     };
-    let reference = scratch("fa_reference");
+    let reference = scratch(&format!("{rule}_reference"));
     let o = start_with(&reference, "train", &config, None);
     assert!(o.status.success(), "{}", text(&o));
-    let dir = scratch("fa");
+    let dir = scratch(rule);
     let o = start_with(&dir, "train", &config, Some("abort@step:6"));
     assert_eq!(exit_code(&o), Some(ABORT), "{}", text(&o));
     assert_files_parse(&dir.join("out"), true);
@@ -425,14 +424,33 @@ fn a_feedback_alignment_run_killed_between_steps_resumes_bit_identically() {
     let log = text(&o);
     assert!(o.status.success(), "{log}");
     assert!(log.contains("resuming at step 4"), "{log}");
-    assert!(log.contains("feedback alignment"), "{log}");
+    assert!(log.contains(logged), "{log}");
     assert_files_parse(&dir.join("out"), false);
     let (got, want) = (
         final_state(&dir.join("out")),
         final_state(&reference.join("out")),
     );
-    assert!(got.0 == want.0, "final parameters differ");
-    assert!(got.1 == want.1, "final optimiser state differs");
+    assert!(got.0 == want.0, "{rule}: final parameters differ");
+    assert!(got.1 == want.1, "{rule}: final optimiser state differs");
     std::fs::remove_dir_all(reference).ok();
     std::fs::remove_dir_all(dir).ok();
+}
+
+#[test]
+fn a_feedback_alignment_run_killed_between_steps_resumes_bit_identically() {
+    // The fixed random backward weights are scaled to the parameters the run started from;
+    // the run resumed at step 4 must draw the same ones, not ones scaled to step 4's weights.
+    a_rule_run_resumes_bit_identically("feedback-alignment", "feedback alignment");
+}
+
+#[test]
+fn a_direct_feedback_alignment_run_killed_between_steps_resumes_bit_identically() {
+    // The feedback matrices depend on the seed, the tags and the shapes only.
+    a_rule_run_resumes_bit_identically("direct-feedback-alignment", "direct feedback alignment");
+}
+
+#[test]
+fn a_forward_forward_run_killed_between_steps_resumes_bit_identically() {
+    // The wrong motions of the negative data come from the batch: the data stream's resume.
+    a_rule_run_resumes_bit_identically("forward-forward", "forward-forward");
 }

@@ -28,6 +28,7 @@ pub mod ops;
 pub mod optim;
 pub mod params;
 pub mod profile;
+pub mod scopes;
 pub mod tape;
 pub mod tensor;
 

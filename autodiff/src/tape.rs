@@ -9,10 +9,13 @@
 //! - Gradients of intermediate nodes are dropped as soon as they have been propagated, unless
 //!   [`Tape::retain_grad`] asked for them; gradients of leaves (parameters, [`Tape::leaf`]) are
 //!   always kept.
+//! - A model may name stretches of the tape (scopes), tag activations and declare local losses
+//!   ([`crate::scopes`]); learning rules read them, and backward times each scope.
 
 use crate::op::{BackwardCx, ClosureOp, GradSlots, Op, Pointwise, PointwiseOp};
 use crate::params::ParamId;
 use crate::profile::Profile;
+use crate::scopes::{ScopeTimes, Scopes};
 use crate::{Float, Shape, Tensor};
 use std::collections::HashMap;
 use std::sync::atomic::{AtomicU32, Ordering};
@@ -135,12 +138,23 @@ pub struct NodeView<'a, T: Float> {
     /// The node's value.
     pub value: &'a Tensor<T>,
     op: Option<&'a dyn Op<T>>,
+    scopes: &'a Scopes,
 }
 
 impl<T: Float> NodeView<'_, T> {
     /// Indices of inputs the op declares as weights (see [`Op::weight_inputs`]).
     pub fn weight_inputs(&self) -> &'static [usize] {
         self.op.map_or(&[], |op| op.weight_inputs())
+    }
+
+    /// The scope this node was recorded in ([`crate::scopes`]).
+    pub fn scope(&self) -> Option<&'static str> {
+        self.scopes.name_of(self.var.index())
+    }
+
+    /// The scope input `i` was recorded in.
+    pub fn input_scope(&self, i: usize) -> Option<&'static str> {
+        self.scopes.name_of(self.inputs[i].index())
     }
 
     /// Runs this node's own backward with `inputs` substituted for the real input values, e.g.
@@ -197,6 +211,7 @@ pub struct Tape<T: Float = f32> {
     pool: BufferPool<T>,
     /// Per-op times, when profiling is on (see [`crate::profile`]).
     profile: Option<Profile>,
+    scopes: Scopes,
 }
 
 impl<T: Float> Default for Tape<T> {
@@ -217,6 +232,7 @@ impl<T: Float> Tape<T> {
             grads: Vec::new(),
             pool: BufferPool::default(),
             profile: None,
+            scopes: Scopes::default(),
         }
     }
 
@@ -230,6 +246,7 @@ impl<T: Float> Tape<T> {
         }
         self.nodes.clear();
         self.input_ids.clear();
+        self.scopes.clear();
         self.generation = self.generation.wrapping_add(1);
     }
 
@@ -246,6 +263,58 @@ impl<T: Float> Tape<T> {
             Some(p) => std::mem::take(p),
             None => Profile::default(),
         }
+    }
+
+    /// Nodes recorded from now on belong to scope `name` (see [`crate::scopes`]).
+    pub fn enter_scope(&mut self, name: &'static str) {
+        assert!(!name.is_empty(), "Tape::enter_scope: empty scope name");
+        self.scopes.enter(self.nodes.len(), name);
+    }
+
+    /// Ends the current scope: nodes recorded from now on belong to none.
+    pub fn close_scope(&mut self) {
+        self.scopes.close(self.nodes.len());
+    }
+
+    /// The scope `v` was recorded in.
+    #[track_caller]
+    pub fn scope_of(&self, v: Var) -> Option<&'static str> {
+        self.scopes.name_of(self.check(v))
+    }
+
+    /// Names the activation `v` (a layer's output) for learning rules that act on layers.
+    #[track_caller]
+    pub fn tag(&mut self, v: Var, name: &'static str) {
+        self.check(v);
+        self.scopes.tags.push((name, v));
+    }
+
+    /// The tagged activations, in recording order.
+    pub fn tags(&self) -> &[(&'static str, Var)] {
+        &self.scopes.tags
+    }
+
+    /// Declares the scalar `loss` as the local objective of scope `scope`.
+    #[track_caller]
+    pub fn declare_local_loss(&mut self, scope: &'static str, loss: Var) {
+        let i = self.check(loss);
+        assert_eq!(
+            self.values[i].numel(),
+            1,
+            "declare_local_loss: the loss of scope {scope} must have one element, got {:?}",
+            self.values[i].shape()
+        );
+        self.scopes.local_losses.push((scope, loss));
+    }
+
+    /// The declared local losses `(scope, loss)`, in recording order.
+    pub fn local_losses(&self) -> &[(&'static str, Var)] {
+        &self.scopes.local_losses
+    }
+
+    /// Forward and backward wall time per scope since the last `clear()`.
+    pub fn scope_times(&self) -> ScopeTimes {
+        self.scopes.times()
     }
 
     /// Number of nodes recorded since the last `clear()`.
@@ -506,10 +575,12 @@ impl<T: Float> Tape<T> {
         let mut input_shapes: Vec<Shape> = Vec::new();
         let mut input_vars: Vec<Var> = Vec::new();
         let mut input_kinds: Vec<NodeKind> = Vec::new();
+        let timed = !self.scopes.is_empty();
         for i in (0..=last).rev() {
             let Some(mut dy) = self.grads[i].take() else {
                 continue;
             };
+            let node_start = timed.then(std::time::Instant::now);
             let node = &self.nodes[i];
             let range = node.inputs.start as usize..node.inputs.end as usize;
             let ids = &self.input_ids[range];
@@ -550,6 +621,7 @@ impl<T: Float> Tape<T> {
                 input_values: &input_values,
                 value: &self.values[i],
                 op: node.op.as_deref(),
+                scopes: &self.scopes,
             };
             hooks.on_grad(&view, &mut dy);
             if let (Some(op), true) = (node.op.as_deref(), wants != 0) {
@@ -578,6 +650,9 @@ impl<T: Float> Tape<T> {
                 self.grads[i] = Some(dy);
             } else {
                 self.pool.put(dy);
+            }
+            if let Some(t) = node_start {
+                self.scopes.add_backward(i, t.elapsed().as_secs_f64());
             }
         }
     }

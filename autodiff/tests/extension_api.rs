@@ -244,7 +244,7 @@ fn frozen_parameters_stay_bit_identical_through_adam() {
         let y = tape.matmul(h, b);
         let loss = tape.square(y);
         let loss = tape.sum(loss);
-        let grads = Backprop.assign_credit(&mut tape, loss, &params);
+        let grads = Backprop.assign_credit(&mut tape, loss.into(), &params);
         assert!(
             grads.get(w1).is_none(),
             "a frozen parameter is a constant on the tape"
@@ -311,7 +311,7 @@ impl Regression {
         for step in 0..600 {
             let loss = self.loss(&mut tape, &p);
             last = tape.value(loss).item();
-            let grads = rule.assign_credit(&mut tape, loss, &p);
+            let grads = rule.assign_credit(&mut tape, loss.into(), &p);
             if step == 0 {
                 first = last;
                 g0 = grads.get(ParamId(0)).cloned();

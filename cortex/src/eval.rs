@@ -3,7 +3,6 @@
 //! parameters.
 
 use crate::data::TrainingBatch;
-use crate::model::Marks;
 use crate::trainer::{PredictionError, Trainer};
 use crate::CortexError;
 
@@ -26,9 +25,9 @@ impl Trainer {
         self.tape.clear();
         let o1 = self.tape.constant_from([b, 1, n, n], &self.frames[0]);
         let o2 = self.tape.constant_from([b, 1, n, n], &self.frames[1]);
-        let pred =
-            self.cortex
-                .record_prediction(&mut self.tape, o1, o2, &motion, &mut Marks::default());
+        let pred = self
+            .cortex
+            .record_prediction(&mut self.tape, o1, o2, &motion);
         let (p, m) = (
             self.tape.value(pred.predicted).data(),
             self.tape.value(pred.mask).data(),

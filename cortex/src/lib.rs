@@ -28,10 +28,12 @@ pub mod config;
 pub mod data;
 pub mod error;
 pub mod eval;
+pub mod forward_forward;
 pub mod model;
 pub mod motion;
 pub mod persist;
 pub mod rng;
+pub mod rule;
 pub mod synthetic;
 pub mod trainer;
 
@@ -40,4 +42,5 @@ pub use data::{DataSource, TrainingBatch};
 pub use error::CortexError;
 pub use eval::MotionError;
 pub use model::Cortex;
+pub use rule::RuleKind;
 pub use trainer::{PredictionError, StepStats, Trainer};

@@ -16,8 +16,17 @@
 //! Baselines (paper S-05): `identity_percept` skips W, C and D (the percept is the ONS);
 //! `no_demosaicker` uses D = identity; `cone_activations_as_ons` changes only the data.
 //!
-//! Every stretch of the tape is tagged with its [`Bucket`] so the trainer can time forward and
-//! backward per bucket.
+//! Every stretch of the tape is a scope named after its [`Bucket`] (`BUCKET_NAMES`), so the
+//! trainer times forward and backward per bucket under any learning rule, and a layer-local
+//! rule knows which bucket recorded each node. The hidden layers of decode Φ are tagged
+//! (`TAGS`) for rules that act on layers: `pa` (W), `X` (C), `V_t` (D), and the U-Net tags its
+//! blocks. The prediction `Ô_{t+1}` is the output whose error such rules use; translate and
+//! re-encode Ψ∘Ω (P's warp, C's sampling, W's forward filter) form the output mapping and are
+//! not tagged: under direct feedback alignment they take the true error, as the output layer
+//! does in Nøkland (2016). On the quick cortex with seed 0's feedback draw the loss runs away
+//! within 50 steps (150 → 1e14) whether or not `V̂_{t+1}` and `⟨V̂, C⟩` are tagged too; with
+//! another draw it falls: C's sampling and W's encode, unit-norm and shared with decode, are a
+//! poor output layer to align with a feedback of the wrong sign.
 
 use crate::buckets::{c::CBucket, d::DBucket, p::PBucket, w::WBucket};
 use crate::config::{Baseline, CortexConfig, MMode};
@@ -27,7 +36,6 @@ use crate::motion::learned::SubpixelRefiner;
 use crate::motion::sampling::unit_grid;
 use crate::CortexError;
 use autodiff::{ParamStore, Tape, Tensor, Var};
-use std::time::Instant;
 
 /// The parts of a step that are timed separately.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -45,41 +53,27 @@ pub const BUCKETS: usize = 6;
 /// Names of the buckets, indexed by `Bucket as usize`.
 pub const BUCKET_NAMES: [&str; BUCKETS] = ["W", "C", "D", "P", "M", "loss"];
 
-/// Where each bucket's stretch of the tape begins, and when (ops run as they are recorded, so
-/// the wall-clock time between marks is that bucket's forward time).
-#[derive(Clone, Debug, Default)]
-pub struct Marks {
-    starts: Vec<(usize, Bucket, Instant)>,
-    end: Option<Instant>,
+/// Tags of decode Φ's bucket outputs, in forward order: decoded activations, injected
+/// colour, percept.
+pub const TAGS: [&str; 3] = ["cortex.w.decoded", "cortex.c.injected", "cortex.d.percept"];
+
+fn enter(tape: &mut Tape<f32>, b: Bucket) {
+    tape.enter_scope(BUCKET_NAMES[b as usize]);
 }
 
-impl Marks {
-    fn enter(&mut self, tape: &Tape<f32>, b: Bucket) {
-        self.starts.push((tape.len(), b, Instant::now()));
-    }
-
-    /// Closes the last stretch (call when recording is done).
-    pub fn finish(&mut self) {
-        self.end = Some(Instant::now());
-    }
-
-    /// The bucket that recorded node `index`.
-    pub fn bucket_of(&self, index: usize) -> Option<Bucket> {
-        let k = self.starts.partition_point(|(start, _, _)| *start <= index);
-        (k > 0).then(|| self.starts[k - 1].1)
-    }
-
-    /// Forward milliseconds per bucket.
-    pub fn forward_ms(&self) -> [f64; BUCKETS] {
-        let mut out = [0.0; BUCKETS];
-        for (i, (_, b, t)) in self.starts.iter().enumerate() {
-            let next = self.starts.get(i + 1).map(|s| s.2).or(self.end);
-            if let Some(next) = next {
-                out[*b as usize] += (next - *t).as_secs_f64() * 1e3;
-            }
-        }
-        out
-    }
+/// What decode Φ leaves on the tape.
+#[derive(Clone, Copy, Debug)]
+pub struct Decoded {
+    /// The cone activations `pa = Φ_W(O)`, `(B, 1, n, n)`.
+    pub activations: Var,
+    /// `X = pa·C`, `(B, N, n, n)` (the activations again in the identity-percept baseline).
+    pub injected: Var,
+    /// The percept `V = D(X)`, `(B, N, n, n)`.
+    pub percept: Var,
+    /// W's response, when learned.
+    pub w: Option<Var>,
+    /// The effective C, when present.
+    pub c: Option<Var>,
 }
 
 /// What one recorded prediction leaves on the tape.
@@ -95,6 +89,8 @@ pub struct Prediction {
     pub predicted: Var,
     /// The warp's validity mask, `(B, 1, n, n)`.
     pub mask: Var,
+    /// Decode Φ of `O_t`.
+    pub decoded: Decoded,
 }
 
 /// The cortex model: its config, parameters and buckets.
@@ -168,25 +164,35 @@ impl Cortex {
         self.config.percept_dim()
     }
 
-    /// Records decode Φ of `ons (B, 1, n, n)`; returns the percept and the shared W, C vars.
-    pub fn record_decode(
-        &self,
-        tape: &mut Tape<f32>,
-        ons: Var,
-        marks: &mut Marks,
-    ) -> (Var, Option<Var>, Option<Var>) {
-        marks.enter(tape, Bucket::W);
+    /// Records decode Φ of `ons (B, 1, n, n)` in the W, C and D scopes.
+    pub fn record_decode(&self, tape: &mut Tape<f32>, ons: Var) -> Decoded {
+        enter(tape, Bucket::W);
         let r = self.w.record(tape, &self.params);
         let pa = self.w.decode(tape, r, ons);
+        tape.tag(pa, TAGS[0]);
         let Some(cb) = &self.c else {
-            return (pa, r, None);
+            return Decoded {
+                activations: pa,
+                injected: pa,
+                percept: pa,
+                w: r,
+                c: None,
+            };
         };
-        marks.enter(tape, Bucket::C);
+        enter(tape, Bucket::C);
         let c = cb.record(tape, &self.params);
         let x = cb.inject(tape, c, pa);
-        marks.enter(tape, Bucket::D);
+        tape.tag(x, TAGS[1]);
+        enter(tape, Bucket::D);
         let v = self.d.forward(tape, &self.params, x);
-        (v, r, Some(c))
+        tape.tag(v, TAGS[2]);
+        Decoded {
+            activations: pa,
+            injected: x,
+            percept: v,
+            w: r,
+            c: Some(c),
+        }
     }
 
     /// Estimates the motion of frames `(B, n, n)` each (no gradient). `oracle` is required in
@@ -239,11 +245,16 @@ impl Cortex {
         o1: Var,
         o2: Var,
         motion: &MotionOut,
-        marks: &mut Marks,
     ) -> Prediction {
         let (b, _, n, _) = tape.shape(o1).bchw("Cortex::record_prediction");
-        let (v1, r, c) = self.record_decode(tape, o1, marks);
-        marks.enter(tape, Bucket::P);
+        let decoded = self.record_decode(tape, o1);
+        let Decoded {
+            percept: v1,
+            w: r,
+            c,
+            ..
+        } = decoded;
+        enter(tape, Bucket::P);
         let extra: Vec<Var> = match &motion.blurred {
             Some((b1, _)) => vec![tape.constant_from([b, 1, n, n], b1)],
             None => Vec::new(),
@@ -251,14 +262,14 @@ impl Cortex {
         let (v2, mask, extra_w) = self.p.warp(tape, &self.params, v1, &extra, &motion.motion);
         let pa2 = match (&self.c, c) {
             (Some(cb), Some(c)) => {
-                marks.enter(tape, Bucket::C);
+                enter(tape, Bucket::C);
                 cb.sample(tape, c, v2)
             }
             _ => v2,
         };
-        marks.enter(tape, Bucket::W);
+        enter(tape, Bucket::W);
         let pred = self.w.encode(tape, r, pa2);
-        marks.enter(tape, Bucket::Loss);
+        enter(tape, Bucket::Loss);
         let border = self.config.loss.border_px;
         let main = tape.masked_sq_error(pred, o2, mask, border);
         let mut loss = match (&motion.blurred, extra_w.first()) {
@@ -279,7 +290,7 @@ impl Cortex {
             let sites = (n - 2 * border).pow(2) as f64;
             let wgt = self.config.m.gauge_weight * sites;
             if wgt > 0.0 {
-                marks.enter(tape, Bucket::P);
+                enter(tape, Bucket::P);
                 let vars = flow.record(tape, &self.params);
                 let pts = tape.constant_from([uv.len() / 2, 2], uv);
                 let xy = flow.forward_with(tape, &vars, pts);
@@ -288,13 +299,14 @@ impl Cortex {
                 loss = tape.add(loss, g);
             }
         }
-        marks.finish();
+        tape.close_scope();
         Prediction {
             loss,
             main_loss: main,
             percept: v1,
             predicted: pred,
             mask,
+            decoded,
         }
     }
 
@@ -309,7 +321,7 @@ impl Cortex {
         );
         let mut tape = Tape::<f32>::new();
         let o = tape.constant_from([batch, 1, n, n], ons);
-        let (v, _, _) = self.record_decode(&mut tape, o, &mut Marks::default());
+        let v = self.record_decode(&mut tape, o).percept;
         tape.value(v).data().to_vec()
     }
 

@@ -2,7 +2,11 @@
 //! and the tape; [`Trainer::step`] turns one [`TrainingBatch`] into one gradient update.
 //!
 //! - Credit assignment goes through `autodiff::learn::LearningRule` (backprop by default;
-//!   [`Trainer::set_learning_rule`] swaps in feedback alignment or a user rule).
+//!   [`Trainer::set_learning_rule`] swaps in any rule: [`crate::RuleKind`] or a user's). The
+//!   rule receives the recorded prediction (loss, output `Ô_{t+1}`, the tape's bucket scopes
+//!   and tags) and, when it asks, the cortex's local objectives
+//!   ([`crate::forward_forward`]). Forward and backward time per bucket come from the tape's
+//!   scopes, whatever the rule.
 //! - A non-finite loss or gradient stops with [`CortexError::NonFiniteLoss`] *before* the update,
 //!   so the parameters stay those of the last good step and checkpoints on disk are untouched.
 //! - Checkpoints ([`crate::checkpoint`]) hold parameters, Adam state, step, config, RNG and the
@@ -14,12 +18,12 @@
 
 use crate::config::CortexConfig;
 use crate::data::TrainingBatch;
-use crate::model::{Bucket, Cortex, Marks, BUCKETS, BUCKET_NAMES};
+use crate::model::{Bucket, Cortex, BUCKETS, BUCKET_NAMES};
 use crate::rng::CortexRng;
 use crate::CortexError;
-use autodiff::learn::{LearningRule, ParamGrads};
+use autodiff::learn::{Backprop, LearningRule, Objective, ParamGrads};
 use autodiff::optim::{Adam, Optimizer};
-use autodiff::{BackwardHooks, NodeView, Tape, Tensor};
+use autodiff::Tape;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -34,10 +38,9 @@ pub struct StepStats {
     pub main_loss: f64,
     /// Forward time per bucket, indexed by [`Bucket`] (M is motion estimation).
     pub forward_ms: [f64; BUCKETS],
-    /// Backward time per bucket (measured only with the default backprop rule; else zeros and
-    /// the total in `credit_ms`).
+    /// Backward time per bucket, every sweep the rule ran (rule hooks included).
     pub backward_ms: [f64; BUCKETS],
-    /// Whole credit assignment (backward sweep and gradient gathering).
+    /// Whole credit assignment (the rule's sweeps and gradient gathering).
     pub credit_ms: f64,
     /// Adam update.
     pub optimizer_ms: f64,
@@ -76,29 +79,12 @@ impl PredictionError {
     }
 }
 
-/// Backward hooks that time the sweep per bucket from the tape's marks.
-struct TimingHooks<'a> {
-    marks: &'a Marks,
-    last: Option<(Instant, Bucket)>,
-    acc: [f64; BUCKETS],
-}
-
-impl BackwardHooks<f32> for TimingHooks<'_> {
-    fn on_grad(&mut self, node: &NodeView<'_, f32>, _grad: &mut Tensor<f32>) {
-        let now = Instant::now();
-        if let Some((t, b)) = self.last {
-            self.acc[b as usize] += (now - t).as_secs_f64() * 1e3;
-        }
-        self.last = self.marks.bucket_of(node.var.index()).map(|b| (now, b));
-    }
-}
-
 /// The training loop's state.
 pub struct Trainer {
     /// The model being trained.
     pub cortex: Cortex,
     pub(crate) optim: Optimizer<f32, Adam>,
-    pub(crate) rule: Option<Box<dyn LearningRule<f32>>>,
+    pub(crate) rule: Box<dyn LearningRule<f32>>,
     pub(crate) step: u64,
     pub(crate) rng: CortexRng,
     pub(crate) tape: Tape<f32>,
@@ -135,7 +121,7 @@ impl Trainer {
         Ok(Trainer {
             cortex,
             optim,
-            rule: None,
+            rule: Box::new(Backprop),
             step: 0,
             rng,
             tape: Tape::new(),
@@ -166,9 +152,9 @@ impl Trainer {
         &mut self.rng
     }
 
-    /// Replaces backprop by another credit-assignment rule (feedback alignment, …).
+    /// Replaces the credit-assignment rule (backprop at start).
     pub fn set_learning_rule(&mut self, rule: Box<dyn LearningRule<f32>>) {
-        self.rule = Some(rule);
+        self.rule = rule;
     }
 
     /// Turns the training tape's per-op profile on or off (see `autodiff::profile`).
@@ -234,14 +220,19 @@ impl Trainer {
         fwd[Bucket::M as usize] = tm.elapsed().as_secs_f64() * 1e3;
 
         self.tape.clear();
-        let mut marks = Marks::default();
         let o1 = self.tape.constant_from([b, 1, n, n], &self.frames[0]);
         let o2 = self.tape.constant_from([b, 1, n, n], &self.frames[1]);
         let pred = self
             .cortex
-            .record_prediction(&mut self.tape, o1, o2, &motion, &mut marks);
-        for (f, m) in fwd.iter_mut().zip(marks.forward_ms()) {
-            *f += m;
+            .record_prediction(&mut self.tape, o1, o2, &motion);
+        if self.rule.needs_local_losses() {
+            crate::forward_forward::record_local_losses(
+                &self.cortex,
+                &mut self.tape,
+                &pred,
+                o2,
+                &motion,
+            );
         }
         let loss = self.tape.value(pred.loss).item() as f64;
         let main_loss = self.tape.value(pred.main_loss).item() as f64;
@@ -260,29 +251,19 @@ impl Trainer {
         }
 
         let tc = Instant::now();
-        let mut bwd = [0.0; BUCKETS];
-        match &mut self.rule {
-            None => {
-                let mut hooks = TimingHooks {
-                    marks: &marks,
-                    last: None,
-                    acc: [0.0; BUCKETS],
-                };
-                self.tape.backward_with(pred.loss, &mut hooks);
-                if let Some((t, bk)) = hooks.last {
-                    hooks.acc[bk as usize] += t.elapsed().as_secs_f64() * 1e3;
-                }
-                bwd = hooks.acc;
-                self.grads.fill_from_tape(&self.tape);
-            }
-            Some(rule) => rule.assign_credit_into(
-                &mut self.tape,
-                pred.loss,
-                &self.cortex.params,
-                &mut self.grads,
-            ),
-        }
+        self.rule.assign_credit_into(
+            &mut self.tape,
+            Objective::with_output(pred.loss, pred.predicted),
+            &self.cortex.params,
+            &mut self.grads,
+        );
         let credit_ms = tc.elapsed().as_secs_f64() * 1e3;
+        let times = self.tape.scope_times();
+        let mut bwd = [0.0; BUCKETS];
+        for (i, name) in BUCKET_NAMES.iter().enumerate() {
+            fwd[i] += times.forward(name);
+            bwd[i] = times.backward(name);
+        }
         if let Some((id, _)) = self
             .grads
             .iter()

@@ -35,7 +35,6 @@ pub use settings::ObserverSettings;
 use autodiff::Tape;
 use colorimetry::observer::{Observer, Show};
 use colorimetry::WavelengthGrid;
-use cortex::model::Marks;
 use cortex::Cortex;
 use rand::RngCore;
 use rayon::prelude::*;
@@ -306,7 +305,7 @@ impl<'a> EyeObserver<'a> {
             tape.clear();
             let n = self.retina.n();
             let o = tape.constant_from([shows.len(), 1, n, n], &ons);
-            let (v, _, _) = cortex.record_decode(&mut tape, o, &mut Marks::default());
+            let v = cortex.record_decode(&mut tape, o).percept;
             let percept = tape.value(v).data();
             for (s, (entry, o)) in entries.iter().zip(out.chunks_exact_mut(len)).enumerate() {
                 let planes = &percept[s * dim * nn..(s + 1) * dim * nn];

@@ -22,9 +22,9 @@
 //!
 //! [`Op::weight_inputs`]: crate::Op::weight_inputs
 
-use super::{LearningRule, ParamGrads};
+use super::{LearningRule, Objective, ParamGrads};
 use crate::tape::{BackwardHooks, NodeKind, NodeView};
-use crate::{Float, GradSlots, ParamId, ParamStore, Tape, Tensor, Var};
+use crate::{Float, GradSlots, ParamId, ParamStore, Tape, Tensor};
 use rand::rngs::StdRng;
 use rand::SeedableRng;
 use rand_distr::{Distribution, StandardNormal};
@@ -165,11 +165,11 @@ impl<T: Float> LearningRule<T> for FeedbackAlignment<T> {
     fn assign_credit_into(
         &mut self,
         tape: &mut Tape<T>,
-        loss: Var,
+        objective: Objective,
         _params: &ParamStore<T>,
         grads: &mut ParamGrads<T>,
     ) {
-        tape.backward_with(loss, &mut Hooks { rule: self });
+        tape.backward_with(objective.loss, &mut Hooks { rule: self });
         grads.fill_from_tape(tape);
     }
 }
@@ -194,7 +194,7 @@ mod tests {
         let e = tape.sub(y, t);
         let e = tape.square(e);
         let loss = tape.sum(e);
-        rule.assign_credit(&mut tape, loss, params)
+        rule.assign_credit(&mut tape, loss.into(), params)
     }
 
     fn params() -> ParamStore<f64> {

@@ -1,9 +1,24 @@
 //! Learning rules: how one recorded forward pass becomes parameter updates.
 //!
-//! A model records its forward pass and loss on a tape; a [`LearningRule`] turns that record
-//! into a [`ParamGrads`] (one tensor per trainable parameter); an
+//! A model records its forward pass on a tape and hands the rule an [`Objective`]: the global
+//! scalar loss and, optionally, the output it is computed from. On the same tape the model
+//! names what rules that act on layers need ([`crate::scopes`]): scopes (stretches of the
+//! tape, e.g. one per layer or bucket), tagged activations (layer outputs) and local losses
+//! (one scalar objective per scope). A [`LearningRule`] turns that record into a
+//! [`ParamGrads`] (one tensor per trainable parameter); an
 //! [`Optimizer`](crate::optim::Optimizer) applies it. Swapping the rule leaves model and
-//! optimiser untouched:
+//! optimiser untouched.
+//!
+//! | rule | reads | credit |
+//! |---|---|---|
+//! | [`Backprop`] | loss | exact `∂L/∂θ` |
+//! | [`FeedbackAlignment`] | loss | errors sent back through fixed random weights |
+//! | [`DirectFeedbackAlignment`] | loss, output, tags | output error projected to every tagged layer |
+//! | [`ForwardForward`] | local losses, scopes | each scope's own objective, nothing across scopes |
+//!
+//! A rule that needs local losses says so ([`LearningRule::needs_local_losses`]); a model
+//! records them only then, so other rules pay nothing for them. Backward time per scope is
+//! measured by the tape for every rule ([`crate::Tape::scope_times`]).
 //!
 //! ```
 //! use autodiff::{learn::{Backprop, FeedbackAlignment, LearningRule}, optim::{Adam, Optimizer}};
@@ -22,7 +37,7 @@
 //!     let wv = params.var(&mut tape, w);
 //!     let y = tape.matmul(x, wv);
 //!     let loss = tape.sum(y);
-//!     let grads = rule.assign_credit(&mut tape, loss, &params);
+//!     let grads = rule.assign_credit(&mut tape, loss.into(), &params);
 //!     opt.step(&mut params, &grads).unwrap();
 //! }
 //! ```
@@ -32,35 +47,71 @@
 //! `&mut self`. Rules that change individual VJPs do so through
 //! [`BackwardHooks`](crate::BackwardHooks), so the model's ops need not know about them.
 
+mod direct_feedback;
 mod feedback;
+mod forward_forward;
 mod grads;
 
+pub use direct_feedback::DirectFeedbackAlignment;
 pub use feedback::FeedbackAlignment;
+pub use forward_forward::{pairwise_goodness_loss, threshold_goodness_loss, ForwardForward};
 pub use grads::ParamGrads;
 
 use crate::{Float, ParamStore, Tape, Var};
 
-/// Credit assignment: one recorded forward pass (`tape`, scalar `loss`) → parameter gradients.
+/// What a model hands a rule besides the tape: its global objective.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Objective {
+    /// The scalar training loss.
+    pub loss: Var,
+    /// The network's output the loss is computed from, for rules that project the output
+    /// error `∂L/∂output` ([`DirectFeedbackAlignment`]).
+    pub output: Option<Var>,
+}
+
+impl Objective {
+    /// The objective `loss` with its output `output`.
+    pub fn with_output(loss: Var, output: Var) -> Self {
+        Objective {
+            loss,
+            output: Some(output),
+        }
+    }
+}
+
+impl From<Var> for Objective {
+    fn from(loss: Var) -> Self {
+        Objective { loss, output: None }
+    }
+}
+
+/// Credit assignment: one recorded forward pass (`tape`, [`Objective`]) → parameter gradients.
 pub trait LearningRule<T: Float> {
     /// Writes the rule's gradient for every trainable parameter on `tape` into `grads`
     /// (replacing its contents, reusing its buffers). May run backward sweeps on `tape`.
     fn assign_credit_into(
         &mut self,
         tape: &mut Tape<T>,
-        loss: Var,
+        objective: Objective,
         params: &ParamStore<T>,
         grads: &mut ParamGrads<T>,
     );
+
+    /// Whether the model must declare local losses ([`Tape::declare_local_loss`]) for this
+    /// rule; models record them only when asked.
+    fn needs_local_losses(&self) -> bool {
+        false
+    }
 
     /// Like [`LearningRule::assign_credit_into`], into a fresh [`ParamGrads`].
     fn assign_credit(
         &mut self,
         tape: &mut Tape<T>,
-        loss: Var,
+        objective: Objective,
         params: &ParamStore<T>,
     ) -> ParamGrads<T> {
         let mut grads = ParamGrads::new();
-        self.assign_credit_into(tape, loss, params, &mut grads);
+        self.assign_credit_into(tape, objective, params, &mut grads);
         grads
     }
 }
@@ -73,11 +124,11 @@ impl<T: Float> LearningRule<T> for Backprop {
     fn assign_credit_into(
         &mut self,
         tape: &mut Tape<T>,
-        loss: Var,
+        objective: Objective,
         _params: &ParamStore<T>,
         grads: &mut ParamGrads<T>,
     ) {
-        tape.backward(loss);
+        tape.backward(objective.loss);
         grads.fill_from_tape(tape);
     }
 }
@@ -97,7 +148,7 @@ mod tests {
         let y = tape.matmul(x, wv);
         let loss = tape.square(y);
         let loss = tape.sum(loss);
-        let g = Backprop.assign_credit(&mut tape, loss, &params);
+        let g = Backprop.assign_credit(&mut tape, loss.into(), &params);
         // L = (3·0.5 − 4)² → ∂L/∂w = 2·(−2.5)·(3, 4)
         assert_eq!(g.get(w).unwrap().data(), &[-15.0, -20.0]);
     }

@@ -378,7 +378,7 @@ mod tests {
                 let rv = tape.constant(r.clone());
                 let l = tape.mul(y, rv);
                 let l = tape.sum(l);
-                let g = rule.assign_credit(&mut tape, l, &store);
+                let g = rule.assign_credit(&mut tape, l.into(), &store);
                 (g, tape.grad(xv).unwrap().clone())
             };
             let (bp, bp_x) = run(&mut Backprop);

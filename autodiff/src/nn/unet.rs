@@ -18,6 +18,9 @@
 //! Parameter names (under `prefix`): `inc.conv{0,1}.weight`, `down{i}.conv{0,1}.weight`,
 //! `up{i}.up.weight`, `up{i}.up.bias`, `up{i}.conv{0,1}.weight`, `outc.weight`, `outc.bias`;
 //! `i` counts from 1, `up1` being the deepest.
+//!
+//! Tags ([`crate::scopes`]): each DoubleConv's output is tagged `unet.inc`, `unet.down` or
+//! `unet.up`, the hidden layers a layer-wise learning rule acts on.
 
 use crate::ops::conv::Padding;
 use crate::{Float, ParamId, ParamStore, Tape, Tensor, Var};
@@ -228,10 +231,12 @@ impl UNet {
         );
         let mut skips = Vec::with_capacity(self.downs.len());
         let mut h = self.inc.forward(tape, param, x);
+        tape.tag(h, "unet.inc");
         for down in &self.downs {
             skips.push(h);
             let p = tape.max_pool2x2(h);
             h = down.forward(tape, param, p);
+            tape.tag(h, "unet.down");
         }
         for (up, skip) in self.ups.iter().zip(skips.into_iter().rev()) {
             let (wt, bt) = (param(tape, up.weight), param(tape, up.bias));
@@ -239,6 +244,7 @@ impl UNet {
             let u = tape.conv_transpose2x2_bias(h, wt, bt);
             let cat = tape.concat(&[skip, u]);
             h = up.conv.forward(tape, param, cat);
+            tape.tag(h, "unet.up");
         }
         let (wo, bo) = (param(tape, self.out_weight), param(tape, self.out_bias));
         let y = tape.conv2d(h, wo, Padding::Zero);

@@ -78,15 +78,14 @@ impl PBucket {
         }
     }
 
-    /// Warps `v` (and each of `extra`) by `motion` (field units, per sample).
-    pub fn warp(
+    /// The sampling of a warp by `motion` (field units, per sample): P's grid on the tape, or
+    /// integer shifts. Recording it once lets several images share it ([`PBucket::resample`]).
+    pub fn sampling(
         &self,
         tape: &mut Tape<f32>,
         params: &ParamStore<f32>,
-        v: Var,
-        extra: &[Var],
         motion: &[[f64; 2]],
-    ) -> (Var, Var, Vec<Var>) {
+    ) -> Sampling {
         match self {
             PBucket::Flow { flow, uv, n } => {
                 let (b, nn) = (motion.len(), n * n);
@@ -104,14 +103,10 @@ impl PBucket {
                 let xy_moved = tape.add_broadcast(d, xy);
                 let xy_moved = tape.reshape(xy_moved, [b * nn, 2]);
                 let uv_moved = flow.inverse_with(tape, &vars, xy_moved);
-                let grid = tape.reshape(uv_moved, [b, *n, *n, 2]);
-                let warped = tape.grid_sample(v, grid);
-                let mask = tape.grid_sample_mask(grid, *n, *n);
-                let ex = extra.iter().map(|&e| tape.grid_sample(e, grid)).collect();
-                (warped, mask, ex)
+                Sampling::Grid(tape.reshape(uv_moved, [b, *n, *n, 2]))
             }
-            PBucket::IdentityIntegerShift { px_per_unit } => {
-                let shifts: Vec<[i64; 2]> = motion
+            PBucket::IdentityIntegerShift { px_per_unit } => Sampling::Shift(
+                motion
                     .iter()
                     .map(|d| {
                         [
@@ -119,14 +114,46 @@ impl PBucket {
                             (d[1] * px_per_unit).round() as i64,
                         ]
                     })
-                    .collect();
-                let (w, m) = integer_shift_warp(tape, v, &shifts);
-                let ex = extra
-                    .iter()
-                    .map(|&e| integer_shift_warp(tape, e, &shifts).0)
-                    .collect();
-                (w, m, ex)
-            }
+                    .collect(),
+            ),
         }
     }
+
+    /// Warps `v (B, C, n, n)` through `sampling`; returns `(warped, mask (B, 1, n, n))`.
+    pub fn resample(tape: &mut Tape<f32>, sampling: &Sampling, v: Var) -> (Var, Var) {
+        match sampling {
+            Sampling::Grid(grid) => {
+                let (_, _, h, w) = tape.shape(v).bchw("PBucket::resample");
+                let warped = tape.grid_sample(v, *grid);
+                (warped, tape.grid_sample_mask(*grid, h, w))
+            }
+            Sampling::Shift(shifts) => integer_shift_warp(tape, v, shifts),
+        }
+    }
+
+    /// Warps `v` (and each of `extra`) by `motion` (field units, per sample).
+    pub fn warp(
+        &self,
+        tape: &mut Tape<f32>,
+        params: &ParamStore<f32>,
+        v: Var,
+        extra: &[Var],
+        motion: &[[f64; 2]],
+    ) -> (Var, Var, Vec<Var>) {
+        let sampling = self.sampling(tape, params, motion);
+        let (warped, mask) = Self::resample(tape, &sampling, v);
+        let ex = extra
+            .iter()
+            .map(|&e| Self::resample(tape, &sampling, e).0)
+            .collect();
+        (warped, mask, ex)
+    }
+}
+
+/// How a warp samples: P's grid `(B, n, n, 2)` on the tape, or whole-pixel shifts per sample.
+pub enum Sampling {
+    /// The flow's sampling grid (align-corners coordinates).
+    Grid(Var),
+    /// `[dx, dy]` ONS pixels per sample.
+    Shift(Vec<[i64; 2]>),
 }
