@@ -14,7 +14,8 @@
 //! - `pending`: nothing yet.
 //!
 //! Steps of an unfinished run are those of its newest checkpoint folder (`step_<k>`). The
-//! settings shown are those that vary between the runs ([`table::varying_keys`]).
+//! settings shown are those that vary between the runs ([`table::varying_keys`]). CMF-SIM's
+//! dimension 0 is shown as `undefined` with the verdict's reason (e.g. no colour constancy).
 
 pub mod table;
 

@@ -1,7 +1,7 @@
 //! The gathered table: which settings to show, and the CSV and Markdown texts.
 //!
 //! Columns: the run's folder, the settings that vary, status (with the error of a failed run),
-//! steps, wall time (s), the dimension CMF-SIM measured at the end with each K's converged
+//! steps done, wall time (s), the dimension CMF-SIM measured at the end with each K's converged
 //! margin (worst error / threshold of the reported set; < 1 passes), the held-out prediction
 //! gain ("next frame = this frame" error over the cortex's), and the learned invariants
 //! against the eye's truth: C recall by nearest class centre and d′ per class, W's surround
@@ -69,10 +69,14 @@ fn cells(run: &Run) -> Option<Cells> {
         .iter()
         .map(|(k, r)| format!("K{k} {r:.2}"))
         .collect();
-    let dimension = match (margins.is_empty(), s.dimension) {
-        (true, _) => String::new(),
-        (false, 0) => format!("undefined ({})", margins.join(", ")),
-        (false, d) => format!("**{d}** ({})", margins.join(", ")),
+    // 0 is "undefined" when measured (the verdict says why), "not measured" otherwise.
+    let measured = !s.dimension_over_steps.is_empty();
+    let why = s.verdict.split(':').next().unwrap_or_default();
+    let dimension = match (measured, margins.is_empty(), s.dimension) {
+        (false, _, _) => String::new(),
+        (true, true, 0) => format!("undefined ({why})"),
+        (true, false, 0) => format!("undefined ({})", margins.join(", ")),
+        (true, _, d) => format!("**{d}** ({})", margins.join(", ")),
     };
     let rec = s.invariants.as_ref().map(|i| &i.recovery);
     let c = rec.and_then(|r| r.c.as_ref());
@@ -111,7 +115,7 @@ pub fn markdown(runs: &[Run], keys: &[String]) -> String {
     head.extend(
         [
             "status",
-            "steps",
+            "steps done",
             "wall s",
             "CMF-SIM (margins)",
             "gain",
@@ -170,7 +174,17 @@ pub fn csv(runs: &[Run], keys: &[String]) -> String {
         .unwrap_or(0);
     let mut head = vec!["run".to_string()];
     head.extend(keys.iter().cloned());
-    head.extend(["status", "detail", "steps", "wall_seconds", "dimension"].map(String::from));
+    head.extend(
+        [
+            "status",
+            "detail",
+            "steps_done",
+            "wall_seconds",
+            "dimension",
+            "verdict",
+        ]
+        .map(String::from),
+    );
     head.extend((1..=max_k).map(|k| format!("margin_k{k}")));
     head.extend(
         [
@@ -198,6 +212,7 @@ pub fn csv(runs: &[Run], keys: &[String]) -> String {
         let s = run.summary.as_ref();
         row.push(num(s.map(|s| s.wall_seconds)));
         row.push(s.map_or(String::new(), |s| s.dimension.to_string()));
+        row.push(s.map_or(String::new(), |s| s.verdict.clone()));
         for k in 1..=max_k {
             let m = s.and_then(|s| s.converged_ratio_per_k.iter().find(|(j, _)| *j == k));
             row.push(num(m.map(|(_, r)| *r)));

@@ -192,7 +192,9 @@ pub fn render(
 # the array may be requeued or submitted again. Results: colorvision gather {d}
 set -euo pipefail
 : "${{SLURM_ARRAY_TASK_ID:?is set by sbatch --array (or by hand, to run one task)}}"
-COLORVISION="${{COLORVISION:-{exe}}}"
+if [ -z "${{COLORVISION:-}}" ]; then
+    COLORVISION={exe}
+fi
 if [ -n "${{SLURM_CPUS_PER_TASK:-}}" ]; then
     export RAYON_NUM_THREADS="$SLURM_CPUS_PER_TASK"
 fi
@@ -248,7 +250,7 @@ mod tests {
             "#SBATCH --time=02:05:00\n",
             "#SBATCH --partition=cpu\n",
             "#SBATCH --output=/x/sw/logs/task-%a.log\n",
-            r#"COLORVISION="${COLORVISION:-'/it'\''s/cv'}""#,
+            r#"    COLORVISION='/it'\''s/cv'"#,
             r#"sweep --task "$SLURM_ARRAY_TASK_ID" '/x/sw'"#,
         ] {
             assert!(s.contains(want), "{want} missing from\n{s}");
