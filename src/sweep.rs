@@ -5,7 +5,8 @@
 //! - `DIR/<index>_<key>=<value>…/config.toml` and `run.json`: each run folder, ready to start;
 //! - `DIR/sweep.json` ([`task::Manifest`]): the runs in array-task order, with their settings;
 //! - `DIR/sweep.toml`: the spec, copied;
-//! - `DIR/sweep.sbatch` ([`script`]): the Slurm job array, one task per run.
+//! - `DIR/sweep.sbatch` ([`script`]): the Slurm job array, one task per run;
+//! - `DIR/logs/`: each task's output (`task-<index>.log`).
 //!
 //! `colorvision sweep --local -j N DIR` runs the same tasks here ([`local`]);
 //! `colorvision sweep --task I DIR` is one task ([`task`]); `colorvision gather DIR` tabulates
@@ -141,5 +142,8 @@ pub fn write_sweep(spec_path: &Path, out: &Path) -> Result<task::Manifest, RunEr
         crate::io::write_atomic(&staging.join("sweep.sbatch"), sbatch.as_bytes())?;
         Ok(())
     })?;
+    // Slurm opens each task's log before the task runs: the folder must exist.
+    let logs = out.join("logs");
+    std::fs::create_dir_all(&logs).map_err(crate::io::fs_err(&logs))?;
     Ok(manifest)
 }

@@ -99,6 +99,8 @@ fn a_spec_expands_to_run_folders_and_array_tasks() {
         assert_eq!(config["steps"].as_integer(), Some(12), "{name}");
         assert!(sw.join(name).join("run.json").is_file());
     }
+    // Slurm opens the tasks' logs there before any task runs.
+    assert!(sw.join("logs").is_dir());
     let script = std::fs::read_to_string(sw.join("sweep.sbatch")).unwrap();
     for want in [
         "#SBATCH --array=0-3%2\n",
