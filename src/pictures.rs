@@ -17,7 +17,7 @@ use crate::io::{signed_to_rgb, upscale_rgb, write_atomic, write_png_rgb};
 use crate::run::RunError;
 use crate::source::RetinaSource;
 use colorimetry::{srgb, ScopeAccumulator};
-use cortex::Trainer;
+use cortex::{Cortex, Trainer};
 use retina::Retina;
 use serde::{Deserialize, Serialize};
 use std::fmt::Write as _;
@@ -70,9 +70,37 @@ pub fn write_all(
         path: dir.to_path_buf(),
         source,
     })?;
-    let n = retina.n();
-    let nn = n * n;
     let cortex = &trainer.cortex;
+    let scope = write_scope(dir, config, source, cortex)?;
+    write_learned_c(dir, retina, cortex)?;
+    write_w_kernel(dir, retina, cortex)?;
+    write_positions(dir, retina, cortex)?;
+    Ok(Invariants {
+        recovery: crate::invariants::measure(cortex, retina),
+        scope_rmse: scope.rmse,
+        scope_hue_axis: scope.hue_axis,
+        truth_hue_axis: scope.truth_hue_axis,
+    })
+}
+
+/// What the Neural Scope measured on held-out scenes.
+struct ScopeFit {
+    rmse: f64,
+    hue_axis: Option<colorimetry::HueAxis>,
+    truth_hue_axis: Option<colorimetry::HueAxis>,
+}
+
+/// Neural Scope on held-out scenes (fit on 4 batches of 4, show the last sample): `ons.png` and
+/// `scope.png` (the percept through the fitted map beside the true colour, normalised by the
+/// truth's brightest channel).
+fn write_scope(
+    dir: &Path,
+    config: &RunConfig,
+    source: &mut RetinaSource,
+    cortex: &Cortex,
+) -> Result<ScopeFit, RunError> {
+    let n = source.retina.n();
+    let nn = n * n;
     let dim = cortex.percept_dim();
     // Held-out scenes for the Neural Scope: fit on a few batches, show the last sample.
     let mut acc = ScopeAccumulator::new(dim);
@@ -109,7 +137,6 @@ pub fn write_all(
     let scope_hue_axis = colorimetry::hue_axis(&scope_rgb);
     let truth_hue_axis = colorimetry::hue_axis(&rows.1);
     save_rgb(&dir.join("ons.png"), n, &signed_to_rgb(&last_ons))?;
-    // Scope percept beside the truth, normalised by the truth's brightest channel.
     let peak = last_truth.iter().fold(1e-6f32, |m, &v| m.max(v)) as f64;
     let (mut left, mut right) = (vec![0f32; nn * 3], vec![0f32; nn * 3]);
     let mut v = vec![0.0; dim];
@@ -136,8 +163,19 @@ pub fn write_all(
         n * f,
         &upscale_rgb(2 * n, n, &both, f),
     )?;
+    Ok(ScopeFit {
+        rmse: scope_rmse,
+        hue_axis: scope_hue_axis,
+        truth_hue_axis,
+    })
+}
 
-    // True mosaic and learned C.
+/// `true_mosaic.png` (dominant class per cone) and, with a learned C, `learned_c.png` (C mapped
+/// to the class colours by a Neural-Scope fit).
+fn write_learned_c(dir: &Path, retina: &Retina, cortex: &Cortex) -> Result<(), RunError> {
+    let n = retina.n();
+    let nn = n * n;
+    let dim = cortex.percept_dim();
     let dominant = retina.mosaic.dominant_class();
     let true_rgb: Vec<f32> = dominant
         .iter()
@@ -159,8 +197,11 @@ pub fn write_all(
         };
         save_rgb(&dir.join("learned_c.png"), n, &rgb)?;
     }
+    Ok(())
+}
 
-    // W kernel beside the DoG.
+/// `w_kernel.png`: the learned 7×7 W kernel beside the eye's DoG (when both exist).
+fn write_w_kernel(dir: &Path, retina: &Retina, cortex: &Cortex) -> Result<(), RunError> {
     if let (Some(learned), Some((dog, 7))) = (cortex.learned_w_kernel(7), retina.dog_kernel()) {
         let l = learned.data();
         let mut both = Vec::with_capacity(7 * 14);
@@ -176,8 +217,13 @@ pub fn write_all(
             &upscale_rgb(14, 7, &rgb, 16),
         )?;
     }
+    Ok(())
+}
 
-    // Positions: learned P(uv) vs the true positions (both normalised to [−1, 1]).
+/// `positions.svg`: learned P(uv) (left) against the true positions (right), both in [−1, 1].
+fn write_positions(dir: &Path, retina: &Retina, cortex: &Cortex) -> Result<(), RunError> {
+    let n = retina.n();
+    let nn = n * n;
     let learned = cortex.learned_positions();
     let learned = learned.data();
     let truth = retina.layout.positions_normalised();
@@ -209,10 +255,5 @@ pub fn write_all(
     }
     svg.push_str("</svg>\n");
     write_atomic(&dir.join("positions.svg"), svg.as_bytes())?;
-    Ok(Invariants {
-        recovery: crate::invariants::measure(cortex, retina),
-        scope_rmse,
-        scope_hue_axis,
-        truth_hue_axis,
-    })
+    Ok(())
 }

@@ -198,10 +198,49 @@ pub struct TrainConfig {
     /// factor lets Adam move it further per step.
     #[serde(default = "unit_scale")]
     pub w_learning_rate_scale: f64,
+    /// How the learning rate changes over the run's `steps` ([`LrSchedule`]; default constant,
+    /// as the authors' code).
+    #[serde(default)]
+    pub lr_schedule: LrSchedule,
+    /// Learning rate at the last step as a fraction of `learning_rate` (cosine schedule only).
+    #[serde(default = "default_final_lr_fraction")]
+    pub final_lr_fraction: f64,
 }
 
 fn unit_scale() -> f64 {
     1.0
+}
+
+fn default_final_lr_fraction() -> f64 {
+    0.01
+}
+
+/// The learning rate over training.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum LrSchedule {
+    /// `learning_rate` at every step (authors' code, docs/references.md#training).
+    #[default]
+    Constant,
+    /// Half a cosine from `learning_rate` at step 0 to `final_lr_fraction · learning_rate` at
+    /// step `steps` (Loshchilov & Hutter 2017, SGDR, without restarts); held there after.
+    Cosine,
+}
+
+impl TrainConfig {
+    /// The learning rate of gradient update `step` (0-based) under the schedule.
+    pub fn learning_rate_at(&self, step: u64) -> f64 {
+        match self.lr_schedule {
+            LrSchedule::Constant => self.learning_rate,
+            LrSchedule::Cosine => {
+                let progress = (step as f64 / self.steps.max(1) as f64).min(1.0);
+                let floor = self.final_lr_fraction;
+                let factor =
+                    floor + (1.0 - floor) * 0.5 * (1.0 + (std::f64::consts::PI * progress).cos());
+                self.learning_rate * factor
+            }
+        }
+    }
 }
 
 /// The whole cortex configuration.
@@ -283,6 +322,8 @@ impl CortexConfig {
                 steps: 100_000,
                 checkpoint_every_steps: 1000,
                 w_learning_rate_scale: 1.0,
+                lr_schedule: LrSchedule::Constant,
+                final_lr_fraction: default_final_lr_fraction(),
             },
         }
     }
@@ -421,6 +462,13 @@ impl CortexConfig {
             return bad(
                 "train.w_learning_rate_scale",
                 format!("{w_scale} must be positive and finite"),
+            );
+        }
+        let floor = self.train.final_lr_fraction;
+        if !(floor.is_finite() && floor > 0.0 && floor <= 1.0) {
+            return bad(
+                "train.final_lr_fraction",
+                format!("{floor} must be in (0, 1]"),
             );
         }
         if self.p.mode == PMode::Flow && (self.p.couplings == 0 || self.p.hidden == 0) {
@@ -573,6 +621,25 @@ mod tests {
             (WMode::Identity, PMode::IdentityIntegerShift, MMode::Oracle)
         );
         assert_eq!(s.d.widths, vec![16, 32, 64]);
+    }
+
+    #[test]
+    fn cosine_schedule_runs_from_the_rate_to_its_floor() {
+        let mut t = CortexConfig::quick().train;
+        t.steps = 1000;
+        t.final_lr_fraction = 0.1;
+        assert_eq!(t.learning_rate_at(700), t.learning_rate, "constant");
+        t.lr_schedule = LrSchedule::Cosine;
+        let lr = |s| t.learning_rate_at(s) / t.learning_rate;
+        assert_eq!(lr(0), 1.0);
+        assert!((lr(500) - 0.55).abs() < 1e-12, "{}", lr(500));
+        assert!((lr(1000) - 0.1).abs() < 1e-12 && lr(5000) == lr(1000));
+        assert!((1..1000).all(|s| lr(s) < lr(s - 1)), "strictly falling");
+        t.final_lr_fraction = 0.0;
+        let mut c = CortexConfig::quick();
+        c.train = t;
+        let e = c.validate().unwrap_err().to_string();
+        assert!(e.contains("final_lr_fraction"), "{e}");
     }
 
     #[test]

@@ -295,6 +295,7 @@ impl Trainer {
             });
         }
         let to = Instant::now();
+        self.optim.rule.lr = self.cortex.config.train.learning_rate_at(self.step);
         self.optim
             .step(&mut self.cortex.params, &self.grads)
             .map_err(|e| CortexError::InvalidConfig {

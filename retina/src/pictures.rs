@@ -24,7 +24,8 @@ use colorimetry::srgb::{encode, to_u8};
 use rand::Rng;
 
 use crate::error::{Result, RetinaError};
-use crate::movie::MovieConfig;
+use crate::foveation::sampler::MipStack;
+use crate::movie::{MovieConfig, SpikeTrain};
 use crate::retina::Retina;
 
 /// Frames of the still movie behind the spike pictures.
@@ -179,11 +180,10 @@ pub fn write_stage_pictures<R: Rng + ?Sized>(
 ) -> Result<Vec<PathBuf>> {
     std::fs::create_dir_all(out_dir).map_err(|e| RetinaError::io(out_dir, e))?;
     let n = retina.n();
-    let nn = n * n;
     let f = retina.config.field_px;
     let factor = MIN_PICTURE_PX.div_ceil(n);
     let mut written = Vec::new();
-    let save = |pic: &Picture, name: &str, written: &mut Vec<PathBuf>| -> Result<()> {
+    let mut save = |pic: &Picture, name: &str| -> Result<()> {
         let path = out_dir.join(name);
         pic.write_png(&path)?;
         written.push(path);
@@ -199,7 +199,40 @@ pub fn write_stage_pictures<R: Rng + ?Sized>(
     );
     let stack = retina.pool.tile(still.tile);
     let origin = still.origins_px[0];
-    // 1. The scene field in sRGB.
+    save(
+        &scene_picture(retina, stack, origin).enlarge(MIN_PICTURE_PX.div_ceil(f)),
+        "1_scene_srgb.png",
+    )?;
+    let (lattice, field) = mosaic_pictures(retina);
+    save(&lattice.enlarge(factor), "2_mosaic_lattice.png")?;
+    save(&field, "3_mosaic_field.png")?;
+    // 4–5. Activations and bipolar signal (noise-free).
+    let mut act = vec![0.0f32; n * n];
+    retina.cones.compute(stack, origin, &mut act);
+    let amax = act.iter().copied().fold(0.0f32, f32::max).max(1e-12);
+    save(
+        &grey(&act, n, amax).enlarge(factor),
+        "4_cone_activations.png",
+    )?;
+    save(
+        &diverging(&still.analog[0], n, max_abs(&still.analog[0])).enlarge(factor),
+        "5_bipolar.png",
+    )?;
+    let [on, off, frame] = spike_pictures(&retina.spikes(&still), n);
+    save(&on.enlarge(factor), "6_on_spike_rate.png")?;
+    save(&off.enlarge(factor), "7_off_spike_rate.png")?;
+    save(&frame.enlarge(factor), "8_spikes_frame.png")?;
+    save(
+        &diverging(&still.ons[0], n, max_abs(&still.ons[0])).enlarge(factor),
+        "9_ons.png",
+    )?;
+    written.extend(write_ons_motion(retina, rng, out_dir, factor)?);
+    Ok(written)
+}
+
+/// 1. The scene field in sRGB, from the stack's reference LMS planes at `origin`.
+fn scene_picture(retina: &Retina, stack: &MipStack, origin: [i32; 2]) -> Picture {
+    let f = retina.config.field_px;
     let proj = &retina.pool.projection;
     let mut scene = Picture::new(f, f);
     for y in 0..f {
@@ -219,12 +252,14 @@ pub fn write_stage_pictures<R: Rng + ?Sized>(
             scene.rgb[3 * (y * f + x)..3 * (y * f + x) + 3].copy_from_slice(&to_u8(encode(rgb)));
         }
     }
-    save(
-        &scene.enlarge(MIN_PICTURE_PX.div_ceil(f)),
-        "1_scene_srgb.png",
-        &mut written,
-    )?;
-    // 2–3. The mosaic on the lattice and in the field.
+    scene
+}
+
+/// 2–3. The mosaic on the lattice (one pixel per cone, not enlarged) and in the field (each
+/// cone a square at its true position).
+fn mosaic_pictures(retina: &Retina) -> (Picture, Picture) {
+    let n = retina.n();
+    let f = retina.config.field_px;
     let k = retina.mosaic.n_classes();
     let colours: Vec<[f32; 3]> = retina
         .mosaic
@@ -234,7 +269,7 @@ pub fn write_stage_pictures<R: Rng + ?Sized>(
         .map(|(i, c)| class_colour(&c.name, i))
         .collect();
     let mut lattice = Picture::new(n, n);
-    let mut cone_rgb = vec![[0u8; 3]; nn];
+    let mut cone_rgb = vec![[0u8; 3]; n * n];
     for (i, w) in retina.mosaic.weights.chunks(k).enumerate() {
         let mut c = [0.0f32; 3];
         for (wk, col) in w.iter().zip(&colours) {
@@ -245,11 +280,6 @@ pub fn write_stage_pictures<R: Rng + ?Sized>(
         cone_rgb[i] = c.map(to_byte);
         lattice.rgb[3 * i..3 * i + 3].copy_from_slice(&cone_rgb[i]);
     }
-    save(
-        &lattice.enlarge(factor),
-        "2_mosaic_lattice.png",
-        &mut written,
-    )?;
     let scale = MIN_PICTURE_PX.div_ceil(f).max(2);
     let mut field = Picture::new(f * scale, f * scale);
     for (i, p) in retina.layout.positions_px.iter().enumerate() {
@@ -265,23 +295,13 @@ pub fn write_stage_pictures<R: Rng + ?Sized>(
             }
         }
     }
-    save(&field, "3_mosaic_field.png", &mut written)?;
-    // 4–5. Activations and bipolar signal (noise-free).
-    let mut act = vec![0.0f32; nn];
-    retina.cones.compute(stack, origin, &mut act);
-    let amax = act.iter().copied().fold(0.0f32, f32::max).max(1e-12);
-    save(
-        &grey(&act, n, amax).enlarge(factor),
-        "4_cone_activations.png",
-        &mut written,
-    )?;
-    save(
-        &diverging(&still.analog[0], n, max_abs(&still.analog[0])).enlarge(factor),
-        "5_bipolar.png",
-        &mut written,
-    )?;
-    // 6–8. Spikes.
-    let train = retina.spikes(&still);
+    (lattice, field)
+}
+
+/// 6–8. ON and OFF spike rates (one grey scale for both) and the last frame's spikes (ON red,
+/// OFF blue), not enlarged.
+fn spike_pictures(train: &SpikeTrain, n: usize) -> [Picture; 3] {
+    let nn = n * n;
     let mut on_rate = vec![0.0f32; nn];
     let mut off_rate = vec![0.0f32; nn];
     for (a, b) in train.on.iter().zip(&train.off) {
@@ -296,30 +316,24 @@ pub fn write_stage_pictures<R: Rng + ?Sized>(
         .copied()
         .fold(0.0f32, f32::max)
         .max(1e-12);
-    save(
-        &grey(&on_rate, n, rmax).enlarge(factor),
-        "6_on_spike_rate.png",
-        &mut written,
-    )?;
-    save(
-        &grey(&off_rate, n, rmax).enlarge(factor),
-        "7_off_spike_rate.png",
-        &mut written,
-    )?;
     let last = train.on.len() - 1;
     let mut frame = Picture::new(n, n);
     for i in 0..nn {
         let c = [train.on[last][i], 0.0, train.off[last][i]].map(to_byte);
         frame.rgb[3 * i..3 * i + 3].copy_from_slice(&c);
     }
-    save(&frame.enlarge(factor), "8_spikes_frame.png", &mut written)?;
-    // 9. The ONS.
-    save(
-        &diverging(&still.ons[0], n, max_abs(&still.ons[0])).enlarge(factor),
-        "9_ons.png",
-        &mut written,
-    )?;
-    // The ONS under eye motion.
+    [grey(&on_rate, n, rmax), grey(&off_rate, n, rmax), frame]
+}
+
+/// The ONS under eye motion: `ons_motion/frame_<t>.png` (one scale for all frames) and the
+/// animated `ons_motion.png`.
+fn write_ons_motion<R: Rng + ?Sized>(
+    retina: &Retina,
+    rng: &mut R,
+    out_dir: &Path,
+    factor: usize,
+) -> Result<Vec<PathBuf>> {
+    let n = retina.n();
     let moving = retina.movie(
         rng,
         MovieConfig {
@@ -340,6 +354,7 @@ pub fn write_stage_pictures<R: Rng + ?Sized>(
         .iter()
         .map(|fr| diverging(fr, n, s).enlarge(factor))
         .collect();
+    let mut written = Vec::new();
     for (t, pic) in frames.iter().enumerate() {
         let path = seq_dir.join(format!("frame_{t:03}.png"));
         pic.write_png(&path)?;
