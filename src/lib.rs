@@ -18,6 +18,7 @@ pub mod ladder;
 pub mod measurement_dir;
 pub mod observer;
 pub mod pictures;
+pub mod report;
 pub mod run;
 pub mod run_folder;
 pub mod run_lock;

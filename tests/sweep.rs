@@ -162,6 +162,23 @@ fn the_array_script_runs_its_task_resumes_and_skips() {
         let s = json(&sw.join(name).join("summary.json"));
         assert_eq!(s["steps"], 12, "{name}");
     }
+    // Each finished run has its page, self-contained: pictures and plots embedded.
+    let page = std::fs::read_to_string(run1.join("report.html")).unwrap();
+    assert!(page.starts_with("<!DOCTYPE html>") && page.ends_with("</html>\n"));
+    assert_eq!(
+        page.matches("data:image/png;base64,").count(),
+        5,
+        "PNG pictures"
+    );
+    assert_eq!(
+        page.matches("data:image/svg+xml;base64,").count(),
+        4,
+        "SVG plots"
+    );
+    assert!(
+        !page.contains("<script") && !page.contains("src=\"http"),
+        "nothing fetched"
+    );
     let s1 = json(&run1.join("summary.json"));
     assert_eq!(s1["resumed_at_steps"], serde_json::json!([6]));
     assert!(std::fs::read_to_string(sw.join("logs/task-0.log"))
