@@ -17,8 +17,9 @@
 //!   same cortex, new data, fresh Adam), [`checkpoint::latest_checkpoint`].
 //! - Evaluation: [`Trainer::prediction_error`] (vs "next = current"),
 //!   [`Trainer::motion_error_ons_px`], [`Cortex::decode_frames`], [`Cortex::learned_c`],
-//!   [`Cortex::learned_positions`], [`Cortex::learned_w_kernel`]; Neural Scope on
-//!   [`Trainer::last_percept`] with [`scope::NeuralScope`] (evaluation only).
+//!   [`Cortex::learned_positions`], [`Cortex::learned_w_kernel`]; the percepts of the last step
+//!   ([`Trainer::last_percept`]) for a Neural Scope fitted by the caller, who knows the scene
+//!   (`colorimetry::NeuralScope`; the cortex never learns from it).
 //! - [`synthetic::SyntheticSource`]: a retina-free stand-in for tests and benches.
 
 pub mod buckets;
@@ -31,7 +32,6 @@ pub mod model;
 pub mod motion;
 pub mod persist;
 pub mod rng;
-pub mod scope;
 pub mod synthetic;
 pub mod trainer;
 
