@@ -51,6 +51,12 @@ pub enum Command {
     /// Continue a stopped `run` or `train` from the newest valid checkpoint of its folder
     /// (the same as repeating its command with `--resume`).
     Resume(ResumeOptions),
+    /// Expand a grid of settings (a sweep spec, TOML) into one run folder per run and a Slurm
+    /// job-array script (`sbatch DIR/sweep.sbatch`); `--local -j N DIR` runs its tasks here.
+    Sweep(crate::sweep::SweepOptions),
+    /// One table (gather.csv, gather.md) of every run under DIR from its summary.json: the
+    /// settings that vary, dimension and margins, prediction gain, invariants, status.
+    Gather(crate::gather::GatherOptions),
 }
 
 /// Options of `resume`.

@@ -344,3 +344,13 @@ pub fn experiment(options: &ExperimentOptions) -> Result<(), RunError> {
     install_signals()?;
     experiments::run_named(&options.name, &options.common)
 }
+
+/// `colorvision sweep`: see [`crate::sweep`].
+pub fn sweep(options: &crate::sweep::SweepOptions) -> Result<(), RunError> {
+    crate::sweep::command(options)
+}
+
+/// `colorvision gather`: see [`crate::gather`].
+pub fn gather(options: &crate::gather::GatherOptions) -> Result<(), RunError> {
+    crate::gather::command(options)
+}

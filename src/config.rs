@@ -207,6 +207,16 @@ impl RunConfig {
             }
             None => None,
         };
+        RunConfig::resolve_value(options, file, default_preset)
+    }
+
+    /// [`RunConfig::resolve`] with the config file already read: `file` is its name (as errors
+    /// name it) and its settings (any subset of the fields, as in a `--config` file).
+    pub fn resolve_value(
+        options: &CommonOptions,
+        file: Option<(String, toml::Value)>,
+        default_preset: &str,
+    ) -> Result<RunConfig, ConfigError> {
         let file_str = |key: &str| {
             file.as_ref()
                 .and_then(|(_, v)| v.get(key))

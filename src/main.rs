@@ -20,6 +20,8 @@ fn main() {
         Command::Convergence(o) => commands::convergence(o),
         Command::Experiment(o) => commands::experiment(o),
         Command::Resume(o) => commands::resume(o),
+        Command::Sweep(o) => commands::sweep(o),
+        Command::Gather(o) => commands::gather(o),
     };
     if let Err(e) = result {
         eprintln!("colorvision: error: {e}");

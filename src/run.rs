@@ -11,6 +11,7 @@
 //!   top level (`cmf_sim.json`, with the integer field `dimension`);
 //! - `pictures/` — see [`crate::pictures`];
 //! - `summary.json` — `dimension`, `steps`, `wall_seconds`, the config, the dimension over steps.
+//! - `report.html` — every result above on one self-contained page ([`crate::report`]).
 //!
 //! Resume is exact: a checkpoint holds, besides the cortex's own state, the run's state
 //! ([`Progress`]: the held-out stream, the measurements so far), and `metrics.csv` is written
@@ -836,6 +837,7 @@ impl RunState<'_> {
         }
         let summary = self.summary(invariants);
         crate::io::write_json(&out.join("summary.json"), &summary)?;
+        crate::report::write(out, &summary)?;
         Ok(summary)
     }
 

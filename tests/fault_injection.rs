@@ -163,6 +163,13 @@ fn assert_files_parse(dir: &Path, temporaries_allowed: bool) {
                 let t = std::str::from_utf8(&bytes).unwrap().trim_end();
                 assert!(t.ends_with("</svg>"), "{what}: truncated SVG");
             }
+            "html" => {
+                let t = std::str::from_utf8(&bytes).unwrap();
+                assert!(
+                    t.starts_with("<!DOCTYPE html>") && t.trim_end().ends_with("</html>"),
+                    "{what}: truncated HTML"
+                );
+            }
             "png" => {
                 let mut r = png::Decoder::new(std::io::Cursor::new(bytes))
                     .read_info()

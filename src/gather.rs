@@ -1,0 +1,279 @@
+//! `colorvision gather DIR`: one table of every run under `DIR` (a sweep folder, or any folder
+//! of run folders), written as `DIR/gather.csv` and `DIR/gather.md` and printed as Markdown;
+//! `--markdown` prints only the Markdown table (for the README) and writes nothing.
+//!
+//! A run folder is a folder holding `config.toml` or `summary.json`; folders inside a run
+//! folder are not searched. Its numbers come from `summary.json` alone; its status is:
+//! - `done`: `summary.json` reads;
+//! - `unreadable`: `summary.json` does not read (reported on stderr by path; gather goes on);
+//! - `running`: the run's `.lock` is there ([`crate::run_lock`]; the pid may be on another
+//!   node, so it is shown, not checked);
+//! - `failed`: the `failed.json` a sweep task leaves ([`crate::sweep::task::Failure`]), with
+//!   its error;
+//! - `stopped`: checkpoints but no summary (interrupted: `resume` continues it);
+//! - `pending`: nothing yet.
+//!
+//! Steps of an unfinished run are those of its newest checkpoint folder (`step_<k>`). The
+//! settings shown are those that vary between the runs ([`table::varying_keys`]). CMF-SIM's
+//! dimension 0 is shown as `undefined` with the verdict's reason (e.g. no colour constancy).
+
+pub mod table;
+
+use crate::run::{RunError, Summary};
+use crate::sweep::task::{Failure, Manifest, FAILED_FILE};
+use clap::Args;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+/// Options of `gather`.
+#[derive(Debug, Clone, Args)]
+pub struct GatherOptions {
+    /// A sweep folder, or any folder holding run folders (searched recursively).
+    pub dir: PathBuf,
+    /// Print only the Markdown table to stdout, and write no file.
+    #[arg(long)]
+    pub markdown: bool,
+}
+
+/// Where a run stands.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Status {
+    /// `summary.json` reads.
+    Done,
+    /// `summary.json` is there but does not read.
+    Unreadable(String),
+    /// A process holds the run's lock (its pid, if the lock names one).
+    Running(Option<u32>),
+    /// A sweep task failed with this error.
+    Failed(String),
+    /// Checkpoints, no summary: resumable.
+    Stopped,
+    /// Nothing run yet.
+    Pending,
+}
+
+impl Status {
+    /// One word.
+    pub fn word(&self) -> &'static str {
+        match self {
+            Status::Done => "done",
+            Status::Unreadable(_) => "unreadable",
+            Status::Running(_) => "running",
+            Status::Failed(_) => "failed",
+            Status::Stopped => "stopped",
+            Status::Pending => "pending",
+        }
+    }
+
+    /// The error or detail that goes with the word.
+    pub fn detail(&self) -> String {
+        match self {
+            Status::Unreadable(e) | Status::Failed(e) => e.clone(),
+            Status::Running(Some(pid)) => format!("pid {pid}"),
+            _ => String::new(),
+        }
+    }
+}
+
+/// One run folder, read.
+#[derive(Clone, Debug)]
+pub struct Run {
+    /// Its path relative to the gathered folder (`.` for the folder itself).
+    pub folder: String,
+    /// Where it stands.
+    pub status: Status,
+    /// Its steps: the summary's, else the newest checkpoint's.
+    pub steps: Option<u64>,
+    /// Its summary, when done.
+    pub summary: Option<Summary>,
+    /// Its settings, flattened to dotted keys (from the summary, else `config.toml`).
+    pub settings: BTreeMap<String, String>,
+}
+
+/// `colorvision gather`.
+pub fn command(options: &GatherOptions) -> Result<(), RunError> {
+    let dir = &options.dir;
+    if !dir.is_dir() {
+        return Err(RunError::Folder {
+            path: dir.clone(),
+            reason: "is not a folder".into(),
+        });
+    }
+    let runs = gather(dir)?;
+    if runs.is_empty() {
+        return Err(RunError::Folder {
+            path: dir.clone(),
+            reason: "holds no run folder (a folder with config.toml or summary.json)".into(),
+        });
+    }
+    let first = Manifest::read(dir).map(|m| m.keys).unwrap_or_default();
+    let keys = table::varying_keys(&runs, &first);
+    let markdown = table::markdown(&runs, &keys);
+    if options.markdown {
+        print!("{markdown}");
+        return Ok(());
+    }
+    crate::io::write_atomic(&dir.join("gather.csv"), table::csv(&runs, &keys).as_bytes())?;
+    crate::io::write_atomic(&dir.join("gather.md"), markdown.as_bytes())?;
+    print!("{markdown}");
+    let mut counts: BTreeMap<&str, usize> = BTreeMap::new();
+    for r in &runs {
+        *counts.entry(r.status.word()).or_default() += 1;
+    }
+    let counts: Vec<String> = counts.iter().map(|(w, n)| format!("{n} {w}")).collect();
+    println!(
+        "\n{} runs ({}); wrote {}/gather.csv and gather.md",
+        runs.len(),
+        counts.join(", "),
+        dir.display()
+    );
+    Ok(())
+}
+
+/// Every run folder under `dir`, sorted by path; unreadable files are reported on stderr.
+pub fn gather(dir: &Path) -> Result<Vec<Run>, RunError> {
+    let mut folders = Vec::new();
+    find_runs(dir, &mut folders)?;
+    folders.sort();
+    Ok(folders
+        .iter()
+        .map(|f| {
+            let rel = f.strip_prefix(dir).unwrap_or(f).display().to_string();
+            read_run(f, if rel.is_empty() { ".".into() } else { rel })
+        })
+        .collect())
+}
+
+fn is_run_folder(dir: &Path) -> bool {
+    dir.join("config.toml").is_file() || dir.join("summary.json").is_file()
+}
+
+fn find_runs(dir: &Path, out: &mut Vec<PathBuf>) -> Result<(), RunError> {
+    if is_run_folder(dir) {
+        out.push(dir.to_path_buf());
+        return Ok(());
+    }
+    for entry in std::fs::read_dir(dir).map_err(crate::io::fs_err(dir))? {
+        let path = entry.map_err(crate::io::fs_err(dir))?.path();
+        let hidden = path
+            .file_name()
+            .is_some_and(|n| n.to_string_lossy().starts_with('.'));
+        if path.is_dir() && !hidden {
+            find_runs(&path, out)?;
+        }
+    }
+    Ok(())
+}
+
+/// Reads one run folder; a file that does not read is reported by path.
+fn read_run(dir: &Path, folder: String) -> Run {
+    let summary_path = dir.join("summary.json");
+    let mut summary = None;
+    let status = if summary_path.is_file() {
+        match read_summary(&summary_path) {
+            Ok(s) => {
+                summary = Some(s);
+                Status::Done
+            }
+            Err(e) => {
+                eprintln!("colorvision gather: {}: {e}", summary_path.display());
+                Status::Unreadable(e)
+            }
+        }
+    } else if dir.join(crate::run_lock::LOCK_FILE).is_file() {
+        let pid = std::fs::read_to_string(dir.join(crate::run_lock::LOCK_FILE))
+            .ok()
+            .and_then(|t| t.trim().parse().ok());
+        Status::Running(pid)
+    } else if dir.join(FAILED_FILE).is_file() {
+        Status::Failed(read_failure(&dir.join(FAILED_FILE)))
+    } else if newest_checkpoint(dir).is_some() {
+        Status::Stopped
+    } else {
+        Status::Pending
+    };
+    let settings = match &summary {
+        Some(s) => toml::Value::try_from(&s.config).map_err(|e| e.to_string()),
+        None => read_toml(&dir.join("config.toml")),
+    };
+    let settings = settings.map_or_else(
+        |e| {
+            if dir.join("config.toml").is_file() {
+                eprintln!("colorvision gather: {}/config.toml: {e}", dir.display());
+            }
+            BTreeMap::new()
+        },
+        |v| flatten(&v),
+    );
+    let steps = summary
+        .as_ref()
+        .map(|s| s.steps)
+        .or_else(|| newest_checkpoint(dir));
+    Run {
+        folder,
+        status,
+        steps,
+        summary,
+        settings,
+    }
+}
+
+fn read_summary(path: &Path) -> Result<Summary, String> {
+    let text = std::fs::read_to_string(path).map_err(|e| e.to_string())?;
+    serde_json::from_str(&text).map_err(|e| e.to_string())
+}
+
+fn read_failure(path: &Path) -> String {
+    let text = std::fs::read_to_string(path).map_err(|e| e.to_string());
+    match text.and_then(|t| serde_json::from_str::<Failure>(&t).map_err(|e| e.to_string())) {
+        Ok(f) => format!("{} (exit {})", f.error, f.exit_code),
+        Err(e) => format!("{} does not read: {e}", path.display()),
+    }
+}
+
+fn read_toml(path: &Path) -> Result<toml::Value, String> {
+    let text = std::fs::read_to_string(path).map_err(|e| e.to_string())?;
+    toml::from_str(&text).map_err(|e| crate::config::one_line(&e.to_string()))
+}
+
+/// The step of the newest `checkpoints/step_<k>` folder.
+fn newest_checkpoint(dir: &Path) -> Option<u64> {
+    std::fs::read_dir(dir.join("checkpoints"))
+        .ok()?
+        .filter_map(|e| e.ok())
+        .filter_map(|e| {
+            e.file_name()
+                .to_string_lossy()
+                .strip_prefix("step_")?
+                .parse()
+                .ok()
+        })
+        .max()
+}
+
+/// `{a = {b = 1}}` as `a.b → "1"` (strings unquoted, arrays as TOML text).
+pub fn flatten(value: &toml::Value) -> BTreeMap<String, String> {
+    fn walk(v: &toml::Value, prefix: &str, out: &mut BTreeMap<String, String>) {
+        match v {
+            toml::Value::Table(t) => {
+                for (k, v) in t {
+                    let key = if prefix.is_empty() {
+                        k.clone()
+                    } else {
+                        format!("{prefix}.{k}")
+                    };
+                    walk(v, &key, out);
+                }
+            }
+            toml::Value::String(s) => {
+                out.insert(prefix.to_string(), s.clone());
+            }
+            other => {
+                out.insert(prefix.to_string(), other.to_string());
+            }
+        }
+    }
+    let mut out = BTreeMap::new();
+    walk(value, "", &mut out);
+    out
+}

@@ -1,0 +1,297 @@
+//! The gathered table: which settings to show, and the CSV and Markdown texts.
+//!
+//! Columns: the run's folder, the settings that vary, status (with the error of a failed run),
+//! steps done, wall time (s), the dimension CMF-SIM measured at the end with each K's converged
+//! margin (worst error / threshold of the reported set; < 1 passes), the held-out prediction
+//! gain ("next frame = this frame" error over the cortex's), and the learned invariants
+//! against the eye's truth: C recall by nearest class centre and d′ per class, W's surround
+//! correlation and DC gain, P's position error after the affine gauge (cone spacings RMS).
+//! The Markdown cells are formatted as the README's tables; the CSV keeps full precision.
+
+use super::Run;
+use std::collections::{BTreeMap, BTreeSet};
+
+/// The settings worth a column: those that differ between runs, less those that follow from
+/// the ones already kept (a derived seed follows `seed`, `[retina] cones` follows `cones`, a
+/// preset's sizes follow `preset`). Candidates are taken in order: `first` (a sweep's grid
+/// keys), then shallow keys before nested ones, then by name.
+pub fn varying_keys(runs: &[Run], first: &[String]) -> Vec<String> {
+    let rows: Vec<&BTreeMap<String, String>> = runs
+        .iter()
+        .map(|r| &r.settings)
+        .filter(|s| !s.is_empty())
+        .collect();
+    let all: BTreeSet<&String> = rows.iter().flat_map(|s| s.keys()).collect();
+    let varies = |k: &String| {
+        let mut values = rows.iter().map(|s| s.get(k));
+        let v0 = values.next().flatten();
+        values.any(|v| v != v0)
+    };
+    let mut order: Vec<&String> = first.iter().filter(|k| all.contains(k)).collect();
+    let mut rest: Vec<&String> = all.iter().copied().filter(|k| !first.contains(k)).collect();
+    rest.sort_by_key(|k| (k.matches('.').count(), k.as_str()));
+    order.extend(rest);
+    let mut kept: Vec<String> = Vec::new();
+    for key in order.into_iter().filter(|k| varies(k)) {
+        let mut seen: BTreeMap<Vec<Option<&String>>, Option<&String>> = BTreeMap::new();
+        let determined = rows.iter().all(|s| {
+            let given: Vec<Option<&String>> = kept.iter().map(|k| s.get(k)).collect();
+            *seen.entry(given).or_insert(s.get(key)) == s.get(key)
+        });
+        if !determined {
+            kept.push(key.clone());
+        }
+    }
+    kept
+}
+
+/// The numbers of a finished run, formatted for Markdown (empty when not measured).
+struct Cells {
+    dimension: String,
+    gain: String,
+    c_recall: String,
+    c_dprime: String,
+    w_surround: String,
+    w_dc: String,
+    p_error: String,
+    wall: String,
+}
+
+fn joined(v: &[f64], digits: usize) -> String {
+    let parts: Vec<String> = v.iter().map(|x| format!("{x:.digits$}")).collect();
+    parts.join("/")
+}
+
+fn cells(run: &Run) -> Option<Cells> {
+    let s = run.summary.as_ref()?;
+    let margins: Vec<String> = s
+        .converged_ratio_per_k
+        .iter()
+        .map(|(k, r)| format!("K{k} {r:.2}"))
+        .collect();
+    // 0 is "undefined" when measured (the verdict says why), "not measured" otherwise.
+    let measured = !s.dimension_over_steps.is_empty();
+    let why = s.verdict.split(':').next().unwrap_or_default();
+    let dimension = match (measured, margins.is_empty(), s.dimension) {
+        (false, _, _) => String::new(),
+        (true, true, 0) => format!("undefined ({why})"),
+        (true, false, 0) => format!("undefined ({})", margins.join(", ")),
+        (true, _, d) => format!("**{d}** ({})", margins.join(", ")),
+    };
+    let rec = s.invariants.as_ref().map(|i| &i.recovery);
+    let c = rec.and_then(|r| r.c.as_ref());
+    let w = rec.and_then(|r| r.w.as_ref());
+    Some(Cells {
+        dimension,
+        gain: s
+            .heldout_prediction
+            .map_or(String::new(), |p| format!("{:.1}", p[2])),
+        c_recall: c.map_or(String::new(), |c| joined(&c.recall_nearest_centroid, 2)),
+        c_dprime: c.map_or(String::new(), |c| joined(&c.dprime, 1)),
+        w_surround: w.map_or(String::new(), |w| format!("{:.2}", w.surround_r)),
+        w_dc: w.map_or(String::new(), |w| format!("{:.3}", w.dc_gain)),
+        p_error: rec.map_or(String::new(), |r| {
+            format!("{:.2}", r.p.position_error_rms_cones)
+        }),
+        wall: format!("{:.0}", s.wall_seconds),
+    })
+}
+
+fn status_cell(run: &Run) -> String {
+    match run.status.detail() {
+        d if d.is_empty() => run.status.word().to_string(),
+        d => format!("{}: {d}", run.status.word()),
+    }
+}
+
+fn md_escape(s: &str) -> String {
+    s.replace('|', "\\|").replace(['\n', '\r'], " ")
+}
+
+/// The Markdown table of `runs` with a column per setting of `keys`.
+pub fn markdown(runs: &[Run], keys: &[String]) -> String {
+    let mut head = vec!["run".to_string()];
+    head.extend(keys.iter().cloned());
+    head.extend(
+        [
+            "status",
+            "steps done",
+            "wall s",
+            "CMF-SIM (margins)",
+            "gain",
+            "C recall",
+            "C d′",
+            "W surround r",
+            "W DC",
+            "P error",
+        ]
+        .map(String::from),
+    );
+    let mut out = format!("| {} |\n", head.join(" | "));
+    out.push_str(&format!("|{}\n", "---|".repeat(head.len())));
+    for run in runs {
+        let mut row = vec![run.folder.clone()];
+        row.extend(
+            keys.iter()
+                .map(|k| run.settings.get(k).cloned().unwrap_or_default()),
+        );
+        row.push(status_cell(run));
+        row.push(run.steps.map_or(String::new(), |s| s.to_string()));
+        match cells(run) {
+            Some(c) => row.extend([
+                c.wall,
+                c.dimension,
+                c.gain,
+                c.c_recall,
+                c.c_dprime,
+                c.w_surround,
+                c.w_dc,
+                c.p_error,
+            ]),
+            None => row.extend(std::iter::repeat_n(String::new(), 8)),
+        }
+        let row: Vec<String> = row.iter().map(|c| md_escape(c)).collect();
+        out.push_str(&format!("| {} |\n", row.join(" | ")));
+    }
+    out
+}
+
+fn csv_field(s: &str) -> String {
+    if s.contains([',', '"', '\n', '\r']) {
+        format!("\"{}\"", s.replace('"', "\"\""))
+    } else {
+        s.to_string()
+    }
+}
+
+/// The CSV table of `runs` (one margin column per K tried by any run).
+pub fn csv(runs: &[Run], keys: &[String]) -> String {
+    let max_k = runs
+        .iter()
+        .filter_map(|r| r.summary.as_ref())
+        .flat_map(|s| s.converged_ratio_per_k.iter().map(|(k, _)| *k))
+        .max()
+        .unwrap_or(0);
+    let mut head = vec!["run".to_string()];
+    head.extend(keys.iter().cloned());
+    head.extend(
+        [
+            "status",
+            "detail",
+            "steps_done",
+            "wall_seconds",
+            "dimension",
+            "verdict",
+        ]
+        .map(String::from),
+    );
+    head.extend((1..=max_k).map(|k| format!("margin_k{k}")));
+    head.extend(
+        [
+            "heldout_gain",
+            "c_classes",
+            "c_recall",
+            "c_dprime",
+            "w_surround_r",
+            "w_dc_gain",
+            "p_error_rms_cones",
+        ]
+        .map(String::from),
+    );
+    let mut out = head.join(",") + "\n";
+    let num = |x: Option<f64>| x.map_or(String::new(), |x| x.to_string());
+    for run in runs {
+        let mut row = vec![run.folder.clone()];
+        row.extend(
+            keys.iter()
+                .map(|k| run.settings.get(k).cloned().unwrap_or_default()),
+        );
+        row.push(run.status.word().into());
+        row.push(run.status.detail());
+        row.push(run.steps.map_or(String::new(), |s| s.to_string()));
+        let s = run.summary.as_ref();
+        row.push(num(s.map(|s| s.wall_seconds)));
+        row.push(s.map_or(String::new(), |s| s.dimension.to_string()));
+        row.push(s.map_or(String::new(), |s| s.verdict.clone()));
+        for k in 1..=max_k {
+            let m = s.and_then(|s| s.converged_ratio_per_k.iter().find(|(j, _)| *j == k));
+            row.push(num(m.map(|(_, r)| *r)));
+        }
+        row.push(num(s.and_then(|s| s.heldout_prediction).map(|p| p[2])));
+        let rec = s.and_then(|s| s.invariants.as_ref()).map(|i| &i.recovery);
+        let c = rec.and_then(|r| r.c.as_ref());
+        let w = rec.and_then(|r| r.w.as_ref());
+        row.push(c.map_or(String::new(), |c| c.classes.join("/")));
+        row.push(c.map_or(String::new(), |c| joined(&c.recall_nearest_centroid, 4)));
+        row.push(c.map_or(String::new(), |c| joined(&c.dprime, 4)));
+        row.push(num(w.map(|w| w.surround_r)));
+        row.push(num(w.map(|w| w.dc_gain)));
+        row.push(num(rec.map(|r| r.p.position_error_rms_cones)));
+        let row: Vec<String> = row.iter().map(|c| csv_field(c)).collect();
+        out.push_str(&(row.join(",") + "\n"));
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::gather::Status;
+
+    fn run(folder: &str, settings: &[(&str, &str)], status: Status) -> Run {
+        Run {
+            folder: folder.into(),
+            status,
+            steps: None,
+            summary: None,
+            settings: settings
+                .iter()
+                .map(|(k, v)| (k.to_string(), v.to_string()))
+                .collect(),
+        }
+    }
+
+    #[test]
+    fn derived_settings_get_no_column_of_their_own() {
+        let runs = [
+            ("a", "LMS", "0", "11", "x"),
+            ("b", "LMS", "1", "22", "x"),
+            ("c", "LM", "0", "11", "y"),
+            ("d", "LM", "1", "22", "y"),
+        ]
+        .map(|(f, cones, seed, derived, nested)| {
+            let s = [
+                ("cones", cones),
+                ("seed", seed),
+                ("retina.mosaic_seed", derived),
+                ("retina.cones", nested),
+                ("steps", "5"),
+            ];
+            run(f, &s, Status::Pending)
+        });
+        assert_eq!(varying_keys(&runs, &[]), ["cones", "seed"]);
+        // A grid key named first keeps its column even when nested.
+        let first = ["retina.cones".to_string()];
+        assert_eq!(varying_keys(&runs, &first), ["retina.cones", "seed"]);
+    }
+
+    #[test]
+    fn errors_are_escaped_in_both_tables() {
+        let r = run(
+            "x",
+            &[],
+            Status::Failed("bad | value, \"quoted\"\nsecond line".into()),
+        );
+        let md = markdown(std::slice::from_ref(&r), &[]);
+        assert!(
+            md.contains("failed: bad \\| value, \"quoted\" second line"),
+            "{md}"
+        );
+        let csv = csv(&[r], &[]);
+        assert!(
+            csv.contains(",\"bad | value, \"\"quoted\"\"\nsecond line\","),
+            "{csv}"
+        );
+        assert_eq!(md.lines().next().unwrap().matches('|').count(), 12);
+    }
+}
