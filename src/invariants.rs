@@ -40,8 +40,16 @@ pub struct CRecovery {
     pub recall_kmeans: Vec<f64>,
     /// Per class: the fraction of its cones nearest to their own class's centroid.
     pub recall_nearest_centroid: Vec<f64>,
-    /// Per class: d′ to the nearest other class along the line joining their centroids.
+    /// Per class: d′ to the nearest other class along the line joining their centroids (NaN,
+    /// `null` in JSON, when there is no other class).
+    #[serde(deserialize_with = "nan_for_null")]
     pub dprime: Vec<f64>,
+}
+
+/// Reads a list of numbers in which `null` (how JSON writes NaN) stands for NaN.
+fn nan_for_null<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Vec<f64>, D::Error> {
+    let values: Vec<Option<f64>> = serde::Deserialize::deserialize(d)?;
+    Ok(values.into_iter().map(|v| v.unwrap_or(f64::NAN)).collect())
 }
 
 /// Measures C rows `(m, dim)` against `truth` labels in `0..classes.len()`.

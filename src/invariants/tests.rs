@@ -120,3 +120,14 @@ fn an_untrained_cortex_has_recovered_nothing() {
     assert_eq!(r.describe().len(), 3);
     eprintln!("{:#?}", r.describe());
 }
+
+#[test]
+fn one_class_has_no_dprime_and_its_record_reads_back() {
+    let c: Vec<f64> = (0..20).map(|i| (i as f64).sin()).collect();
+    let r = measure_c(&c, 2, &[0; 10], &["L".to_string()]);
+    assert!(r.dprime[0].is_nan(), "{:?}", r.dprime);
+    let text = serde_json::to_string(&r).unwrap();
+    assert!(text.contains("\"dprime\":[null]"), "{text}");
+    let back: CRecovery = serde_json::from_str(&text).unwrap();
+    assert!(back.dprime[0].is_nan() && back.recall_nearest_centroid == r.recall_nearest_centroid);
+}

@@ -100,6 +100,7 @@ pub fn run_task(dir: &Path, index: usize) -> Result<(), RunError> {
     let failed = run_dir.join(FAILED_FILE);
     match crate::commands::resume(&ResumeOptions {
         dir: run_dir.clone(),
+        steps: None,
     }) {
         Ok(()) => {
             if failed.exists() {
