@@ -224,32 +224,80 @@ mod tests {
     /// Points `(n, 2)` in [−2, 2], then `w1, b1, w2, b2, w3, b3` for hidden width `h`, all
     /// non-zero (last layer ±0.5/√h, so the scale `exp(s)` is not trivially 1). Conditioning
     /// values (column `kept`) are redrawn until every ReLU input is at least 1e-3 from its
-    /// kink, far beyond the finite-difference steps of the checks.
+    /// kink, far beyond the finite-difference steps of the checks. Some MLPs have no such value
+    /// (about 1 in 3 000 at `h = 1`: a unit whose input stays within 1e-3 of zero for every
+    /// `x_c` in [−2, 2]); after [`REDRAWS`] tries for one point the whole set is drawn again,
+    /// so every seed gives inputs in bounded time.
     fn inputs(seed: u64, n: usize, h: usize, kept: usize) -> Vec<Tensor<f64>> {
         let mut rng = StdRng::seed_from_u64(seed);
+        loop {
+            let mut x = draw_mlp(&mut rng, h);
+            x.insert(
+                0,
+                Tensor::from_fn(&[n, 2][..], |_| rng.random_range(-2.0..2.0)),
+            );
+            if (0..n).all(|i| place_away_from_kinks(&mut x, 2 * i + kept, &mut rng)) {
+                return x;
+            }
+        }
+    }
+
+    /// `w1, b1, w2, b2, w3, b3` of hidden width `h`, uniform in the bounds [`inputs`] states.
+    fn draw_mlp(rng: &mut StdRng, h: usize) -> Vec<Tensor<f64>> {
+        let r = 1.0 / (h as f64).sqrt();
         let mut u = |shape: &[usize], bound: f64| {
             Tensor::from_fn(shape, |_| rng.random_range(-bound..bound))
         };
-        let r = 1.0 / (h as f64).sqrt();
-        let mut x = vec![
-            u(&[n, 2], 2.0),
+        vec![
             u(&[1, h], 1.0),
             u(&[h], 1.0),
             u(&[h, h], r),
             u(&[h], 0.5),
             u(&[h, 2], 0.5 * r),
             u(&[2], 0.5),
-        ];
-        let mut rng = StdRng::seed_from_u64(!seed);
-        for i in 0..n {
-            while {
-                let (a1, a2) = preacts(&x, x[0].data()[2 * i + kept]);
-                a1.iter().chain(&a2).any(|a| a.abs() < 1e-3)
-            } {
-                x[0].data_mut()[2 * i + kept] = rng.random_range(-2.0..2.0);
+        ]
+    }
+
+    /// A seed whose first MLP at `h = 1` has no kink-free conditioning value.
+    const HOPELESS_SEED: u64 = 2708;
+
+    /// Tries for one conditioning value before [`inputs`] gives up on an MLP.
+    const REDRAWS: usize = 1000;
+
+    /// Redraws `x[0][at]` in [−2, 2] until no ReLU input is within 1e-3 of its kink; `false`
+    /// when [`REDRAWS`] draws all fail.
+    fn place_away_from_kinks(x: &mut [Tensor<f64>], at: usize, rng: &mut StdRng) -> bool {
+        for _ in 0..REDRAWS {
+            let (a1, a2) = preacts(x, x[0].data()[at]);
+            if a1.iter().chain(&a2).all(|a| a.abs() >= 1e-3) {
+                return true;
             }
+            x[0].data_mut()[at] = rng.random_range(-2.0..2.0);
         }
-        x
+        false
+    }
+
+    /// Every seed gives inputs, including one whose first MLP has no kink-free conditioning
+    /// value (its only unit's input stays within 1e-3 of zero over [−2, 2]; before the whole
+    /// set was redrawn, the search for a point never ended).
+    #[test]
+    fn inputs_exist_for_every_seed_even_without_a_kink_free_value() {
+        let (seed, h) = (HOPELESS_SEED, 1);
+        let mut mlp = draw_mlp(&mut StdRng::seed_from_u64(seed), h);
+        mlp.insert(0, Tensor::zeros(&[1usize, 2][..]));
+        let kink_free = |v: f64| {
+            let (a1, a2) = preacts(&mlp, v);
+            a1.iter().chain(&a2).all(|a| a.abs() >= 1e-3)
+        };
+        assert!(
+            !(0..=4000).any(|i| kink_free(-2.0 + i as f64 * 1e-3)),
+            "seed {seed} was chosen for a first MLP without a kink-free value"
+        );
+        let x = inputs(seed, 3, h, 0);
+        for i in 0..3 {
+            let (a1, a2) = preacts(&x, x[0].data()[2 * i]);
+            assert!(a1.iter().chain(&a2).all(|a| a.abs() >= 1e-3), "point {i}");
+        }
     }
 
     /// The ReLU inputs `(x_c·w1 + b1, h1·w2 + b2)` of the MLP in `p[1..7]` at `v = x_c`.
