@@ -1,12 +1,17 @@
 #!/bin/bash
-# Renders a run's report.html in headless Chromium (Debian's `chromium`) and checks it:
+# Renders a run's report.html (or any page: a sweep's index.html) in headless Chromium (Debian's `chromium`) and checks it:
 # the page logs no console message, and the screenshot is not blank (its pixels do not
 # compress below 1 % of their raw size, as an empty page's do).
-# Usage: scripts/check-report.sh RUN_DIR [SCREENSHOT.png]   (default RUN_DIR/report.png)
+# Usage: scripts/check-report.sh RUN_DIR|PAGE.html [SCREENSHOT.png]
+#        (default: the page's name with .png, beside it)
 set -euo pipefail
-RUN=${1:?usage: scripts/check-report.sh RUN_DIR [SCREENSHOT.png]}
-PAGE=$(cd "$RUN" && pwd)/report.html
-SHOT=${2:-$RUN/report.png}
+TARGET=${1:?usage: scripts/check-report.sh RUN_DIR|PAGE.html [SCREENSHOT.png]}
+if [ -d "$TARGET" ]; then
+    PAGE=$(cd "$TARGET" && pwd)/report.html
+else
+    PAGE=$(cd "$(dirname "$TARGET")" && pwd)/$(basename "$TARGET")
+fi
+SHOT=${2:-${PAGE%.html}.png}
 [ -f "$PAGE" ] || { echo "check-report.sh: $PAGE: no such file" >&2; exit 1; }
 command -v chromium >/dev/null || { echo "check-report.sh: needs chromium (apt-get install -y chromium)" >&2; exit 2; }
 PROFILE=$(mktemp -d)

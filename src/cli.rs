@@ -54,8 +54,9 @@ pub enum Command {
     /// Expand a grid of settings (a sweep spec, TOML) into one run folder per run and a Slurm
     /// job-array script (`sbatch DIR/sweep.sbatch`); `--local -j N DIR` runs its tasks here.
     Sweep(crate::sweep::SweepOptions),
-    /// One table (gather.csv, gather.md) of every run under DIR from its summary.json: the
-    /// settings that vary, dimension and margins, prediction gain, invariants, status.
+    /// One table (gather.csv, gather.md, and index.html linking each run's report) of every run
+    /// under DIR from its summary.json: the settings that vary, dimension and margins,
+    /// prediction gain, invariants, status.
     Gather(crate::gather::GatherOptions),
 }
 

@@ -263,24 +263,21 @@ fn write_outputs(out: &Path, config: &RunConfig, rows: &[StudyRow]) -> Result<()
     let json = serde_json::to_string_pretty(rows).expect("plain data");
     write_atomic(&out.join("convergence.json"), json.as_bytes())?;
     write_atomic(&out.join("convergence.md"), table(config, rows).as_bytes())?;
-    let x: Vec<f64> = rows
-        .iter()
-        .map(|r| (r.step.max(1) as f64).log10())
-        .collect();
+    let x: Vec<f64> = rows.iter().map(|r| r.step.max(1) as f64).collect();
     let series = |name: &str, f: &dyn Fn(&StudyRow) -> Option<f64>| {
         let (xs, ys): (Vec<f64>, Vec<f64>) = rows
             .iter()
             .zip(&x)
             .filter_map(|(r, &x)| f(r).map(|y| (x, y)))
             .unzip();
-        Series::new(name, xs, ys)
+        Series::new(name, xs, ys).markers()
     };
     let mut recovered = LinePlot::new(
         "Learned invariants against the truth (1 = recovered)",
-        "log10 step",
+        "step",
         "score",
     );
-    recovered.y_min = Some(0.0);
+    recovered.x.log = true;
     recovered.y_max = Some(1.05);
     recovered.push(series("C worst recall (k-means)", &|r| {
         r.recovery.c.as_ref().map(|c| min_of(&c.recall_kmeans))
@@ -295,16 +292,19 @@ fn write_outputs(out: &Path, config: &RunConfig, rows: &[StudyRow]) -> Result<()
         r.recovery.w.as_ref().map(|w| w.surround_r)
     }));
     recovered.push(series("P spacing r", &|r| Some(r.recovery.p.spacing_r)));
+    // From 0, or lower where a correlation is negative.
+    let lowest = recovered.series.iter().flat_map(|s| s.ys.iter().copied());
+    recovered.y_min = Some(lowest.fold(0.0, f64::min));
     write_atomic(
         &out.join("convergence_invariants.svg"),
         recovered.to_svg().as_bytes(),
     )?;
     let mut errors = LinePlot::new(
         "Prediction gain, W DC factor, P error, CMF-SIM dimension",
-        "log10 step",
-        "value (log)",
+        "step",
+        "value",
     );
-    errors.log_y = true;
+    (errors.x.log, errors.y.log) = (true, true);
     errors.push(series("held-out prediction gain (×)", &|r| r.heldout_gain));
     errors.push(series("W DC gain / true (factor ≥ 1)", &|r| {
         r.recovery.w.as_ref().map(|w| w.dc_factor())

@@ -1,5 +1,6 @@
 //! `colorvision gather DIR`: one table of every run under `DIR` (a sweep folder, or any folder
-//! of run folders), written as `DIR/gather.csv` and `DIR/gather.md` and printed as Markdown;
+//! of run folders), written as `DIR/gather.csv`, `DIR/gather.md` and `DIR/index.html` (each run
+//! linked to its report, [`index`]) and printed as Markdown;
 //! `--markdown` prints only the Markdown table (for the README) and writes nothing.
 //!
 //! A run folder is a folder holding `config.toml` or `summary.json`; folders inside a run
@@ -17,6 +18,7 @@
 //! settings shown are those that vary between the runs ([`table::varying_keys`]). CMF-SIM's
 //! dimension 0 is shown as `undefined` with the verdict's reason (e.g. no colour constancy).
 
+pub mod index;
 pub mod table;
 
 use crate::run::{RunError, Summary};
@@ -115,6 +117,7 @@ pub fn command(options: &GatherOptions) -> Result<(), RunError> {
     }
     crate::io::write_atomic(&dir.join("gather.csv"), table::csv(&runs, &keys).as_bytes())?;
     crate::io::write_atomic(&dir.join("gather.md"), markdown.as_bytes())?;
+    index::write(dir, &runs, &keys)?;
     print!("{markdown}");
     let mut counts: BTreeMap<&str, usize> = BTreeMap::new();
     for r in &runs {
@@ -122,7 +125,7 @@ pub fn command(options: &GatherOptions) -> Result<(), RunError> {
     }
     let counts: Vec<String> = counts.iter().map(|(w, n)| format!("{n} {w}")).collect();
     println!(
-        "\n{} runs ({}); wrote {}/gather.csv and gather.md",
+        "\n{} runs ({}); wrote {}/gather.csv, gather.md and index.html",
         runs.len(),
         counts.join(", "),
         dir.display()

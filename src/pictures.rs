@@ -227,7 +227,7 @@ fn write_positions(dir: &Path, retina: &Retina, cortex: &Cortex) -> Result<(), R
     let learned = cortex.learned_positions();
     let learned = learned.data();
     let truth = retina.layout.positions_normalised();
-    let mut svg = String::from("<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"840\" height=\"420\" viewBox=\"0 0 840 420\">\n<rect width=\"840\" height=\"420\" fill=\"white\"/>\n<text x=\"10\" y=\"16\" font-size=\"13\">learned positions P(uv) (left) and true cone positions (right)</text>\n");
+    let mut svg = String::from("<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"840\" height=\"420\" viewBox=\"0 0 840 420\" font-family=\"sans-serif\">\n<rect width=\"840\" height=\"420\" fill=\"white\"/>\n<text x=\"10\" y=\"16\" font-size=\"13\">learned positions P(uv) (left) and true cone positions (right)</text>\n");
     let step = (n / 32).max(1);
     for (panel, pts) in [
         (

@@ -17,7 +17,9 @@ use std::path::Path;
 /// Name of the page in a run folder.
 pub const REPORT_FILE: &str = "report.html";
 
-const STYLE: &str = "body{font-family:sans-serif;max-width:1100px;margin:1em auto;padding:0 1em;\
+/// The style sheet of the project's pages, inline.
+pub const STYLE: &str =
+    "body{font-family:sans-serif;max-width:1100px;margin:1em auto;padding:0 1em;\
 color:#222}h1{font-size:1.5em}h2{font-size:1.2em;border-bottom:1px solid #ccc;margin-top:1.6em}\
 table{border-collapse:collapse}td,th{border:1px solid #ccc;padding:2px 8px;text-align:left}\
 figure{display:inline-block;margin:0.5em 1em 0.5em 0;vertical-align:top}\

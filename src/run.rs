@@ -25,7 +25,7 @@ use crate::pictures;
 use crate::run_folder::{self, Folder, Opened};
 use crate::source::RetinaSource;
 use colorimetry::cmf_sim::CmfSimSettings;
-use colorimetry::plot::{LinePlot, Series};
+use colorimetry::plot::{LinePlot, Scale, Series};
 use colorimetry::{run_cmf_sim, CmfSimResult};
 use cortex::{DataSource, Trainer};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -800,7 +800,7 @@ impl RunState<'_> {
             "step",
             "loss",
         );
-        loss_plot.log_y = true;
+        loss_plot.y.log = true;
         loss_plot.push(Series::new(
             "loss",
             std::mem::take(&mut self.losses.0),
@@ -812,13 +812,26 @@ impl RunState<'_> {
             let mut p = LinePlot::new(
                 "Colour dimensionality over training (CMF-SIM)",
                 "step",
-                "dimension (0 = undefined: no primary set passed)",
-            );
-            p.push(Series::new(
                 "dimension",
-                dims.iter().map(|d| d.step as f64).collect(),
-                dims.iter().map(|d| d.dimension as f64).collect(),
-            ));
+            );
+            // An integer axis from "undefined" (0: no primary set passed) to the largest.
+            p.y = Scale {
+                integer: true,
+                names: vec![(0.0, "undefined".into())],
+                ..Scale::default()
+            };
+            p.x.integer = true;
+            let top = dims.iter().map(|d| d.dimension).max().unwrap_or(1).max(1);
+            (p.y_min, p.y_max) = (Some(-0.25), Some(top as f64 + 0.25));
+            (p.x_min, p.x_max) = (Some(0.0), Some(self.config.steps as f64));
+            p.push(
+                Series::new(
+                    "CMF-SIM dimension",
+                    dims.iter().map(|d| d.step as f64).collect(),
+                    dims.iter().map(|d| d.dimension as f64).collect(),
+                )
+                .steps(),
+            );
             crate::io::write_atomic(&out.join("dimension.svg"), p.to_svg().as_bytes())?;
         }
         let invariants = if self.mode.pictures {

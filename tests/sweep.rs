@@ -265,6 +265,19 @@ fn gather_tabulates_done_failed_stopped_pending_and_unreadable_runs() {
     let gain: f64 = done[col("heldout_gain")].parse().unwrap();
     let margin: f64 = done[col("margin_k1")].parse().unwrap();
     assert!(gain > 0.0 && margin > 0.0, "{csv}");
+    // index.html links the finished run to its report and shows its dimension over training;
+    // runs without a report are listed unlinked.
+    let index = std::fs::read_to_string(sw.join("index.html")).unwrap();
+    assert!(
+        index.contains(&format!("<a href=\"{}/report.html\">", names[0])),
+        "{index}"
+    );
+    assert_eq!(index.matches("<a href=").count(), 1, "{index}");
+    assert_eq!(index.matches("data:image/svg+xml;base64,").count(), 1);
+    assert!(
+        index.contains("<b>") && index.contains(&names[3]),
+        "{index}"
+    );
     // --markdown prints the same table and writes nothing.
     std::fs::remove_file(sw.join("gather.md")).unwrap();
     let o = colorvision(&dir, &["gather", "sw", "--markdown"]);

@@ -18,7 +18,7 @@ impl CmfSimResult {
     pub fn error_plot(&self) -> LinePlot {
         let title = format!("CMF-SIM — {} — {}", self.observer, self.verdict);
         let mut p = LinePlot::new(title, "test wavelength (nm)", "matching error ‖Δpercept‖²");
-        p.log_y = true;
+        p.y.log = true;
         let top = self.energy.iter().copied().fold(0.0, f64::max);
         if top > 0.0 {
             p.y_min = Some(1e-8 * top);

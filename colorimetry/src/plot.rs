@@ -1,16 +1,29 @@
-//! A small dependency-free SVG line plot (CMF-SIM error curves, CMFs, loss curves …).
+//! A small dependency-free SVG line plot (CMF-SIM error curves, CMFs, loss curves, dimension
+//! over training …).
 //!
 //! ```
 //! use colorimetry::plot::{LinePlot, Series};
 //! let mut p = LinePlot::new("loss", "step", "loss");
 //! p.push(Series::new("train", vec![0.0, 1.0, 2.0], vec![1.0, 0.5, 0.3]));
-//! p.log_y = true;
+//! p.y.log = true;
 //! let svg = p.to_svg();
 //! assert!(svg.starts_with("<svg"));
 //! ```
 //!
-//! Coordinates: data x to the right, y up. With `log_y`, non-positive values (and values below
-//! `y_min`, if set) are clipped to the bottom of the axis. Non-finite points break the line.
+//! Coordinates: data x to the right, y up. Each axis has a [`Scale`]: linear or log₁₀ (labelled
+//! in data units, non-positive values and values below `y_min` clipped to the low edge),
+//! integer (ticks at whole numbers only), and named ticks (`0 → "undefined"`). Non-finite
+//! points break a line. A [`Series`] is a polyline or a step line (the value holds until the
+//! next point), optionally with a marker at each point so a single point shows. The legend sits
+//! right of the plot area inside the canvas: the canvas widens to fit the longest label.
+//!
+//! Why not a plotting crate: these plots need a few features (log axes, step lines, named
+//! ticks, dashed series), byte-identical output for identical input, and no system fonts; the
+//! SVG backends of plotting crates bring font handling and a larger build for none of them.
+
+mod axis;
+
+pub use axis::{fmt_number, nice_ticks, Scale, Tick};
 
 use std::fmt::Write as _;
 use std::path::Path;
@@ -21,6 +34,19 @@ use crate::error::Result;
 pub const PALETTE: [&str; 8] = [
     "#000000", "#0072B2", "#D55E00", "#009E73", "#CC79A7", "#E69F00", "#56B4E9", "#F0E442",
 ];
+
+/// Font size of tick labels and the legend, px; the title is 2 px larger.
+const FONT_PX: f64 = 12.0;
+/// Width of one character at [`FONT_PX`], px: an upper estimate for text of letters and digits
+/// (DejaVu Sans, a common default sans-serif, draws digits 0.636 em wide), so a legend sized
+/// with it is never narrower than drawn.
+const CHAR_PX: f64 = 7.7;
+/// Height of one legend row, px.
+const LEGEND_ROW_PX: f64 = 18.0;
+/// Narrowest plot area, px: a long legend widens the canvas instead of squeezing the plot.
+const MIN_PLOT_PX: f64 = 480.0;
+/// Margins left (tick labels, y label), top (title) and bottom (tick labels, x label), px.
+const MARGIN_PX: [f64; 3] = [78.0, 36.0, 52.0];
 
 /// One line.
 #[derive(Debug, Clone, PartialEq)]
@@ -35,6 +61,10 @@ pub struct Series {
     pub color: Option<String>,
     /// Dashed line.
     pub dashed: bool,
+    /// Step line: each value holds until the next point (for quantities measured now and then).
+    pub steps: bool,
+    /// A dot at each point.
+    pub markers: bool,
 }
 
 impl Series {
@@ -46,6 +76,8 @@ impl Series {
             ys,
             color: None,
             dashed: false,
+            steps: false,
+            markers: false,
         }
     }
     /// Builder: dashed.
@@ -56,6 +88,17 @@ impl Series {
     /// Builder: colour.
     pub fn color(mut self, c: impl Into<String>) -> Self {
         self.color = Some(c.into());
+        self
+    }
+    /// Builder: a dot at each point.
+    pub fn markers(mut self) -> Self {
+        self.markers = true;
+        self
+    }
+    /// Builder: a step line with a dot at each measurement.
+    pub fn steps(mut self) -> Self {
+        self.steps = true;
+        self.markers = true;
         self
     }
 }
@@ -71,20 +114,47 @@ pub struct LinePlot {
     pub y_label: String,
     /// The lines.
     pub series: Vec<Series>,
-    /// Logarithmic y axis.
-    pub log_y: bool,
+    /// Scale of the x axis.
+    pub x: Scale,
+    /// Scale of the y axis.
+    pub y: Scale,
+    /// Lower x limit (data units); `None` = automatic.
+    pub x_min: Option<f64>,
+    /// Upper x limit (data units); `None` = automatic.
+    pub x_max: Option<f64>,
     /// Lower y limit (data units); `None` = automatic.
     pub y_min: Option<f64>,
     /// Upper y limit (data units); `None` = automatic.
     pub y_max: Option<f64>,
-    /// Width, px.
+    /// Width of the canvas, px, unless the legend needs more.
     pub width_px: f64,
-    /// Height, px.
+    /// Height of the canvas, px, unless the legend needs more.
     pub height_px: f64,
 }
 
+/// Where things go on the canvas: the plot area and the axis ranges (axis units).
+struct Frame {
+    left: f64,
+    top: f64,
+    width: f64,
+    height: f64,
+    x_range: (f64, f64),
+    y_range: (f64, f64),
+}
+
+impl Frame {
+    fn px(&self, x: f64) -> f64 {
+        let (x0, x1) = self.x_range;
+        self.left + (x.clamp(x0, x1) - x0) / (x1 - x0) * self.width
+    }
+    fn py(&self, y: f64) -> f64 {
+        let (y0, y1) = self.y_range;
+        self.top + self.height - (y.clamp(y0, y1) - y0) / (y1 - y0) * self.height
+    }
+}
+
 impl LinePlot {
-    /// An empty 720×440 plot.
+    /// An empty 720×440 plot with linear axes.
     pub fn new(
         title: impl Into<String>,
         x_label: impl Into<String>,
@@ -95,7 +165,10 @@ impl LinePlot {
             x_label: x_label.into(),
             y_label: y_label.into(),
             series: Vec::new(),
-            log_y: false,
+            x: Scale::default(),
+            y: Scale::default(),
+            x_min: None,
+            x_max: None,
             y_min: None,
             y_max: None,
             width_px: 720.0,
@@ -115,219 +188,210 @@ impl LinePlot {
         self.series.push(s);
     }
 
-    fn y_tf(&self, y: f64) -> f64 {
-        if self.log_y {
-            if y > 0.0 {
-                y.log10()
-            } else {
-                f64::NEG_INFINITY
-            }
-        } else {
-            y
+    /// Canvas size `(width, height)`, px: at least `width_px × height_px`, wider when the
+    /// legend's longest label would leave the plot area narrower than [`MIN_PLOT_PX`], taller
+    /// when the legend's rows need it.
+    pub fn canvas_px(&self) -> (f64, f64) {
+        let [left, top, bottom] = MARGIN_PX;
+        let width = self.width_px.max(left + MIN_PLOT_PX + self.legend_px());
+        let rows = top + 14.0 + LEGEND_ROW_PX * self.series.len() as f64 + bottom;
+        (width, self.height_px.max(rows))
+    }
+
+    /// Width right of the plot area, px: gap, line sample, the longest label, gap.
+    fn legend_px(&self) -> f64 {
+        let longest = self.series.iter().map(|s| s.name.chars().count()).max();
+        longest.map_or(24.0, |n| 12.0 + 28.0 + n as f64 * CHAR_PX + 12.0)
+    }
+
+    fn frame(&self) -> Frame {
+        let [left, top, bottom] = MARGIN_PX;
+        let (w, h) = self.canvas_px();
+        let legend = self.legend_px();
+        let xs = self.series.iter().flat_map(|s| s.xs.iter().copied());
+        let ys = self.series.iter().flat_map(|s| s.ys.iter().copied());
+        Frame {
+            left,
+            top,
+            width: w - left - legend,
+            height: h - top - bottom,
+            x_range: limited(&self.x, xs, self.x_min, self.x_max),
+            y_range: limited(&self.y, ys, self.y_min, self.y_max),
         }
     }
 
     /// Render to an SVG document.
     pub fn to_svg(&self) -> String {
-        let (w, h) = (self.width_px, self.height_px);
-        let (ml, mr, mt, mb) = (78.0, 170.0, 36.0, 52.0);
-        let (pw, ph) = (w - ml - mr, h - mt - mb);
-        let finite = |v: &f64| v.is_finite();
-        let xs: Vec<f64> = self
-            .series
-            .iter()
-            .flat_map(|s| s.xs.iter().copied())
-            .filter(finite)
-            .collect();
-        let ys: Vec<f64> = self
-            .series
-            .iter()
-            .flat_map(|s| s.ys.iter().map(|&y| self.y_tf(y)))
-            .filter(finite)
-            .collect();
-        let (mut x0, mut x1) = min_max(&xs).unwrap_or((0.0, 1.0));
-        let (mut y0, mut y1) = min_max(&ys).unwrap_or((0.0, 1.0));
-        if let Some(v) = self.y_min {
-            y0 = self.y_tf(v);
-        }
-        if let Some(v) = self.y_max {
-            y1 = self.y_tf(v);
-        }
-        if !(y0.is_finite() && y1.is_finite()) || y1 <= y0 {
-            (y0, y1) = (y0.min(y1) - 0.5, y0.max(y1) + 0.5);
-            if !y0.is_finite() {
-                (y0, y1) = (0.0, 1.0);
-            }
-        }
-        if x1 <= x0 {
-            (x0, x1) = (x0 - 0.5, x1 + 0.5);
-        }
-        let px = |x: f64| ml + (x - x0) / (x1 - x0) * pw;
-        let py = |y: f64| mt + ph - (y.clamp(y0, y1) - y0) / (y1 - y0) * ph;
+        let (w, h) = self.canvas_px();
+        let f = self.frame();
         let mut s = String::new();
         let _ = writeln!(
             s,
-            r#"<svg xmlns="http://www.w3.org/2000/svg" width="{w}" height="{h}" viewBox="0 0 {w} {h}" font-family="sans-serif" font-size="12">"#
+            r#"<svg xmlns="http://www.w3.org/2000/svg" width="{w}" height="{h}" viewBox="0 0 {w} {h}" font-family="sans-serif" font-size="{FONT_PX}">"#
         );
         let _ = writeln!(s, r#"<rect width="100%" height="100%" fill="white"/>"#);
         let _ = writeln!(
             s,
-            r#"<text x="{}" y="22" text-anchor="middle" font-size="14">{}</text>"#,
-            ml + pw / 2.0,
+            r#"<text x="{}" y="22" text-anchor="middle" font-size="{}">{}</text>"#,
+            f.left + f.width / 2.0,
+            FONT_PX + 2.0,
             esc(&self.title)
         );
-        for t in nice_ticks(x0, x1, 8) {
-            let x = px(t);
-            let _ = writeln!(
-                s,
-                r##"<line x1="{x:.1}" y1="{mt}" x2="{x:.1}" y2="{:.1}" stroke="#e5e5e5"/><text x="{x:.1}" y="{:.1}" text-anchor="middle">{}</text>"##,
-                mt + ph,
-                mt + ph + 16.0,
-                fmt_tick(t)
-            );
-        }
-        let yt = if self.log_y {
-            log_ticks(y0, y1)
-        } else {
-            nice_ticks(y0, y1, 7)
-        };
-        for t in yt {
-            let y = py(t);
-            let label = if self.log_y {
-                format!("1e{}", t.round() as i64)
-            } else {
-                fmt_tick(t)
-            };
-            let _ = writeln!(
-                s,
-                r##"<line x1="{ml}" y1="{y:.1}" x2="{:.1}" y2="{y:.1}" stroke="#e5e5e5"/><text x="{:.1}" y="{:.1}" text-anchor="end">{label}</text>"##,
-                ml + pw,
-                ml - 6.0,
-                y + 4.0
-            );
-        }
-        let _ = writeln!(
-            s,
-            r##"<rect x="{ml}" y="{mt}" width="{pw}" height="{ph}" fill="none" stroke="#333"/>"##
-        );
-        let _ = writeln!(
-            s,
-            r#"<text x="{}" y="{}" text-anchor="middle">{}</text>"#,
-            ml + pw / 2.0,
-            h - 12.0,
-            esc(&self.x_label)
-        );
-        let _ = writeln!(
-            s,
-            r#"<text transform="translate(18,{}) rotate(-90)" text-anchor="middle">{}</text>"#,
-            mt + ph / 2.0,
-            esc(&self.y_label)
-        );
+        self.axes(&mut s, &f, h);
         for (i, ser) in self.series.iter().enumerate() {
             let color = ser
                 .color
                 .clone()
                 .unwrap_or_else(|| PALETTE[i % PALETTE.len()].to_string());
-            let dash = if ser.dashed {
-                r#" stroke-dasharray="6,4""#
-            } else {
-                ""
-            };
-            let mut d = String::new();
-            let mut pen_down = false;
-            for (&x, &y) in ser.xs.iter().zip(&ser.ys) {
-                let mut ty = self.y_tf(y);
-                if self.log_y && ty == f64::NEG_INFINITY {
-                    ty = y0;
-                }
-                if !(x.is_finite() && ty.is_finite()) {
-                    pen_down = false;
-                    continue;
-                }
-                let _ = write!(
-                    d,
-                    "{}{:.2},{:.2} ",
-                    if pen_down { "L" } else { "M" },
-                    px(x),
-                    py(ty)
-                );
-                pen_down = true;
-            }
-            let _ = writeln!(
-                s,
-                r#"<path d="{d}" fill="none" stroke="{color}" stroke-width="1.6"{dash}/>"#
-            );
-            let ly = mt + 14.0 + 18.0 * i as f64;
-            let lx = ml + pw + 12.0;
-            let _ = writeln!(
-                s,
-                r#"<line x1="{lx}" y1="{ly}" x2="{}" y2="{ly}" stroke="{color}" stroke-width="2"{dash}/><text x="{}" y="{}">{}</text>"#,
-                lx + 22.0,
-                lx + 28.0,
-                ly + 4.0,
-                esc(&ser.name)
-            );
+            self.line(&mut s, &f, ser, &color);
+            legend_row(&mut s, &f, i, ser, &color);
         }
         s.push_str("</svg>\n");
         s
     }
 
+    /// Grid lines, ticks, tick labels, the frame and the axis labels.
+    fn axes(&self, s: &mut String, f: &Frame, canvas_h: f64) {
+        let (bottom, right) = (f.top + f.height, f.left + f.width);
+        for t in self.x.ticks(f.x_range.0, f.x_range.1, 8) {
+            let x = f.px(t.at);
+            let (stroke, y_end) = match t.label.is_empty() {
+                true => ("#f2f2f2", bottom),
+                false => ("#e5e5e5", bottom + 4.0),
+            };
+            let _ = writeln!(
+                s,
+                r#"<line x1="{x:.1}" y1="{}" x2="{x:.1}" y2="{y_end}" stroke="{stroke}"/><text x="{x:.1}" y="{}" text-anchor="middle">{}</text>"#,
+                f.top,
+                bottom + 17.0,
+                esc(&t.label)
+            );
+        }
+        for t in self.y.ticks(f.y_range.0, f.y_range.1, 7) {
+            let y = f.py(t.at);
+            let stroke = if t.label.is_empty() {
+                "#f2f2f2"
+            } else {
+                "#e5e5e5"
+            };
+            let _ = writeln!(
+                s,
+                r#"<line x1="{}" y1="{y:.1}" x2="{right}" y2="{y:.1}" stroke="{stroke}"/><text x="{}" y="{:.1}" text-anchor="end">{}</text>"#,
+                f.left - 4.0,
+                f.left - 6.0,
+                y + 4.0,
+                esc(&t.label)
+            );
+        }
+        let _ = writeln!(
+            s,
+            r##"<rect x="{}" y="{}" width="{}" height="{}" fill="none" stroke="#333"/>"##,
+            f.left, f.top, f.width, f.height
+        );
+        let _ = writeln!(
+            s,
+            r#"<text x="{}" y="{}" text-anchor="middle">{}</text>"#,
+            f.left + f.width / 2.0,
+            canvas_h - 12.0,
+            esc(&self.x_label)
+        );
+        let _ = writeln!(
+            s,
+            r#"<text transform="translate(18,{}) rotate(-90)" text-anchor="middle">{}</text>"#,
+            f.top + f.height / 2.0,
+            esc(&self.y_label)
+        );
+    }
+
+    /// The series' path (and markers) in plot coordinates.
+    fn line(&self, s: &mut String, f: &Frame, ser: &Series, color: &str) {
+        let dash = if ser.dashed {
+            r#" stroke-dasharray="6,4""#
+        } else {
+            ""
+        };
+        let mut d = String::new();
+        let mut dots = String::new();
+        let mut pen: Option<(f64, f64)> = None;
+        for (&x, &y) in ser.xs.iter().zip(&ser.ys) {
+            let mut ty = self.y.to_axis(y);
+            if self.y.log && ty == f64::NEG_INFINITY {
+                ty = f.y_range.0;
+            }
+            let tx = self.x.to_axis(x);
+            if !(tx.is_finite() && ty.is_finite()) {
+                pen = None;
+                continue;
+            }
+            let (px, py) = (f.px(tx), f.py(ty));
+            let _ = match pen {
+                None => write!(d, "M{px:.2},{py:.2} "),
+                Some(_) if ser.steps => write!(d, "H{px:.2} V{py:.2} "),
+                Some(_) => write!(d, "L{px:.2},{py:.2} "),
+            };
+            if ser.markers {
+                let _ = write!(
+                    dots,
+                    r#"<circle cx="{px:.2}" cy="{py:.2}" r="3.5" fill="{color}"/>"#
+                );
+            }
+            pen = Some((px, py));
+        }
+        let _ = writeln!(
+            s,
+            r#"<path d="{d}" fill="none" stroke="{color}" stroke-width="1.6"{dash}/>{dots}"#
+        );
+    }
+}
+
+/// The axis range of `values` on `scale`, with the limits that are given (data units) in place
+/// of the automatic ones; widened where it would be empty.
+fn limited(
+    scale: &Scale,
+    values: impl Iterator<Item = f64>,
+    min: Option<f64>,
+    max: Option<f64>,
+) -> (f64, f64) {
+    let (mut lo, mut hi) = scale.range(values);
+    if let Some(v) = min.map(|v| scale.to_axis(v)).filter(|v| v.is_finite()) {
+        lo = v;
+    }
+    if let Some(v) = max.map(|v| scale.to_axis(v)).filter(|v| v.is_finite()) {
+        hi = v;
+    }
+    if hi <= lo {
+        (lo.min(hi) - 0.5, lo.max(hi) + 0.5)
+    } else {
+        (lo, hi)
+    }
+}
+
+/// Row `i` of the legend, right of the plot area.
+fn legend_row(s: &mut String, f: &Frame, i: usize, ser: &Series, color: &str) {
+    let dash = if ser.dashed {
+        r#" stroke-dasharray="6,4""#
+    } else {
+        ""
+    };
+    let ly = f.top + 14.0 + LEGEND_ROW_PX * i as f64;
+    let lx = f.left + f.width + 12.0;
+    let _ = writeln!(
+        s,
+        r#"<line x1="{lx}" y1="{ly}" x2="{}" y2="{ly}" stroke="{color}" stroke-width="2"{dash}/><text x="{}" y="{}">{}</text>"#,
+        lx + 22.0,
+        lx + 28.0,
+        ly + 4.0,
+        esc(&ser.name)
+    );
+}
+
+impl LinePlot {
     /// Write the SVG to `path` atomically ([`atomic_io::write_atomic`]), creating its folder.
     pub fn save(&self, path: impl AsRef<Path>) -> Result<()> {
         Ok(atomic_io::write_atomic(
             path.as_ref(),
             self.to_svg().as_bytes(),
         )?)
-    }
-}
-
-fn min_max(v: &[f64]) -> Option<(f64, f64)> {
-    if v.is_empty() {
-        return None;
-    }
-    Some(
-        v.iter()
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| {
-                (a.min(x), b.max(x))
-            }),
-    )
-}
-
-/// "Nice" tick positions (1, 2, 5 × 10^k steps) covering `[lo, hi]`, about `n` of them.
-pub fn nice_ticks(lo: f64, hi: f64, n: usize) -> Vec<f64> {
-    let span = hi - lo;
-    if !(span > 0.0) || !span.is_finite() {
-        return vec![lo];
-    }
-    let raw = span / n.max(1) as f64;
-    let mag = 10f64.powf(raw.log10().floor());
-    let step = [1.0, 2.0, 5.0, 10.0]
-        .iter()
-        .map(|m| m * mag)
-        .find(|&s| s >= raw)
-        .unwrap_or(10.0 * mag);
-    let first = (lo / step).ceil() as i64;
-    let last = (hi / step).floor() as i64;
-    (first..=last).map(|i| i as f64 * step).collect()
-}
-
-fn log_ticks(lo: f64, hi: f64) -> Vec<f64> {
-    let (a, b) = (lo.ceil() as i64, hi.floor() as i64);
-    let every = (((b - a) as f64) / 8.0).ceil().max(1.0) as i64;
-    (a..=b)
-        .filter(|e| (e - a) % every == 0)
-        .map(|e| e as f64)
-        .collect()
-}
-
-fn fmt_tick(t: f64) -> String {
-    if t == 0.0 {
-        "0".into()
-    } else if t.abs() >= 1e4 || t.abs() < 1e-3 {
-        format!("{t:.1e}")
-    } else {
-        let s = format!("{t:.4}");
-        s.trim_end_matches('0').trim_end_matches('.').to_string()
     }
 }
 
@@ -357,23 +421,87 @@ mod tests {
     #[test]
     fn log_axis_clips_non_positive_values() {
         let mut p = LinePlot::new("t", "x", "y");
-        p.log_y = true;
+        p.y.log = true;
         p.push(Series::new("s", vec![0.0, 1.0, 2.0], vec![1e-3, 0.0, 10.0]));
         let svg = p.to_svg();
-        assert!(svg.contains("1e-3") && svg.contains("1e1"));
+        assert!(svg.contains(">0.001<") && svg.contains(">10<"));
         assert!(!svg.contains("NaN") && !svg.contains("inf"));
     }
 
+    /// The x of every `<text x=…>` element and its text.
+    fn texts(svg: &str) -> Vec<(f64, String)> {
+        svg.split("<text x=\"")
+            .skip(1)
+            .map(|rest| {
+                let x: f64 = rest[..rest.find('"').unwrap()].parse().unwrap();
+                let body = &rest[rest.find('>').unwrap() + 1..rest.find("</text>").unwrap()];
+                (x, body.to_string())
+            })
+            .collect()
+    }
+
     #[test]
-    fn nice_ticks_are_round() {
-        assert_eq!(
-            nice_ticks(400.0, 700.0, 6),
-            vec![400.0, 450.0, 500.0, 550.0, 600.0, 650.0, 700.0]
+    fn legend_labels_end_inside_the_canvas() {
+        let mut p = LinePlot::new("t", "x", "y");
+        let long = "pass threshold (1× base) of a rather long legend entry, area 1.234e-5";
+        p.push(Series::new(long, vec![0.0, 1.0], vec![1.0, 2.0]));
+        p.push(Series::new("short", vec![0.0, 1.0], vec![2.0, 1.0]));
+        let (width, _) = p.canvas_px();
+        assert!(width > p.width_px, "the canvas widens for a long label");
+        let svg = p.to_svg();
+        let (x, text) = texts(&svg).into_iter().find(|(_, t)| t == long).unwrap();
+        let end = x + text.chars().count() as f64 * CHAR_PX;
+        assert!(
+            end <= width,
+            "legend text ends at {end} px, canvas {width} px"
         );
-        let t = nice_ticks(0.0, 1.0, 5);
-        let want = [0.0, 0.2, 0.4, 0.6, 0.8, 1.0];
-        assert_eq!(t.len(), want.len());
-        assert!(t.iter().zip(want).all(|(a, b)| (a - b).abs() < 1e-12));
-        assert_eq!(fmt_tick(t[3]), "0.6");
+        let many = (0..40).fold(LinePlot::new("t", "x", "y"), |mut p, i| {
+            p.push(Series::new(format!("s{i}"), vec![0.0], vec![0.0]));
+            p
+        });
+        assert!(
+            many.canvas_px().1 > many.height_px,
+            "the canvas grows for many rows"
+        );
+    }
+
+    #[test]
+    fn a_step_series_holds_each_value_and_marks_each_point() {
+        let mut p = LinePlot::new("dimension", "step", "dimension");
+        p.y.integer = true;
+        p.push(Series::new("d", vec![0.0, 10.0, 20.0], vec![1.0, 2.0, 3.0]).steps());
+        let svg = p.to_svg();
+        let path = svg.split("<path d=\"").nth(1).unwrap();
+        let path = &path[..path.find('"').unwrap()];
+        assert_eq!(path.matches('H').count(), 2, "{path}");
+        assert_eq!(path.matches('V').count(), 2, "{path}");
+        assert!(!path.contains('L'), "no sloped segments: {path}");
+        assert_eq!(svg.matches("<circle").count(), 3);
+        let mut one = LinePlot::new("one point", "step", "dimension");
+        one.push(Series::new("d", vec![5.0], vec![2.0]).steps());
+        assert_eq!(
+            one.to_svg().matches("<circle").count(),
+            1,
+            "a single point shows"
+        );
+    }
+
+    #[test]
+    fn a_named_tick_replaces_its_number() {
+        let mut p = LinePlot::new("dimension", "step", "dimension");
+        p.y = Scale {
+            integer: true,
+            names: vec![(0.0, "undefined".into())],
+            ..Scale::default()
+        };
+        p.push(Series::new("d", vec![0.0, 10.0], vec![0.0, 2.0]).steps());
+        let y_tick_x = MARGIN_PX[0] - 6.0;
+        let labels: Vec<String> = texts(&p.to_svg())
+            .into_iter()
+            .filter(|&(x, _)| x == y_tick_x)
+            .map(|(_, t)| t)
+            .collect();
+        assert!(labels.iter().any(|t| t == "undefined"));
+        assert_eq!(labels, ["undefined", "1", "2"]);
     }
 }

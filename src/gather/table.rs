@@ -45,7 +45,7 @@ pub fn varying_keys(runs: &[Run], first: &[String]) -> Vec<String> {
     kept
 }
 
-/// The numbers of a finished run, formatted for Markdown (empty when not measured).
+/// The numbers of a finished run, formatted for reading (empty when not measured).
 struct Cells {
     dimension: String,
     gain: String,
@@ -76,7 +76,7 @@ fn cells(run: &Run) -> Option<Cells> {
         (false, _, _) => String::new(),
         (true, true, 0) => format!("undefined ({why})"),
         (true, false, 0) => format!("undefined ({})", margins.join(", ")),
-        (true, _, d) => format!("**{d}** ({})", margins.join(", ")),
+        (true, _, d) => format!("{d} ({})", margins.join(", ")),
     };
     let rec = s.invariants.as_ref().map(|i| &i.recovery);
     let c = rec.and_then(|r| r.c.as_ref());
@@ -108,8 +108,14 @@ fn md_escape(s: &str) -> String {
     s.replace('|', "\\|").replace(['\n', '\r'], " ")
 }
 
-/// The Markdown table of `runs` with a column per setting of `keys`.
-pub fn markdown(runs: &[Run], keys: &[String]) -> String {
+/// Position of the dimension column in [`display`]'s rows, after the run, the `keys` settings,
+/// status, steps and wall time.
+pub fn dimension_column(keys: &[String]) -> usize {
+    keys.len() + 4
+}
+
+/// The readable table (Markdown and HTML): its header and one row of plain-text cells per run.
+pub fn display(runs: &[Run], keys: &[String]) -> (Vec<String>, Vec<Vec<String>>) {
     let mut head = vec!["run".to_string()];
     head.extend(keys.iter().cloned());
     head.extend(
@@ -127,29 +133,52 @@ pub fn markdown(runs: &[Run], keys: &[String]) -> String {
         ]
         .map(String::from),
     );
+    let rows = runs
+        .iter()
+        .map(|run| {
+            let mut row = vec![run.folder.clone()];
+            row.extend(
+                keys.iter()
+                    .map(|k| run.settings.get(k).cloned().unwrap_or_default()),
+            );
+            row.push(status_cell(run));
+            row.push(run.steps.map_or(String::new(), |s| s.to_string()));
+            match cells(run) {
+                Some(c) => row.extend([
+                    c.wall,
+                    c.dimension,
+                    c.gain,
+                    c.c_recall,
+                    c.c_dprime,
+                    c.w_surround,
+                    c.w_dc,
+                    c.p_error,
+                ]),
+                None => row.extend(std::iter::repeat_n(String::new(), 8)),
+            }
+            row
+        })
+        .collect();
+    (head, rows)
+}
+
+/// A dimension cell (`3 (K1 …)`) with its leading number wrapped in `open … close`.
+pub fn emphasise_number(cell: &str, open: &str, close: &str) -> String {
+    let digits = cell.chars().take_while(char::is_ascii_digit).count();
+    match digits {
+        0 => cell.to_string(),
+        n => format!("{open}{}{close}{}", &cell[..n], &cell[n..]),
+    }
+}
+
+/// The Markdown table of `runs` with a column per setting of `keys` (the dimension in bold).
+pub fn markdown(runs: &[Run], keys: &[String]) -> String {
+    let (head, rows) = display(runs, keys);
     let mut out = format!("| {} |\n", head.join(" | "));
     out.push_str(&format!("|{}\n", "---|".repeat(head.len())));
-    for run in runs {
-        let mut row = vec![run.folder.clone()];
-        row.extend(
-            keys.iter()
-                .map(|k| run.settings.get(k).cloned().unwrap_or_default()),
-        );
-        row.push(status_cell(run));
-        row.push(run.steps.map_or(String::new(), |s| s.to_string()));
-        match cells(run) {
-            Some(c) => row.extend([
-                c.wall,
-                c.dimension,
-                c.gain,
-                c.c_recall,
-                c.c_dprime,
-                c.w_surround,
-                c.w_dc,
-                c.p_error,
-            ]),
-            None => row.extend(std::iter::repeat_n(String::new(), 8)),
-        }
+    let dim = dimension_column(keys);
+    for mut row in rows {
+        row[dim] = emphasise_number(&row[dim], "**", "**");
         let row: Vec<String> = row.iter().map(|c| md_escape(c)).collect();
         out.push_str(&format!("| {} |\n", row.join(" | ")));
     }
