@@ -220,7 +220,8 @@ fn write_w_kernel(dir: &Path, retina: &Retina, cortex: &Cortex) -> Result<(), Ru
     Ok(())
 }
 
-/// `positions.svg`: learned P(uv) (left) against the true positions (right), both in [−1, 1].
+/// `positions.svg`: learned P(uv) (left) against the true positions (right), both in [−1, 1]
+/// (a panel whose points reach beyond is scaled down to hold them all).
 fn write_positions(dir: &Path, retina: &Retina, cortex: &Cortex) -> Result<(), RunError> {
     let n = retina.n();
     let nn = n * n;
@@ -241,14 +242,22 @@ fn write_positions(dir: &Path, retina: &Retina, cortex: &Cortex) -> Result<(), R
             truth.iter().map(|p| [p[0] as f64, p[1] as f64]).collect(),
         ),
     ] {
+        // [−1, 1] fills the panel; learned positions beyond it shrink the panel's scale.
+        let reach = pts
+            .iter()
+            .flatten()
+            .map(|v| v.abs())
+            .filter(|v| v.is_finite())
+            .fold(1.0, f64::max);
+        let scale = 190.0 / reach;
         for y in (0..n).step_by(step) {
             for x in (0..n).step_by(step) {
                 let p = pts[y * n + x];
                 let _ = writeln!(
                     svg,
                     "<circle cx=\"{:.1}\" cy=\"{:.1}\" r=\"1.6\" fill=\"#333\"/>",
-                    panel + 210.0 + 190.0 * p[0],
-                    220.0 + 190.0 * p[1]
+                    panel + 210.0 + scale * p[0],
+                    220.0 + scale * p[1]
                 );
             }
         }
