@@ -312,12 +312,15 @@ fn write_outputs(out: &Path, config: &RunConfig, rows: &[StudyRow]) -> Result<()
     errors.push(series("P error, cone spacings RMS", &|r| {
         Some(r.recovery.p.position_error_rms_cones)
     }));
-    errors.push(series("CMF-SIM dimension", &|r| {
+    // Measured at checkpoints only: held until the next one.
+    let mut dimension = series("CMF-SIM dimension", &|r| {
         r.cmf
             .as_ref()
             .filter(|c| c.dimension > 0)
             .map(|c| c.dimension as f64)
-    }));
+    });
+    dimension.steps = true;
+    errors.push(dimension);
     write_atomic(
         &out.join("convergence_measures.svg"),
         errors.to_svg().as_bytes(),
