@@ -56,7 +56,7 @@ pub enum MMode {
     BlockMatching,
     /// Block matching refined to sub-pixel precision by Gauss–Newton on the blurred warp error,
     /// with P also trained on that blurred objective (paper S-03, "Learning Eye Motion
-    /// Estimation"). See [`crate::motion::learned`].
+    /// Estimation"). See [`crate::buckets::m::learned`].
     Learned,
 }
 
@@ -135,7 +135,7 @@ pub struct MConfig {
     /// Side of the coarsest pyramid level (authors' code, docs/references.md#motion-estimation: 4).
     pub coarsest_level_px: usize,
     /// Block-matching candidates overlapping less than this fraction of the valid pixels are
-    /// skipped (our addition; 0 = official behaviour, see [`crate::motion::block_matching`]).
+    /// skipped (our addition; 0 = official behaviour, see [`crate::buckets::m::block_matching`]).
     pub min_overlap_fraction: f64,
     /// Gauss–Newton iterations of the learned estimator's sub-pixel refinement.
     pub refine_iterations: usize,
@@ -148,7 +148,7 @@ pub struct MConfig {
     /// Weight of the blurred warp objective added to the loss for P (learned mode only).
     pub blur_loss_weight: f64,
     /// Weight of the gauge term for an estimated M (block matching and learned modes; see
-    /// [`crate::motion::gauge`]): the squared distance of P's least-squares affine fit over the
+    /// [`crate::buckets::m::gauge`]): the squared distance of P's least-squares affine fit over the
     /// ONS grid from the identity. When the motion is estimated through P, any affine change
     /// of the visual-field coordinates (P → A·P + c, d → A·d) predicts exactly the same
     /// frames, so the prediction loss does not fix P's affine part and Adam lets it drift
