@@ -8,10 +8,10 @@ use crate::config::RunConfig;
 use crate::experiments;
 use crate::measurement_dir::measurement_dir;
 use crate::observer::ReadoutMode;
-use crate::run::{self, RunError, RunMode};
-use crate::run_folder::Folder;
+use crate::run::{self, RunMode};
+use crate::run_error::RunError;
+use crate::run_folder::{load_run, Folder};
 use colorimetry::CmfSimResult;
-use cortex::Trainer;
 use retina::Retina;
 use std::path::{Path, PathBuf};
 
@@ -197,36 +197,6 @@ pub fn convergence(options: &ConvergenceOptions) -> Result<(), RunError> {
         options.run.display()
     );
     Ok(())
-}
-
-/// Loads the config and last checkpoint of a run folder.
-pub fn load_run(dir: &Path) -> Result<(RunConfig, Trainer, PathBuf), RunError> {
-    let config = crate::run_folder::read_config(dir)?;
-    config.validate().map_err(|e| RunError::Folder {
-        path: dir.join("config.toml"),
-        reason: e.to_string(),
-    })?;
-    let checkpoints = dir.join("checkpoints");
-    let valid = match cortex::checkpoint::latest_valid(&checkpoints)? {
-        Ok(v) => v,
-        Err(failed) => {
-            let why = failed
-                .first()
-                .map_or_else(|| "has no checkpoint".to_string(), |(_, e)| e.to_string());
-            return Err(RunError::Folder {
-                path: dir.to_path_buf(),
-                reason: format!("no checkpoint of checkpoints/ loads: {why}"),
-            });
-        }
-    };
-    for (path, e) in &valid.skipped {
-        println!(
-            "colorvision: checkpoint {} does not load ({e}); using the one before",
-            path.display()
-        );
-    }
-    let trainer = Trainer::continue_from(&valid.path, Some(config.cortex.clone()))?;
-    Ok((config, trainer, valid.path))
 }
 
 /// `colorvision cmf-sim`: on a run folder's cortex or on an observer whose answer is known.

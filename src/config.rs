@@ -120,7 +120,7 @@ impl RunConfig {
             // The quick run uses the oracle eye motion (announced in its output), which keeps
             // it inside its time budget: the learned estimator (`[cortex.m] mode = "learned"`,
             // `oracle_motion = false` in a config file) trains stably since the gauge term
-            // (cortex::motion::gauge) but costs ~50 % more per step.
+            // (cortex::buckets::m::gauge) but costs ~50 % more per step.
             cortex.m.mode = cortex::config::MMode::Oracle;
         }
         let (steps, cmf_every, sets_per_k, wavelengths, pairs) = match name {

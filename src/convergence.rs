@@ -11,7 +11,7 @@ use crate::cli::ObserverKind;
 use crate::config::RunConfig;
 use crate::invariants::{self, Recovery};
 use crate::io::write_atomic;
-use crate::run::RunError;
+use crate::run_error::RunError;
 use colorimetry::plot::{LinePlot, Series};
 use cortex::Trainer;
 use retina::Retina;

@@ -19,7 +19,8 @@
 use crate::cli::CommonOptions;
 use crate::config::RunConfig;
 use crate::observer::EyeObserver;
-use crate::run::{self, Origin, RunError, RunMode, Summary};
+use crate::run::{self, Origin, RunMode, Summary};
+use crate::run_error::RunError;
 use colorimetry::analytic::ConeObserver;
 use colorimetry::{compare_stiles_burch, run_cmf_sim, StilesBurchSettings};
 use cortex::config::Baseline;
@@ -260,7 +261,7 @@ fn stiles_burch(options: &CommonOptions, out: &Path) -> Result<(), RunError> {
     )?;
     // The run's lock again while its folder is read and the comparison written into it.
     let _lock = crate::run_lock::RunLock::acquire(&trained)?;
-    let (_, trainer, _) = crate::commands::load_run(&trained)?;
+    let (_, trainer, _) = crate::run_folder::load_run(&trained)?;
     let retina = Retina::new(config.retina.clone())?;
     let observer = EyeObserver::cortex(&retina, &trainer.cortex, config.observer.clone());
     let r = compare_stiles_burch(&observer, &StilesBurchSettings::default())?;

@@ -21,7 +21,8 @@
 pub mod index;
 pub mod table;
 
-use crate::run::{RunError, Summary};
+use crate::run::Summary;
+use crate::run_error::RunError;
 use crate::sweep::task::{Failure, Manifest, FAILED_FILE};
 use clap::Args;
 use std::collections::BTreeMap;

@@ -21,7 +21,7 @@
 use crate::cli::ObserverKind;
 use crate::config::RunConfig;
 use crate::observer::{Decoder, EyeObserver, OracleDecoder, ReadoutMode};
-use crate::run::RunError;
+use crate::run_error::RunError;
 use colorimetry::analytic::ConeObserver;
 use colorimetry::{run_cmf_sim, CmfSimResult};
 use cortex::Trainer;

@@ -20,6 +20,7 @@ pub mod observer;
 pub mod pictures;
 pub mod report;
 pub mod run;
+pub mod run_error;
 pub mod run_folder;
 pub mod run_lock;
 pub mod source;

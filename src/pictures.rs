@@ -14,7 +14,7 @@
 use crate::config::RunConfig;
 use crate::invariants::Recovery;
 use crate::io::{signed_to_rgb, upscale_rgb, write_atomic, write_png_rgb};
-use crate::run::RunError;
+use crate::run_error::RunError;
 use crate::source::RetinaSource;
 use colorimetry::{srgb, ScopeAccumulator};
 use cortex::{Cortex, Trainer};

@@ -1,13 +1,15 @@
 //! A run folder belongs to one run. [`open`] decides, before any work, whether `--out` is new,
 //! the same run to continue (`--resume`), the same run already finished, or someone else's:
 //! a folder holding a different run (or not a run at all) is refused, never mixed; `--force`
-//! empties a run folder first.
+//! empties a run folder first. [`load_run`] reads a run back: its config and newest checkpoint
+//! that verifies.
 
 use crate::config::RunConfig;
 use crate::io::{fs_err, IoError};
-use crate::run::RunError;
+use crate::run_error::RunError;
 use crate::run_lock::LOCK_FILE;
-use std::path::Path;
+use cortex::Trainer;
+use std::path::{Path, PathBuf};
 
 /// What to do with a run folder that already holds files.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -194,6 +196,36 @@ pub fn open(out: &Path, config: &RunConfig, folder: Folder) -> Result<Opened, Ru
                 .into(),
         )),
     }
+}
+
+/// Loads the config and last checkpoint of a run folder.
+pub fn load_run(dir: &Path) -> Result<(RunConfig, Trainer, PathBuf), RunError> {
+    let config = read_config(dir)?;
+    config.validate().map_err(|e| RunError::Folder {
+        path: dir.join("config.toml"),
+        reason: e.to_string(),
+    })?;
+    let checkpoints = dir.join("checkpoints");
+    let valid = match cortex::checkpoint::latest_valid(&checkpoints)? {
+        Ok(v) => v,
+        Err(failed) => {
+            let why = failed
+                .first()
+                .map_or_else(|| "has no checkpoint".to_string(), |(_, e)| e.to_string());
+            return Err(RunError::Folder {
+                path: dir.to_path_buf(),
+                reason: format!("no checkpoint of checkpoints/ loads: {why}"),
+            });
+        }
+    };
+    for (path, e) in &valid.skipped {
+        println!(
+            "colorvision: checkpoint {} does not load ({e}); using the one before",
+            path.display()
+        );
+    }
+    let trainer = Trainer::continue_from(&valid.path, Some(config.cortex.clone()))?;
+    Ok((config, trainer, valid.path))
 }
 
 #[cfg(test)]

@@ -17,7 +17,8 @@ pub mod script;
 pub mod spec;
 pub mod task;
 
-use crate::run::{RunError, RunMarker};
+use crate::run::RunMarker;
+use crate::run_error::RunError;
 use clap::Args;
 use std::path::{Path, PathBuf};
 
@@ -26,7 +27,7 @@ use std::path::{Path, PathBuf};
 pub struct SweepOptions {
     /// A sweep spec (TOML) to expand into --out; with --local or --task, a sweep folder.
     pub path: PathBuf,
-    /// The sweep folder to write (new or empty; default runs/sweep-<spec name>).
+    /// The sweep folder to write (new or empty; default `runs/sweep-<spec name>`).
     #[arg(long, conflicts_with_all = ["local", "task"])]
     pub out: Option<PathBuf>,
     /// Run every task of the sweep folder PATH on this machine (skips finished runs, resumes

@@ -197,25 +197,73 @@ pub fn check_inputs(
     }
     let mut rng = StdRng::seed_from_u64(cfg.seed);
     let mut tape = Tape::<f64>::new();
-    let record = |tape: &mut Tape<f64>, xs: &[Tensor<f64>]| -> (Vec<Var>, Var) {
-        tape.clear();
-        let vars: Vec<Var> = xs
+    let (r, grads) = analytic_gradients(&mut tape, &f, inputs, mask, &mut rng)?;
+    let mut loss = |xs: &[Tensor<f64>]| -> f64 {
+        let (_, y) = record(&mut tape, &f, xs, mask);
+        tape.value(y)
+            .data()
             .iter()
-            .zip(mask)
-            .map(|(x, &m)| {
-                if m {
-                    tape.leaf(x.clone())
-                } else {
-                    tape.constant(x.clone())
-                }
-            })
-            .collect();
-        let y = f(tape, &vars);
-        (vars, y)
+            .zip(r.data())
+            .map(|(a, b)| a * b)
+            .sum()
     };
 
-    // Analytic gradients, seeded with the reduction weights r.
-    let (vars, y) = record(&mut tape, inputs);
+    let mut entries = Vec::new();
+    let mut xs: Vec<Tensor<f64>> = inputs.to_vec();
+    for i in (0..inputs.len()).filter(|&i| mask[i]) {
+        if inputs[i].numel() <= cfg.max_full_elems {
+            probe_elements(i, inputs, &grads[i], &mut xs, cfg, &mut loss, &mut entries);
+        } else {
+            probe_directions(
+                i,
+                inputs,
+                &grads[i],
+                &mut xs,
+                cfg,
+                &mut rng,
+                &mut loss,
+                &mut entries,
+            );
+        }
+    }
+    judge(entries, cfg)
+}
+
+/// Records `f` on a cleared tape: inputs with `mask` set become leaves, the others constants.
+fn record(
+    tape: &mut Tape<f64>,
+    f: &impl Fn(&mut Tape<f64>, &[Var]) -> Var,
+    xs: &[Tensor<f64>],
+    mask: &[bool],
+) -> (Vec<Var>, Var) {
+    tape.clear();
+    let vars: Vec<Var> = xs
+        .iter()
+        .zip(mask)
+        .map(|(x, &m)| {
+            if m {
+                tape.leaf(x.clone())
+            } else {
+                tape.constant(x.clone())
+            }
+        })
+        .collect();
+    let y = f(tape, &vars);
+    (vars, y)
+}
+
+/// Analytic gradients of `L = Σ r ⊙ f(inputs)`: draws the reduction weights `r` (all ones for
+/// a scalar output, else uniform in [−1, 1) from `rng`), runs backward seeded with `r`, and
+/// returns `r` with one gradient per input (zeros where the tape holds none). Fails when the
+/// forward output or a checked input's gradient is not finite.
+fn analytic_gradients(
+    tape: &mut Tape<f64>,
+    f: &impl Fn(&mut Tape<f64>, &[Var]) -> Var,
+    inputs: &[Tensor<f64>],
+    mask: &[bool],
+    rng: &mut StdRng,
+) -> Result<(Tensor<f64>, Vec<Tensor<f64>>), CheckError> {
+    let (vars, y) = record(tape, f, inputs, mask);
     let y_shape = tape.shape(y);
     let r = if y_shape.numel() == 1 {
         Tensor::full(y_shape, 1.0)
@@ -238,74 +286,84 @@ pub fn check_inputs(
             finite(g.data(), &format!("gradient of input {i}"))?;
         }
     }
+    Ok((r, grads))
+}
 
-    let mut loss = |xs: &[Tensor<f64>]| -> f64 {
-        let (_, y) = record(&mut tape, xs);
-        tape.value(y)
-            .data()
-            .iter()
-            .zip(r.data())
-            .map(|(a, b)| a * b)
-            .sum()
-    };
-
-    let mut entries = Vec::new();
-    let mut xs: Vec<Tensor<f64>> = inputs.to_vec();
-    for i in (0..inputs.len()).filter(|&i| mask[i]) {
-        let n = inputs[i].numel();
-        if n <= cfg.max_full_elems {
-            for j in 0..n {
-                let x0 = inputs[i].data()[j];
-                let h = cfg.eps * x0.abs().max(1.0);
-                xs[i].data_mut()[j] = x0 + h;
-                let lp = loss(&xs);
-                xs[i].data_mut()[j] = x0 - h;
-                let lm = loss(&xs);
-                xs[i].data_mut()[j] = x0;
-                let numeric = (lp - lm) / ((x0 + h) - (x0 - h));
-                entries.push(entry(
-                    i,
-                    inputs[i].shape(),
-                    Probe::Element(j),
-                    grads[i].data()[j],
-                    numeric,
-                ));
-            }
-        } else {
-            // The step is relative to ‖x‖₂ (as `h = eps·max(1, |x_j|)` is per element): a
-            // unit direction spread over many elements changes L by little, and a step relative
-            // to max|x| would drown the difference in the round-off of L's many terms.
-            let norm = inputs[i].sum_sq().sqrt();
-            let h = cfg.eps * norm.max(1.0);
-            for k in 0..cfg.probes {
-                let mut u: Vec<f64> = (0..n).map(|_| rng.sample(StandardNormal)).collect();
-                let norm = u
-                    .iter()
-                    .map(|v| v * v)
-                    .sum::<f64>()
-                    .sqrt()
-                    .max(f64::MIN_POSITIVE);
-                u.iter_mut().for_each(|v| *v /= norm);
-                let analytic: f64 = u.iter().zip(grads[i].data()).map(|(a, b)| a * b).sum();
-                let shifted = |s: f64| {
-                    Tensor::from_fn(inputs[i].shape(), |j| inputs[i].data()[j] + s * h * u[j])
-                };
-                xs[i] = shifted(1.0);
-                let lp = loss(&xs);
-                xs[i] = shifted(-1.0);
-                let lm = loss(&xs);
-                xs[i] = inputs[i].clone();
-                entries.push(entry(
-                    i,
-                    inputs[i].shape(),
-                    Probe::Direction(k),
-                    analytic,
-                    (lp - lm) / (2.0 * h),
-                ));
-            }
-        }
+/// Central differences of `loss` along every element of input `i`, with the step
+/// `h = eps·max(1, |x_j|)` per element; `xs` is restored after each probe.
+fn probe_elements(
+    i: usize,
+    inputs: &[Tensor<f64>],
+    grad: &Tensor<f64>,
+    xs: &mut [Tensor<f64>],
+    cfg: &CheckConfig,
+    loss: &mut impl FnMut(&[Tensor<f64>]) -> f64,
+    entries: &mut Vec<Entry>,
+) {
+    for j in 0..inputs[i].numel() {
+        let x0 = inputs[i].data()[j];
+        let h = cfg.eps * x0.abs().max(1.0);
+        xs[i].data_mut()[j] = x0 + h;
+        let lp = loss(xs);
+        xs[i].data_mut()[j] = x0 - h;
+        let lm = loss(xs);
+        xs[i].data_mut()[j] = x0;
+        let numeric = (lp - lm) / ((x0 + h) - (x0 - h));
+        entries.push(entry(
+            i,
+            inputs[i].shape(),
+            Probe::Element(j),
+            grad.data()[j],
+            numeric,
+        ));
     }
-    judge(entries, cfg)
+}
+
+/// Central differences of `loss` along `cfg.probes` random unit directions (drawn from `rng`)
+/// of input `i`, compared with the analytic directional derivative `u · ∂L/∂x`; `xs` is
+/// restored after each probe.
+#[allow(clippy::too_many_arguments)]
+fn probe_directions(
+    i: usize,
+    inputs: &[Tensor<f64>],
+    grad: &Tensor<f64>,
+    xs: &mut [Tensor<f64>],
+    cfg: &CheckConfig,
+    rng: &mut StdRng,
+    loss: &mut impl FnMut(&[Tensor<f64>]) -> f64,
+    entries: &mut Vec<Entry>,
+) {
+    let n = inputs[i].numel();
+    // The step is relative to ‖x‖₂ (as `h = eps·max(1, |x_j|)` is per element): a
+    // unit direction spread over many elements changes L by little, and a step relative
+    // to max|x| would drown the difference in the round-off of L's many terms.
+    let norm = inputs[i].sum_sq().sqrt();
+    let h = cfg.eps * norm.max(1.0);
+    for k in 0..cfg.probes {
+        let mut u: Vec<f64> = (0..n).map(|_| rng.sample(StandardNormal)).collect();
+        let norm = u
+            .iter()
+            .map(|v| v * v)
+            .sum::<f64>()
+            .sqrt()
+            .max(f64::MIN_POSITIVE);
+        u.iter_mut().for_each(|v| *v /= norm);
+        let analytic: f64 = u.iter().zip(grad.data()).map(|(a, b)| a * b).sum();
+        let shifted =
+            |s: f64| Tensor::from_fn(inputs[i].shape(), |j| inputs[i].data()[j] + s * h * u[j]);
+        xs[i] = shifted(1.0);
+        let lp = loss(xs);
+        xs[i] = shifted(-1.0);
+        let lm = loss(xs);
+        xs[i] = inputs[i].clone();
+        entries.push(entry(
+            i,
+            inputs[i].shape(),
+            Probe::Direction(k),
+            analytic,
+            (lp - lm) / (2.0 * h),
+        ));
+    }
 }
 
 /// Checks the backward of a (surrogate) [`Pointwise`] against its declared `df`: for each

@@ -10,7 +10,7 @@
 //!   accumulate into the same gradient.
 //! - Shape mismatches are programming errors: panic naming the op and both shapes.
 
-use crate::tape::BufferPool;
+use crate::pool::BufferPool;
 use crate::{Float, Shape, Tensor};
 
 /// One differentiable operation: forward into an explicit destination, backward as a VJP.

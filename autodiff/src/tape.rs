@@ -14,10 +14,10 @@
 
 use crate::op::{BackwardCx, ClosureOp, GradSlots, Op, Pointwise, PointwiseOp};
 use crate::params::ParamId;
+use crate::pool::BufferPool;
 use crate::profile::Profile;
 use crate::scopes::{ScopeTimes, Scopes};
 use crate::{Float, Shape, Tensor};
-use std::collections::HashMap;
 use std::sync::atomic::{AtomicU32, Ordering};
 
 static NEXT_TAPE_ID: AtomicU32 = AtomicU32::new(1);
@@ -34,69 +34,6 @@ impl Var {
     /// Position of the node on its tape (its order of recording).
     pub fn index(&self) -> usize {
         self.index as usize
-    }
-}
-
-/// Reusable buffers keyed by tensor length. Buffers handed out by [`BufferPool::zeros`] are
-/// zeroed. Every tensor the pool makes starts on a 64-byte boundary (its buffer is a few
-/// elements longer than the tensor; see [`Tensor`]), and tensors put back keep their buffer.
-#[derive(Default)]
-pub struct BufferPool<T> {
-    free: HashMap<usize, Vec<Vec<T>>>,
-    /// Buffers allocated fresh because the pool had none of that length (for benchmarks/tests).
-    pub fresh_allocations: usize,
-}
-
-impl<T: Float> BufferPool<T> {
-    /// A tensor of `shape` in a recycled buffer (contents stale), or in a fresh one of zeros.
-    fn recycled(&mut self, shape: Shape) -> (Tensor<T>, bool) {
-        let n = shape.numel();
-        match self.free.get_mut(&n).and_then(|v| v.pop()) {
-            Some(buf) => (Tensor::in_buffer(shape, buf), true),
-            None => {
-                self.fresh_allocations += 1;
-                let buf = vec![T::zero(); n + crate::tensor::align_slack::<T>()];
-                (Tensor::in_buffer(shape, buf), false)
-            }
-        }
-    }
-
-    /// A zeroed tensor of `shape`, reusing a buffer of the same length when one is free.
-    pub fn zeros(&mut self, shape: Shape) -> Tensor<T> {
-        let (mut t, stale) = self.recycled(shape);
-        if stale {
-            t.fill_zero();
-        }
-        t
-    }
-
-    /// A tensor of `shape` whose contents are unspecified (stale values of a recycled buffer, or
-    /// zeros when freshly allocated): for callers that overwrite every element.
-    pub fn uninit(&mut self, shape: Shape) -> Tensor<T> {
-        self.recycled(shape).0
-    }
-
-    /// A tensor of `shape` holding a copy of `data`.
-    #[track_caller]
-    pub fn copy_of(&mut self, shape: Shape, data: &[T]) -> Tensor<T> {
-        assert_eq!(
-            shape.numel(),
-            data.len(),
-            "BufferPool::copy_of: {shape:?} vs {} values",
-            data.len()
-        );
-        let mut t = self.recycled(shape).0;
-        t.data_mut().copy_from_slice(data);
-        t
-    }
-
-    /// Returns a tensor's buffer for reuse.
-    pub fn put(&mut self, t: Tensor<T>) {
-        let n = t.numel();
-        let buf = t.into_buffer();
-        if n > 0 {
-            self.free.entry(n).or_default().push(buf);
-        }
     }
 }
 
@@ -552,6 +489,25 @@ impl<T: Float> Tape<T> {
     /// (forward-forward style local losses, or a VJP with a given cotangent).
     #[track_caller]
     pub fn backward_from(&mut self, seeds: &[(Var, Tensor<T>)], hooks: &mut dyn BackwardHooks<T>) {
+        let last = self.seed_grads(seeds);
+        let mut scratch = NodeInputs::default();
+        let timed = !self.scopes.is_empty();
+        for i in (0..=last).rev() {
+            let Some(dy) = self.grads[i].take() else {
+                continue;
+            };
+            let node_start = timed.then(std::time::Instant::now);
+            self.backward_node(i, dy, hooks, &mut scratch);
+            if let Some(t) = node_start {
+                self.scopes.add_backward(i, t.elapsed().as_secs_f64());
+            }
+        }
+    }
+
+    /// Returns every gradient buffer to the pool, then adds each seed into its node's gradient;
+    /// returns the highest seeded node index (the sweep starts there).
+    #[track_caller]
+    fn seed_grads(&mut self, seeds: &[(Var, Tensor<T>)]) -> usize {
         for g in self.grads.iter_mut() {
             if let Some(g) = g.take() {
                 self.pool.put(g);
@@ -572,89 +528,114 @@ impl<T: Float> Tape<T> {
             }
             last = last.max(i);
         }
-        let mut input_shapes: Vec<Shape> = Vec::new();
-        let mut input_vars: Vec<Var> = Vec::new();
-        let mut input_kinds: Vec<NodeKind> = Vec::new();
-        let timed = !self.scopes.is_empty();
-        for i in (0..=last).rev() {
-            let Some(mut dy) = self.grads[i].take() else {
-                continue;
+        last
+    }
+
+    /// Propagates the output gradient `dy` of node `i` to its inputs: shows it to the hooks,
+    /// runs the op's VJP (or the hooks' override) when an input wants a gradient, then keeps
+    /// `dy` (leaves, parameters, retained nodes) or returns it to the pool.
+    fn backward_node(
+        &mut self,
+        i: usize,
+        mut dy: Tensor<T>,
+        hooks: &mut dyn BackwardHooks<T>,
+        scratch: &mut NodeInputs,
+    ) {
+        let node = &self.nodes[i];
+        let range = node.inputs.start as usize..node.inputs.end as usize;
+        let ids = &self.input_ids[range];
+        let wants = scratch.gather(ids, &self.nodes, &self.values, self.id, self.generation);
+        let input_values: Vec<&Tensor<T>> =
+            ids.iter().map(|&id| &self.values[id as usize]).collect();
+        let view = NodeView {
+            var: Var {
+                tape: self.id,
+                generation: self.generation,
+                index: i as u32,
+            },
+            name: match (node.kind, &node.op) {
+                (_, Some(op)) => op.name(),
+                (NodeKind::Param(_), None) => "param",
+                (NodeKind::Leaf, None) => "leaf",
+                _ => "constant",
+            },
+            kind: node.kind,
+            inputs: &scratch.vars,
+            input_kinds: &scratch.kinds,
+            input_values: &input_values,
+            value: &self.values[i],
+            op: node.op.as_deref(),
+            scopes: &self.scopes,
+        };
+        hooks.on_grad(&view, &mut dy);
+        if let (Some(op), true) = (node.op.as_deref(), wants != 0) {
+            let mut dx = GradSlots {
+                grads: &mut self.grads,
+                input_ids: ids,
+                input_shapes: &scratch.shapes,
+                wants,
+                pool: &mut self.pool,
             };
-            let node_start = timed.then(std::time::Instant::now);
-            let node = &self.nodes[i];
-            let range = node.inputs.start as usize..node.inputs.end as usize;
-            let ids = &self.input_ids[range];
-            input_shapes.clear();
-            input_vars.clear();
-            input_kinds.clear();
-            let mut wants = 0u64;
-            for (k, &id) in ids.iter().enumerate() {
-                let n = &self.nodes[id as usize];
-                input_shapes.push(self.values[id as usize].shape());
-                input_vars.push(Var {
-                    tape: self.id,
-                    generation: self.generation,
-                    index: id,
-                });
-                input_kinds.push(n.kind);
-                if n.requires_grad && k < 64 {
-                    wants |= 1 << k;
-                }
-            }
-            let input_values: Vec<&Tensor<T>> =
-                ids.iter().map(|&id| &self.values[id as usize]).collect();
-            let view = NodeView {
-                var: Var {
-                    tape: self.id,
-                    generation: self.generation,
-                    index: i as u32,
-                },
-                name: match (node.kind, &node.op) {
-                    (_, Some(op)) => op.name(),
-                    (NodeKind::Param(_), None) => "param",
-                    (NodeKind::Leaf, None) => "leaf",
-                    _ => "constant",
-                },
-                kind: node.kind,
-                inputs: &input_vars,
-                input_kinds: &input_kinds,
-                input_values: &input_values,
-                value: &self.values[i],
-                op: node.op.as_deref(),
-                scopes: &self.scopes,
-            };
-            hooks.on_grad(&view, &mut dy);
-            if let (Some(op), true) = (node.op.as_deref(), wants != 0) {
-                let mut dx = GradSlots {
-                    grads: &mut self.grads,
-                    input_ids: ids,
-                    input_shapes: &input_shapes,
-                    wants,
-                    pool: &mut self.pool,
+            let start = self.profile.is_some().then(std::time::Instant::now);
+            if !hooks.override_vjp(&view, &dy, &mut dx) {
+                let cx = BackwardCx {
+                    inputs: &input_values,
+                    output: &self.values[i],
+                    dy: &dy,
                 };
-                let start = self.profile.is_some().then(std::time::Instant::now);
-                if !hooks.override_vjp(&view, &dy, &mut dx) {
-                    let cx = BackwardCx {
-                        inputs: &input_values,
-                        output: &self.values[i],
-                        dy: &dy,
-                    };
-                    op.backward(&cx, &mut dx);
-                }
-                if let (Some(p), Some(t)) = (&mut self.profile, start) {
-                    p.add_backward(op.name(), t.elapsed().as_secs_f64());
-                }
+                op.backward(&cx, &mut dx);
             }
-            let keep = node.retain || matches!(node.kind, NodeKind::Leaf | NodeKind::Param(_));
-            if keep {
-                self.grads[i] = Some(dy);
-            } else {
-                self.pool.put(dy);
-            }
-            if let Some(t) = node_start {
-                self.scopes.add_backward(i, t.elapsed().as_secs_f64());
+            if let (Some(p), Some(t)) = (&mut self.profile, start) {
+                p.add_backward(op.name(), t.elapsed().as_secs_f64());
             }
         }
+        let keep = node.retain || matches!(node.kind, NodeKind::Leaf | NodeKind::Param(_));
+        if keep {
+            self.grads[i] = Some(dy);
+        } else {
+            self.pool.put(dy);
+        }
+    }
+}
+
+/// Shapes, variables and kinds of one node's inputs, reused across the nodes of a backward
+/// sweep so that it allocates once.
+#[derive(Default)]
+struct NodeInputs {
+    shapes: Vec<Shape>,
+    vars: Vec<Var>,
+    kinds: Vec<NodeKind>,
+}
+
+impl NodeInputs {
+    /// Refills the lists for the inputs `ids`; returns the bit mask of the inputs that require a
+    /// gradient (bit `k` for input `k`, the first 64 inputs).
+    fn gather<T: Float>(
+        &mut self,
+        ids: &[u32],
+        nodes: &[Node<T>],
+        values: &[Tensor<T>],
+        tape: u32,
+        generation: u32,
+    ) -> u64 {
+        self.shapes.clear();
+        self.vars.clear();
+        self.kinds.clear();
+        let mut wants = 0u64;
+        for (k, &id) in ids.iter().enumerate() {
+            let n = &nodes[id as usize];
+            self.shapes.push(values[id as usize].shape());
+            self.vars.push(Var {
+                tape,
+                generation,
+                index: id,
+            });
+            self.kinds.push(n.kind);
+            if n.requires_grad && k < 64 {
+                wants |= 1 << k;
+            }
+        }
+        wants
     }
 }
 

@@ -45,13 +45,14 @@ use crate::linalg::{lstsq, DEFAULT_RCOND};
 use crate::observer::{Observer, Show, Stimulus};
 
 mod front_end;
+mod kink;
 mod state;
 #[cfg(test)]
 pub(crate) mod tests;
 
 pub use front_end::{FrontEndJacobians, TestPercepts};
+pub use kink::{kink_step, ModelStep};
 use state::State;
-pub use state::{kink_step, ModelStep};
 
 /// Solver settings.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -330,8 +331,46 @@ pub fn solve_wavelengths(
             State::new(w, pb.primaries_nm.len(), pb.pairs[w].len(), n)
         })
         .collect();
+    initial_percepts(pb, options, &mut batch, &mut states);
+    let classes: Option<Vec<Vec<f64>>> = options.front_end.map(|f| {
+        pb.primaries_nm
+            .iter()
+            .map(|&p| {
+                let c = f.class_vector(pb.observer.grid(), p);
+                c.into_iter().map(|v| v * pb.intensity).collect()
+            })
+            .collect()
+    });
+    for s in states.iter_mut().filter(|s| !s.resumed) {
+        s.start(options.stop_below.map(|t| t[s.w]), settings.max_iterations);
+        if let (Some(f), Some(c)) = (options.front_end, &classes) {
+            if s.active {
+                s.j_valid = s.model_from(f, c);
+            }
+        }
+    }
 
-    // E(0): known percepts or one call.
+    // Every active state makes one trial per pass and stops at max_iterations.
+    while states.iter().any(|s| s.active) {
+        jacobian_pass(pb, settings, &mut batch, &mut states);
+        trial_pass(pb, settings, options, &mut batch, &mut states);
+    }
+    MatchReport {
+        matches: states.into_iter().map(State::finish).collect(),
+        observer_calls: batch.calls,
+        shows: batch.total,
+    }
+}
+
+/// E(0) of every state: resumed from an earlier report, copied from the known percepts, or
+/// shown to the observer in one call.
+fn initial_percepts(
+    pb: &MatchProblem<'_>,
+    options: &MatchOptions<'_>,
+    batch: &mut Batch<'_, '_>,
+    states: &mut [State],
+) {
+    let n = pb.observer.percept_dim();
     let mut pending: Vec<(usize, usize, usize, usize)> = Vec::new(); // (state, pair, show A, show B)
     for (si, s) in states.iter_mut().enumerate() {
         let np = pb.pairs[s.w].len();
@@ -373,82 +412,74 @@ pub fn solve_wavelengths(
         s.pb[p * n..(p + 1) * n].copy_from_slice(batch.percept(b));
     }
     batch.clear();
-    let classes: Option<Vec<Vec<f64>>> = options.front_end.map(|f| {
-        pb.primaries_nm
-            .iter()
-            .map(|&p| {
-                let c = f.class_vector(pb.observer.grid(), p);
-                c.into_iter().map(|v| v * pb.intensity).collect()
-            })
-            .collect()
-    });
-    for s in states.iter_mut().filter(|s| !s.resumed) {
-        s.start(options.stop_below.map(|t| t[s.w]), settings.max_iterations);
-        if let (Some(f), Some(c)) = (options.front_end, &classes) {
-            if s.active {
-                s.j_valid = s.model_from(f, c);
-            }
-        }
-    }
+}
 
-    // Every active state makes one trial per pass and stops at max_iterations.
-    while states.iter().any(|s| s.active) {
-        // Jacobians where the last step was accepted.
-        let mut fd = Vec::new();
-        for (si, s) in states
-            .iter()
-            .enumerate()
-            .filter(|(_, s)| s.active && !s.j_valid)
-        {
-            for p in 0..pb.pairs[s.w].len() {
-                for (i, &ai) in s.alpha.iter().enumerate() {
-                    if ai >= 0.0 {
-                        fd.push((si, p, i, true, batch.push(s.w, p, true, &s.alpha, Some(i))));
-                    }
-                    if ai <= 0.0 {
-                        fd.push((
-                            si,
-                            p,
-                            i,
-                            false,
-                            batch.push(s.w, p, false, &s.alpha, Some(i)),
-                        ));
-                    }
+/// Finite-difference Jacobian columns of every active state whose last step was accepted, in
+/// one observer call: side B where α_i ≥ 0, side A where α_i ≤ 0.
+fn jacobian_pass(
+    pb: &MatchProblem<'_>,
+    settings: &SolverSettings,
+    batch: &mut Batch<'_, '_>,
+    states: &mut [State],
+) {
+    let mut fd = Vec::new();
+    for (si, s) in states
+        .iter()
+        .enumerate()
+        .filter(|(_, s)| s.active && !s.j_valid)
+    {
+        for p in 0..pb.pairs[s.w].len() {
+            for (i, &ai) in s.alpha.iter().enumerate() {
+                if ai >= 0.0 {
+                    fd.push((si, p, i, true, batch.push(s.w, p, true, &s.alpha, Some(i))));
+                }
+                if ai <= 0.0 {
+                    fd.push((
+                        si,
+                        p,
+                        i,
+                        false,
+                        batch.push(s.w, p, false, &s.alpha, Some(i)),
+                    ));
                 }
             }
         }
-        batch.run();
-        for &(si, p, i, on_b, show) in &fd {
-            states[si].set_column(p, i, on_b, batch.percept(show), settings.fd_step);
-        }
-        for &(si, ..) in &fd {
-            states[si].mark_measured();
-        }
-        batch.clear();
+    }
+    batch.run();
+    for &(si, p, i, on_b, show) in &fd {
+        states[si].set_column(p, i, on_b, batch.percept(show), settings.fd_step);
+    }
+    for &(si, ..) in &fd {
+        states[si].mark_measured();
+    }
+    batch.clear();
+}
 
-        // Trial steps.
-        let mut trial_shows = Vec::new();
-        for (si, s) in states.iter_mut().enumerate().filter(|(_, s)| s.active) {
-            let (change_a, change_b) = s.propose();
-            for p in 0..pb.pairs[s.w].len() {
-                let a = change_a.then(|| batch.push(s.w, p, false, &s.trial, None));
-                let b = change_b.then(|| batch.push(s.w, p, true, &s.trial, None));
-                trial_shows.push((si, p, a, b));
-            }
-        }
-        batch.run();
-        for &(si, p, a, b) in &trial_shows {
-            states[si].take_trial(p, a.map(|s| batch.percept(s)), b.map(|s| batch.percept(s)));
-        }
-        batch.clear();
-        for s in states.iter_mut().filter(|s| s.active) {
-            s.judge(settings, options.stop_below.map(|t| t[s.w]));
+/// One trial step of every active state, shown in one observer call, then accepted or
+/// rejected.
+fn trial_pass(
+    pb: &MatchProblem<'_>,
+    settings: &SolverSettings,
+    options: &MatchOptions<'_>,
+    batch: &mut Batch<'_, '_>,
+    states: &mut [State],
+) {
+    let mut trial_shows = Vec::new();
+    for (si, s) in states.iter_mut().enumerate().filter(|(_, s)| s.active) {
+        let (change_a, change_b) = s.propose();
+        for p in 0..pb.pairs[s.w].len() {
+            let a = change_a.then(|| batch.push(s.w, p, false, &s.trial, None));
+            let b = change_b.then(|| batch.push(s.w, p, true, &s.trial, None));
+            trial_shows.push((si, p, a, b));
         }
     }
-    MatchReport {
-        matches: states.into_iter().map(State::finish).collect(),
-        observer_calls: batch.calls,
-        shows: batch.total,
+    batch.run();
+    for &(si, p, a, b) in &trial_shows {
+        states[si].take_trial(p, a.map(|s| batch.percept(s)), b.map(|s| batch.percept(s)));
+    }
+    batch.clear();
+    for s in states.iter_mut().filter(|s| s.active) {
+        s.judge(settings, options.stop_below.map(|t| t[s.w]));
     }
 }
 

@@ -189,7 +189,7 @@ impl LinePlot {
     }
 
     /// Canvas size `(width, height)`, px: at least `width_px × height_px`, wider when the
-    /// legend's longest label would leave the plot area narrower than [`MIN_PLOT_PX`], taller
+    /// legend's longest label would leave the plot area narrower than `MIN_PLOT_PX`, taller
     /// when the legend's rows need it.
     pub fn canvas_px(&self) -> (f64, f64) {
         let [left, top, bottom] = MARGIN_PX;

@@ -30,7 +30,6 @@ pub mod error;
 pub mod eval;
 pub mod forward_forward;
 pub mod model;
-pub mod motion;
 pub mod persist;
 pub mod rng;
 pub mod rule;

@@ -11,7 +11,7 @@
 //!    (docs/references.md#loss);
 //!    plus, for the learned M, `blur_loss_weight ×` the same error between the warped blurred
 //!    `B(O_t)` and `B(O_{t+1})`; and for any estimated M, `gauge_weight ×` the distance of P's
-//!    affine fit from the identity (it leaves P's affine part free: [`crate::motion::gauge`]).
+//!    affine fit from the identity (it leaves P's affine part free: [`crate::buckets::m::gauge`]).
 //!
 //! Baselines (paper S-05): `identity_percept` skips W, C and D (the percept is the ONS);
 //! `no_demosaicker` uses D = identity; `cone_activations_as_ons` changes only the data.
@@ -28,12 +28,12 @@
 //! another draw it falls: C's sampling and W's encode, unit-norm and shared with decode, are a
 //! poor output layer to align with a feedback of the wrong sign.
 
+use crate::buckets::m::block_matching::{BlockMatcher, DewarpGrid};
+use crate::buckets::m::gauge::record_gauge_term;
+use crate::buckets::m::learned::SubpixelRefiner;
+use crate::buckets::m::sampling::unit_grid;
 use crate::buckets::{c::CBucket, d::DBucket, p::PBucket, w::WBucket};
 use crate::config::{Baseline, CortexConfig, MMode};
-use crate::motion::block_matching::{BlockMatcher, DewarpGrid};
-use crate::motion::gauge::record_gauge_term;
-use crate::motion::learned::SubpixelRefiner;
-use crate::motion::sampling::unit_grid;
 use crate::CortexError;
 use autodiff::{ParamStore, Tape, Tensor, Var};
 
@@ -333,7 +333,7 @@ impl Cortex {
     /// The learned cell positions `xy = P(uv)` of every ONS cell, `(n, n, 2)` (x, y).
     pub fn learned_positions(&self) -> Tensor<f64> {
         let n = self.n();
-        let mut pts = crate::motion::sampling::unit_grid(n);
+        let mut pts = crate::buckets::m::sampling::unit_grid(n);
         self.p.plain(&self.params).forward(&mut pts);
         Tensor::from_vec([n, n, 2], pts.into_iter().flatten().collect())
     }

@@ -12,7 +12,8 @@
 //!    `margin + s`, so frame t+1 at p shows frame t at p + s (the cortex's sign convention).
 //! 3. Cone activation = the channel of the cell's cone type (mosaic drawn once, probabilities
 //!    `cone_probabilities`).
-//! 4. ONS = 7×7 difference of Gaussians (σ 0.15 and 0.9 px, surround 0.91, authors' code, docs/references.md#lateral-inhibition) as a
+//! 4. ONS = the retina's 7×7 difference of Gaussians (`dog_kernel` crate: σ 0.15 and 0.9 px,
+//!    surround 0.91, authors' code, docs/references.md#lateral-inhibition) as a
 //!    zero-padded linear convolution, unless `lateral_inhibition` is off (the S-05 baseline
 //!    "cone activations as ONS").
 //! 5. Oracle motion `d = s / motion_px_per_unit` in field units.
@@ -76,29 +77,17 @@ pub struct SyntheticSource {
     pub last_shifts: Vec<[i32; 2]>,
 }
 
-/// The official 7×7 lateral-inhibition kernel, Gc(σ 0.15) − 0.91·Gs(σ 0.9), each sums to 1.
+/// The official 7×7 lateral-inhibition kernel, Gc(σ 0.15) − 0.91·Gs(σ 0.9), each sums to 1:
+/// the retina's kernel ([`dog_kernel::official_kernel`]) as rows.
 pub fn dog_kernel_7x7() -> [[f64; 7]; 7] {
-    let g = |s: f64| {
-        let mut k = [[0.0; 7]; 7];
-        let mut sum = 0.0;
-        for (i, row) in k.iter_mut().enumerate() {
-            for (j, v) in row.iter_mut().enumerate() {
-                let (y, x) = (i as f64 - 3.0, j as f64 - 3.0);
-                *v = (-(x * x + y * y) / (2.0 * s * s)).exp();
-                sum += *v;
-            }
-        }
-        k.iter_mut().flatten().for_each(|v| *v /= sum);
-        k
-    };
-    let (c, s) = (g(0.15), g(0.9));
-    let mut k = [[0.0; 7]; 7];
-    for i in 0..7 {
-        for j in 0..7 {
-            k[i][j] = c[i][j] - 0.91 * s[i][j];
-        }
-    }
-    k
+    let k = dog_kernel::official_kernel();
+    assert_eq!(
+        k.len(),
+        49,
+        "dog_kernel_7x7: official kernel has {} taps",
+        k.len()
+    );
+    std::array::from_fn(|i| std::array::from_fn(|j| k[i * 7 + j]))
 }
 
 impl SyntheticSource {

@@ -1,8 +1,8 @@
 //! Bucket identities and the warp.
 
 use autodiff::{Tape, Tensor};
+use cortex::buckets::m::sampling::{bilinear, nearest_inside, unit_grid};
 use cortex::config::{CortexConfig, PMode};
-use cortex::motion::sampling::{bilinear, nearest_inside, unit_grid};
 use cortex::rng::CortexRng;
 use cortex::synthetic::{SyntheticConfig, SyntheticSource};
 use cortex::{Cortex, Trainer};

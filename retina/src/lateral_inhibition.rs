@@ -6,11 +6,12 @@
 //! - output: the bipolar signal `(n, n)`, `out = K ⊛ input`, a zero-padded linear ("same")
 //!   2-D convolution (the official FFT on a (2n−1)² grid is exactly this).
 //!
-//! Kernel: size `ceil(6·σs)` bumped to odd (7 for σs = 0.9); `K = Gc − w·Gs` with Gc, Gs
-//! Gaussians of σc = 0.15 and σs = 0.9 cells sampled on the integer offsets, each normalised to
-//! sum 1, and w = 0.91, so ΣK = 0.09 (the paper's "non-zero mean 0.09"). Centre tap ≈ 0.821,
-//! nearest neighbours ≈ −0.0965, diagonals ≈ −0.052. K is symmetric, so convolution and
-//! correlation coincide.
+//! Kernel (defined once, in the `dog_kernel` crate, which the cortex's synthetic source shares):
+//! size `ceil(6·σs)` bumped to odd (7 for σs = 0.9); `K = Gc − w·Gs` with Gc, Gs Gaussians of
+//! σc = 0.15 and σs = 0.9 cells sampled on the integer offsets, each normalised to sum 1, and
+//! w = 0.91, so ΣK = 0.09 (the paper's "non-zero mean 0.09"). Centre tap ≈ 0.821, nearest
+//! neighbours ≈ −0.0965, diagonals ≈ −0.052. K is symmetric, so convolution and correlation
+//! coincide.
 //!
 //! Two paths that must agree to 1e-6: direct (49 row AXPYs per output row, the default) and FFT
 //! (rustfft, f64, on a padded grid ≥ n + size − 1).
@@ -26,12 +27,9 @@ use rustfft::num_complex::Complex64;
 use rustfft::{Fft, FftPlanner};
 use serde::{Deserialize, Serialize};
 
-/// Centre σ, lattice cells (authors' code, docs/references.md#lateral-inhibition).
-pub const OFFICIAL_SIGMA_CENTRE_CELLS: f64 = 0.15;
-/// Surround σ, lattice cells (authors' code, docs/references.md#lateral-inhibition).
-pub const OFFICIAL_SIGMA_SURROUND_CELLS: f64 = 0.9;
-/// Surround weight (authors' code, docs/references.md#lateral-inhibition), giving DC gain 1 − 0.91 = 0.09.
-pub const OFFICIAL_SURROUND_WEIGHT: f64 = 0.91;
+pub use dog_kernel::{
+    OFFICIAL_SIGMA_CENTRE_CELLS, OFFICIAL_SIGMA_SURROUND_CELLS, OFFICIAL_SURROUND_WEIGHT,
+};
 
 /// Which convolution path.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -67,39 +65,18 @@ impl Default for DogConfig {
 }
 
 impl DogConfig {
-    /// Kernel side: `ceil(6·σs)`, bumped to odd.
+    /// Kernel side: `ceil(6·σs)`, bumped to odd ([`dog_kernel::kernel_size`]).
     pub fn kernel_size(&self) -> usize {
-        let s = (6.0 * self.sigma_surround_cells).ceil().max(1.0) as usize;
-        if s.is_multiple_of(2) {
-            s + 1
-        } else {
-            s
-        }
+        dog_kernel::kernel_size(self.sigma_surround_cells)
     }
 
-    /// The kernel, `(size, size)` row-major f64.
+    /// The kernel, `(size, size)` row-major f64 ([`dog_kernel::kernel`]).
     pub fn kernel(&self) -> Vec<f64> {
-        let size = self.kernel_size();
-        let r = (size / 2) as f64;
-        let gauss = |sigma: f64| {
-            let mut g: Vec<f64> = (0..size * size)
-                .map(|i| {
-                    let (y, x) = ((i / size) as f64 - r, (i % size) as f64 - r);
-                    (-(x * x + y * y) / (2.0 * sigma * sigma)).exp()
-                })
-                .collect();
-            let s: f64 = g.iter().sum();
-            g.iter_mut().for_each(|v| *v /= s);
-            g
-        };
-        let (c, s) = (
-            gauss(self.sigma_centre_cells),
-            gauss(self.sigma_surround_cells),
-        );
-        c.iter()
-            .zip(&s)
-            .map(|(a, b)| a - self.surround_weight * b)
-            .collect()
+        dog_kernel::kernel(
+            self.sigma_centre_cells,
+            self.sigma_surround_cells,
+            self.surround_weight,
+        )
     }
 }
 

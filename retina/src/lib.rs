@@ -29,7 +29,8 @@
 // Index loops over wavelengths, classes and pixels mirror the formulas in the docs.
 #![allow(clippy::needless_range_loop)]
 
-pub mod analysis;
+#[cfg(test)]
+mod analysis;
 pub mod cones;
 pub mod config;
 pub mod error;

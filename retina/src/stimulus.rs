@@ -14,7 +14,8 @@
 //! cones exactly as in training. **Linearity**: without noise, every stage — the disc render,
 //! the mip stack, cone sampling and lateral inhibition — is linear, so the output for values
 //! `a·u + b·v` is `a·out(u) + b·out(v)` (tested below). Observers rely on it to render a
-//! location once per class plane and combine.
+//! location once per class plane and combine. [`Retina::class_values`] is linear in the spectrum
+//! (also tested below), so observers may build the eye's front end from unit spectra.
 
 use rand::rngs::SmallRng;
 use rand::SeedableRng;
@@ -153,6 +154,38 @@ mod tests {
         });
         let [act_n, _] = render(&eye, disc, &combined, draw);
         assert!(worst(&act_n, &act_c) > 1e-3 * scale);
+    }
+
+    #[test]
+    fn class_values_are_linear_in_the_spectrum() {
+        // Observers build the eye's front end from unit spectra, one per wavelength, and
+        // combine them: this holds only if the projection is linear.
+        let eye = eye();
+        let g = eye.grid().len();
+        let s: Vec<f64> = (0..g)
+            .map(|i| 0.2 + (i as f64 * 0.37).sin().abs())
+            .collect();
+        let t: Vec<f64> = (0..g).map(|i| ((i * 7 % 11) as f64) / 11.0).collect();
+        let (a, b) = (2.3, -0.6);
+        let combined: Vec<f64> = s.iter().zip(&t).map(|(x, y)| a * x + b * y).collect();
+        let (vs, vt, vc) = (
+            eye.class_values(&s),
+            eye.class_values(&t),
+            eye.class_values(&combined),
+        );
+        assert_eq!(vc.len(), vs.len());
+        let scale = vc.iter().fold(0f64, |m, x| m.max(x.abs()));
+        assert!(
+            scale > 1e-3,
+            "the spectrum must reach the classes ({scale})"
+        );
+        for ((c, x), y) in vc.iter().zip(&vs).zip(&vt) {
+            assert!(
+                (c - (a * x + b * y)).abs() <= 1e-12 * scale,
+                "{c} vs {}",
+                a * x + b * y
+            );
+        }
     }
 
     #[test]

@@ -369,7 +369,8 @@ impl Observer for EyeObserver<'_> {
     }
 
     /// The class planes the cones read: the eye sees a spectrum only through them (with or
-    /// without noise, whose seed is the show's).
+    /// without noise, whose seed is the show's). Built from unit spectra, one per wavelength:
+    /// [`Retina::class_values`] is linear in the spectrum (a tested property).
     fn linear_front_end(&self) -> Option<Vec<Vec<f64>>> {
         let (g, k) = (self.retina.grid().len(), self.retina.classes_read());
         let mut rows = vec![vec![0.0; g]; k];

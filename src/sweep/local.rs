@@ -7,7 +7,7 @@
 //! every task (one process group): each checkpoints and stops; the same command continues.
 
 use super::task::Manifest;
-use crate::run::RunError;
+use crate::run_error::RunError;
 use std::fs::OpenOptions;
 use std::path::Path;
 use std::process::{Command, Stdio};

@@ -1,11 +1,12 @@
-//! Per-wavelength Levenberg–Marquardt state of [`super::solve_wavelengths`] and the kink-aware
-//! step [`kink_step`].
+//! Per-wavelength Levenberg–Marquardt state of [`super::solve_wavelengths`]; its steps come from
+//! the kink-aware [`kink_step`].
 //!
 //! Layout: percepts of the two sides per pair are row-major `(pairs × N)`; the residual is
 //! `r = Φ(B) − Φ(A)` with the same layout, flattened to `rows = pairs·N`; the Jacobian columns
 //! `J⁻` (side A) and `J⁺` (side B) are row-major `(rows × K)`.
 
-use super::{solve_small, FrontEndJacobians, Resume, SolverSettings, WavelengthMatch};
+use super::kink::kink_step;
+use super::{FrontEndJacobians, Resume, SolverSettings, WavelengthMatch};
 
 /// LM state of one test wavelength.
 pub(super) struct State {
@@ -261,135 +262,4 @@ impl State {
             }),
         }
     }
-}
-
-/// A step of the piecewise-linear model and what the model predicts for it.
-#[derive(Debug, Clone, PartialEq)]
-pub struct ModelStep {
-    /// δ (K values).
-    pub delta: Vec<f64>,
-    /// `‖r + Jδ‖²`: the undamped model's residual, summed over rows.
-    pub model_residual: f64,
-}
-
-/// The damped Gauss–Newton step δ of the piecewise-linear model
-/// `r(α + δ) ≈ r + Σ_i c_i δ_i`, `c_i = J⁺_i` where α_i + δ_i > 0 and `J⁻_i` where < 0, restricted
-/// to steps that cross no kink: an α_i ≠ 0 either stays on its side or stops at 0, an α_i = 0
-/// stays or moves to either side.
-///
-/// Every such assignment (at most 3^K) is a small least-squares problem
-/// `min ‖r' + J_free δ_free‖² + μ·Σ diag(JᵀJ)_i δ_i²` (stopped coordinates fixed at δ_i = −α_i
-/// and folded into r'); assignments whose solution has a wrong sign are discarded (their
-/// constrained optimum lies on a face, which is another assignment), and the lowest damped
-/// model objective wins. `r` has `rows` values, `ja`, `jb` are row-major `(rows × K)`,
-/// `K = alpha.len()`; `ja` is read only where α_i ≤ 0, `jb` where α_i ≥ 0.
-///
-/// # Panics
-/// If the lengths disagree.
-pub fn kink_step(r: &[f64], ja: &[f64], jb: &[f64], alpha: &[f64], mu: f64) -> ModelStep {
-    let (rows, k) = (r.len(), alpha.len());
-    assert!(
-        ja.len() == rows * k && jb.len() == rows * k,
-        "kink_step: J⁻ {} / J⁺ {} values for {rows} rows × {k}",
-        ja.len(),
-        jb.len()
-    );
-    let col = |i: usize, on_b: bool, row: usize| {
-        if on_b {
-            jb[row * k + i]
-        } else {
-            ja[row * k + i]
-        }
-    };
-    let side = |i: usize| alpha[i] > 0.0;
-    let diag = |i: usize, on_b: bool| (0..rows).map(|row| col(i, on_b, row).powi(2)).sum::<f64>();
-    let sq = |v: &[f64]| v.iter().map(|x| x * x).sum::<f64>();
-    let r2 = sq(r);
-    let mut best = ModelStep {
-        delta: vec![0.0; k],
-        model_residual: r2,
-    };
-    let mut best_objective = r2;
-    // choice per coordinate: 0 = stay (α_i = 0) / stop at 0 (α_i ≠ 0); 1 = B side / keep side;
-    // 2 = A side (only from α_i = 0)
-    let radix: Vec<usize> = alpha
-        .iter()
-        .map(|&a| if a == 0.0 { 3 } else { 2 })
-        .collect();
-    let n_patterns: usize = radix.iter().product();
-    let mut free: Vec<(usize, bool)> = Vec::with_capacity(k);
-    let mut delta = vec![0.0; k];
-    let mut r_fixed = vec![0.0; rows];
-    for code in 0..n_patterns {
-        free.clear();
-        delta.fill(0.0);
-        r_fixed.copy_from_slice(r);
-        let mut fixed_damping = 0.0;
-        let mut c = code;
-        for i in 0..k {
-            let choice = c % radix[i];
-            c /= radix[i];
-            match (alpha[i] == 0.0, choice) {
-                (true, 0) => {}
-                (true, ch) => free.push((i, ch == 1)),
-                (false, 1) => free.push((i, side(i))),
-                (false, _) => {
-                    // stop at the kink: δ_i = −α_i on α_i's side
-                    delta[i] = -alpha[i];
-                    for (row, rv) in r_fixed.iter_mut().enumerate() {
-                        *rv += col(i, side(i), row) * delta[i];
-                    }
-                    fixed_damping += mu * diag(i, side(i)) * delta[i] * delta[i];
-                }
-            }
-        }
-        let m = free.len();
-        if m > 0 {
-            let d: Vec<f64> = free.iter().map(|&(i, b)| diag(i, b)).collect();
-            let extra = if mu > 0.0 { m } else { 0 };
-            let mut a = Vec::with_capacity((rows + extra) * m);
-            for row in 0..rows {
-                a.extend(free.iter().map(|&(i, b)| col(i, b, row)));
-            }
-            let mut rhs: Vec<f64> = r_fixed.iter().map(|v| -v).collect();
-            for j in 0..extra {
-                a.extend((0..m).map(|c| {
-                    if c == j {
-                        (mu * d[j].max(1e-300)).sqrt()
-                    } else {
-                        0.0
-                    }
-                }));
-                rhs.push(0.0);
-            }
-            let x = solve_small(&a, rows + extra, m, &rhs);
-            let consistent = free.iter().zip(&x).all(|(&(i, b), &v)| {
-                let t = alpha[i] + v;
-                if b {
-                    t > 0.0
-                } else {
-                    t < 0.0
-                }
-            });
-            if !consistent {
-                continue;
-            }
-            for ((&(i, b), &v), dj) in free.iter().zip(&x).zip(&d) {
-                delta[i] = v;
-                for (row, rv) in r_fixed.iter_mut().enumerate() {
-                    *rv += col(i, b, row) * v;
-                }
-                fixed_damping += mu * dj * v * v;
-            }
-        }
-        let model = sq(&r_fixed);
-        if model + fixed_damping < best_objective {
-            best_objective = model + fixed_damping;
-            best = ModelStep {
-                delta: delta.clone(),
-                model_residual: model,
-            };
-        }
-    }
-    best
 }

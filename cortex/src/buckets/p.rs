@@ -17,9 +17,9 @@
 
 use super::p_plain::FusedFlow;
 use super::shift::integer_shift_warp;
+use crate::buckets::m::sampling::unit_grid;
+use crate::buckets::m::{IdentityFlow, PlainFlow};
 use crate::config::{CortexConfig, PMode};
-use crate::motion::sampling::unit_grid;
-use crate::motion::{IdentityFlow, PlainFlow};
 use crate::rng::CortexRng;
 use crate::CortexError;
 use autodiff::nn::realnvp::{RealNvp, RealNvpConfig};

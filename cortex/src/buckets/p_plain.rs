@@ -12,7 +12,7 @@
 //! copied to f64 once, when the map is built ([`FusedFlow::new`]); point buffers are reused
 //! across calls (and threads) from a small pool instead of being allocated per call.
 
-use crate::motion::PlainFlow;
+use crate::buckets::m::PlainFlow;
 use autodiff::nn::coupling::AffineCoupling;
 use autodiff::nn::realnvp::RealNvp;
 use autodiff::{Op, ParamStore, Tensor};

@@ -30,6 +30,9 @@ use super::library::{daylight_unit_luminance, ReflectanceLibrary};
 use super::{Projector, SpectralImage};
 use crate::error::Result;
 use crate::foveation::perlin::perlin_octaves;
+use leaf::{uniform, Leaf, SizeLaw, UNSET};
+
+mod leaf;
 
 /// Dead-leaves settings (module docs; every number is a modelling choice of ours unless noted).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -108,6 +111,24 @@ fn smooth_field<R: Rng + ?Sized>(rng: &mut R, size: usize) -> Vec<f64> {
     perlin_octaves(rng, size, size, 2, 3, 0.5)
 }
 
+/// Multiplies `shading` by the smooth log-normal illumination field and returns the shadow
+/// weight t(x) of the soft-edged shadow map (both fields drawn from `rng`, in that order).
+fn light_and_shadow<R: Rng + ?Sized>(
+    cfg: &DeadLeavesConfig,
+    rng: &mut R,
+    shading: &mut [f32],
+) -> Vec<f32> {
+    let n = cfg.size_px;
+    let light = smooth_field(rng, n);
+    let shadow_noise = smooth_field(rng, n);
+    let mut shadow = vec![0.0f32; n * n];
+    for p in 0..n * n {
+        shading[p] *= (cfg.illumination_log_amplitude * light[p]).exp() as f32;
+        shadow[p] = (1.0 / (1.0 + (-cfg.shadow_edge_gain * shadow_noise[p]).exp())) as f32;
+    }
+    shadow
+}
+
 impl LeafScene {
     /// Draw a scene (module docs).
     pub fn generate<R: Rng + ?Sized>(
@@ -120,70 +141,21 @@ impl LeafScene {
             n >= 2 && !lib.is_empty(),
             "LeafScene::generate: size {n}, library empty"
         );
-        let uni = |rng: &mut R, r: [f64; 2]| r[0] + (r[1] - r[0]) * rng.random::<f64>();
-        let sun = daylight_unit_luminance(uni(rng, cfg.sun_cct_k), &lib.grid)?;
-        let sky: Vec<f64> = daylight_unit_luminance(uni(rng, cfg.sky_cct_k), &lib.grid)?
+        let sun = daylight_unit_luminance(uniform(rng, cfg.sun_cct_k), &lib.grid)?;
+        let sky: Vec<f64> = daylight_unit_luminance(uniform(rng, cfg.sky_cct_k), &lib.grid)?
             .into_iter()
             .map(|v| v * cfg.sky_relative_luminance)
             .collect();
-        const UNSET: u32 = u32::MAX;
         let mut label = vec![UNSET; n * n];
         let mut shading = vec![0.0f32; n * n];
         let mut surface = Vec::new();
         let mut remaining = n * n;
-        let (rmin, rmax) = (
-            cfg.radius_min_px,
-            (cfg.radius_max_fraction * n as f64).max(cfg.radius_min_px),
-        );
-        let e = cfg.size_exponent - 1.0;
-        let (a0, a1) = (rmin.powf(-e), rmax.powf(-e));
-        let half_side = std::f64::consts::PI.sqrt() / 2.0; // square of area πr² has half-side r·√π/2
+        let sizes = SizeLaw::new(cfg);
         while remaining > 0 && surface.len() < cfg.max_leaves {
-            let r = (a0 - rng.random::<f64>() * (a0 - a1)).powf(-1.0 / e);
-            let aspect = uni(rng, [1.0, cfg.max_aspect]);
-            let (ax, ay) = (r * aspect.sqrt(), r / aspect.sqrt());
-            let theta = rng.random::<f64>() * std::f64::consts::PI;
-            let (c, s) = (theta.cos(), theta.sin());
-            let rect = rng.random::<f64>() < cfg.rectangle_fraction;
-            let (hx, hy) = if rect {
-                (ax * half_side, ay * half_side)
-            } else {
-                (ax, ay)
-            };
-            let reach = hx.hypot(hy);
-            let cx = -reach + rng.random::<f64>() * (n as f64 + 2.0 * reach);
-            let cy = -reach + rng.random::<f64>() * (n as f64 + 2.0 * reach);
-            let bright = uni(rng, cfg.leaf_brightness_range);
-            let phi = rng.random::<f64>() * std::f64::consts::TAU;
-            let slope = cfg.leaf_shading_gradient * rng.random::<f64>() / r.max(1.0);
-            let (gx, gy) = (slope * phi.cos(), slope * phi.sin());
+            let leaf = Leaf::draw(cfg, &sizes, rng);
             let id = surface.len() as u32;
             surface.push(rng.random_range(0..lib.len()) as u32);
-            let y0 = (cy - reach).floor().max(0.0) as usize;
-            let y1 = ((cy + reach).ceil().max(0.0) as usize).min(n);
-            let x0 = (cx - reach).floor().max(0.0) as usize;
-            let x1 = ((cx + reach).ceil().max(0.0) as usize).min(n);
-            for y in y0..y1 {
-                let dy = y as f64 - cy;
-                for x in x0..x1 {
-                    let p = y * n + x;
-                    if label[p] != UNSET {
-                        continue;
-                    }
-                    let dx = x as f64 - cx;
-                    let (u, v) = (dx * c + dy * s, -dx * s + dy * c);
-                    let inside = if rect {
-                        u.abs() <= hx && v.abs() <= hy
-                    } else {
-                        (u / ax).powi(2) + (v / ay).powi(2) <= 1.0
-                    };
-                    if inside {
-                        label[p] = id;
-                        shading[p] = (bright * (1.0 + gx * dx + gy * dy)).max(0.02) as f32;
-                        remaining -= 1;
-                    }
-                }
-            }
+            remaining -= leaf.paint(id, n, &mut label, &mut shading);
         }
         if remaining > 0 {
             let last = surface.len().saturating_sub(1) as u32;
@@ -194,13 +166,7 @@ impl LeafScene {
                 }
             }
         }
-        let light = smooth_field(rng, n);
-        let shadow_noise = smooth_field(rng, n);
-        let mut shadow = vec![0.0f32; n * n];
-        for p in 0..n * n {
-            shading[p] *= (cfg.illumination_log_amplitude * light[p]).exp() as f32;
-            shadow[p] = (1.0 / (1.0 + (-cfg.shadow_edge_gain * shadow_noise[p]).exp())) as f32;
-        }
+        let shadow = light_and_shadow(cfg, rng, &mut shading);
         Ok(LeafScene {
             size_px: n,
             label,

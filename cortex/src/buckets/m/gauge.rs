@@ -156,7 +156,7 @@ pub fn record_gauge_term(tape: &mut Tape<f32>, xy: Var, uv: &[[f64; 2]]) -> Var 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::motion::IdentityFlow;
+    use crate::buckets::m::IdentityFlow;
 
     struct Affine(AffineFit);
 

@@ -163,8 +163,8 @@ impl SubpixelRefiner {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::motion::block_matching::DewarpGrid;
-    use crate::motion::IdentityFlow;
+    use crate::buckets::m::block_matching::DewarpGrid;
+    use crate::buckets::m::IdentityFlow;
 
     /// A smooth image shifted by a known sub-pixel amount: the refinement finds it.
     #[test]

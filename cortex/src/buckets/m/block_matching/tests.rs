@@ -1,8 +1,8 @@
 //! Block matching against the official search and against scalar references.
 
 use super::*;
+use crate::buckets::m::IdentityFlow;
 use crate::data::DataSource;
-use crate::motion::IdentityFlow;
 use crate::synthetic::{SyntheticConfig, SyntheticSource};
 
 fn matcher() -> BlockMatcher {
@@ -203,7 +203,7 @@ fn shared_taps_search_matches_reference() {
 fn identity_grid_is_the_ons_grid() {
     let g = DewarpGrid::new(&IdentityFlow, 64, 128);
     assert_eq!(g.side, 64);
-    let want = crate::motion::sampling::unit_grid(64);
+    let want = crate::buckets::m::sampling::unit_grid(64);
     for (a, b) in g.uv.iter().zip(&want) {
         assert!((a[0] - b[0]).abs() < 1e-12 && (a[1] - b[1]).abs() < 1e-12);
     }
