@@ -7,7 +7,7 @@
 //! | `monochromats` | L, M, S | Fig. 5 |
 //! | `dichromats` | LM, LS, MS | Fig. 5.2 |
 //! | `trichromat` | LMS, dimension over training | Fig. 3.3 |
-//! | `tetrachromats` | LMS + pigeon Q (506) and LMS + human Q (545) | S-07, Fig. 10 |
+//! | `tetrachromats` | LMS + pigeon Q (506) and LMS + human Q (545), each in three environments: natural scenes; 10 % of scenes from the observer's hue sphere; 10 % idealised | S-07, Fig. 10 |
 //! | `baselines` | Φ = identity on the ONS; Φ = identity on cone activations; no demosaicker; (extra) a cortex trained on cone activations (LMS) | S-05, Fig. 8 |
 //! | `gene-therapy` | MS trained, then L replacing / co-expressing / mixing into 50 % of M | S-06, Fig. 6.1, 9 |
 //! | `boost` | LMS trained, then LMSQ, training continued | Fig. 6.2 |
@@ -24,6 +24,8 @@ use crate::run_error::RunError;
 use colorimetry::analytic::ConeObserver;
 use colorimetry::{compare_stiles_burch, run_cmf_sim, StilesBurchSettings};
 use cortex::config::Baseline;
+use retina::scene::pool::TetraMix;
+use retina::scene::tetra::TetraEnvironment;
 use retina::Retina;
 use std::path::{Path, PathBuf};
 
@@ -35,7 +37,7 @@ pub const EXPERIMENTS: &[(&str, &str)] = &[
     ("trichromat", "LMS: expect 3-D, passing through 1-D and 2-D"),
     (
         "tetrachromats",
-        "LMS+pigeon Q and LMS+human Q on natural scenes",
+        "LMS+pigeon Q and LMS+human Q; natural, hue-sphere and idealised environments",
     ),
     (
         "baselines",
@@ -108,6 +110,50 @@ fn cone_sweep(options: &CommonOptions, out: &Path, cones: &[&str]) -> Result<(),
     }
     let rows: Vec<_> = table.iter().map(|(c, d, s, w)| serde_json::json!({"cones": c, "dimension": d, "steps": s, "wall_seconds": w})).collect();
     crate::io::write_json(&out.join("table.json"), &rows)?;
+    Ok(())
+}
+
+/// Fraction of scenes drawn from a tetrachromatic environment: the paper's 100 colour patches
+/// added to 900 hyperspectral images (S-07).
+pub const TETRA_SCENE_FRACTION: f64 = 0.1;
+
+/// The environments of S-07, by folder name.
+pub const TETRA_ENVIRONMENTS: [(&str, Option<TetraEnvironment>); 3] = [
+    ("natural", None),
+    ("hue_sphere", Some(TetraEnvironment::HueSphere)),
+    ("idealised", Some(TetraEnvironment::Idealised)),
+];
+
+/// S-07: LMS + pigeon Q (506 nm) and LMS + human Q (545 nm), each trained in the three
+/// environments of [`TETRA_ENVIRONMENTS`] (one run folder each, `OBSERVER/ENVIRONMENT`).
+/// Paper: human Q 4-D only with idealised colours; pigeon Q 4-D in all three.
+fn tetrachromats(options: &CommonOptions, out: &Path) -> Result<(), RunError> {
+    let mut table = Vec::new();
+    for cones in ["LMSQ,Q:506", "LMSQ"] {
+        for (name, environment) in TETRA_ENVIRONMENTS {
+            let mut config = RunConfig::resolve(&with_cones(options, cones), "quick")?;
+            config.retina.scenes.tetra = environment.map(|environment| TetraMix {
+                environment,
+                fraction: TETRA_SCENE_FRACTION,
+            });
+            let dir = sub(out, cones).join(name);
+            let mode = RunMode {
+                cmf_sim: true,
+                pictures: true,
+                progress: true,
+            };
+            let s = run::run_in(&config, &dir, mode, options.folder(), Origin::New)?;
+            run::print_outcome(&dir, &s);
+            table.push((cones, name, s.dimension, s.steps));
+        }
+    }
+    println!(
+        "\n{:<12} {:<11} {:>9} {:>7}",
+        "cones", "environment", "dimension", "steps"
+    );
+    for (c, e, d, s) in &table {
+        println!("{c:<12} {e:<11} {d:>9} {s:>7}");
+    }
     Ok(())
 }
 
@@ -303,7 +349,7 @@ pub fn run_named(name: &str, options: &CommonOptions) -> Result<(), RunError> {
         "monochromats" => cone_sweep(options, &out, &["L", "M", "S"]),
         "dichromats" => cone_sweep(options, &out, &["LM", "LS", "MS"]),
         "trichromat" => cone_sweep(options, &out, &["LMS"]),
-        "tetrachromats" => cone_sweep(options, &out, &["LMSQ,Q:506", "LMSQ"]),
+        "tetrachromats" => tetrachromats(options, &out),
         "robustness" => {
             for seed in [1, 2, 3] {
                 let o = CommonOptions {

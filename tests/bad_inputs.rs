@@ -88,6 +88,18 @@ const CASES: &[Case] = &[
         &["bad.toml", "retina.scenes.dead_leaves.max_leaves"],
     ),
     case(
+        "tetra fraction 1.5",
+        Some("[retina.scenes.tetra]\nenvironment = \"HueSphere\"\nfraction = 1.5"),
+        &[],
+        &["bad.toml", "retina.scenes.tetra.fraction"],
+    ),
+    case(
+        "hue sphere of a monochromat",
+        Some("[retina.scenes.tetra]\nenvironment = \"HueSphere\"\nfraction = 0.1"),
+        &["--cones", "L"],
+        &["bad.toml", "retina.scenes.tetra.environment"],
+    ),
+    case(
         "jitter base 0",
         Some("[retina.layout.Foveated.jitter]\nbase_resolution = 0"),
         &[],

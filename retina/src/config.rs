@@ -25,6 +25,7 @@ use crate::foveation::{FoveationConfig, LayoutConfig};
 use crate::lateral_inhibition::DogConfig;
 use crate::scene::dead_leaves::DeadLeavesConfig;
 use crate::scene::pool::{RgbPath, ScenePoolConfig};
+use crate::scene::tetra::TetraEnvironment;
 use crate::spikes::LifConfig;
 
 /// A uniform wavelength grid, nm.
@@ -235,6 +236,32 @@ impl RetinaConfig {
         Ok(())
     }
 
+    /// Checks the tetrachromatic environment: a fraction of tiles, and a hue sphere only for an
+    /// eye with at least two classes.
+    fn validate_tetra(&self) -> Result<()> {
+        if let Some(t) = &self.scenes.tetra {
+            if !(t.fraction.is_finite() && (0.0..=1.0).contains(&t.fraction)) {
+                return Err(RetinaError::setting(
+                    "scenes.tetra.fraction",
+                    format!("{} must be a fraction of tiles in [0, 1]", t.fraction),
+                ));
+            }
+            let classes = crate::mosaic::MosaicSpec::parse(&self.cones)?
+                .class_names()
+                .len();
+            if t.environment == TetraEnvironment::HueSphere && classes < 2 {
+                return Err(RetinaError::setting(
+                    "scenes.tetra.environment",
+                    format!(
+                        "`{}` has {classes} cone class; a hue sphere needs at least two",
+                        self.cones
+                    ),
+                ));
+            }
+        }
+        Ok(())
+    }
+
     /// Checks the stage settings that would otherwise panic or allocate without bound.
     fn validate_stages(&self) -> Result<()> {
         let n = self.cones_per_side;
@@ -264,6 +291,7 @@ impl RetinaConfig {
                 ));
             }
         }
+        self.validate_tetra()?;
         if self.scenes.dead_leaves.max_leaves == 0 {
             return Err(RetinaError::setting(
                 "scenes.dead_leaves.max_leaves",

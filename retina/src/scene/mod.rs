@@ -18,6 +18,7 @@
 pub mod dead_leaves;
 pub mod exr_io;
 
+pub mod hue_sphere;
 pub mod library;
 pub mod pool;
 pub mod projection;
@@ -253,4 +254,4 @@ impl ClassPlanes {
 }
 
 #[cfg(test)]
-mod tests;
+pub(crate) mod tests;

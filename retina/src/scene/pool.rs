@@ -33,6 +33,7 @@ use serde::{Deserialize, Serialize};
 
 use super::dead_leaves::{DeadLeavesConfig, LeafScene};
 use super::exr_io::read_scene_exr;
+use super::hue_sphere::HueSphere;
 use super::library::ReflectanceLibrary;
 pub use super::projection::SceneProjection;
 use super::rgb::{class_planes_by_matrix, Display, RgbImage};
@@ -172,7 +173,8 @@ pub struct ScenePool {
     pub levels: usize,
     tiles: Vec<MipStack>,
     library: ReflectanceLibrary,
-    optimal: ReflectanceLibrary,
+    /// Surfaces of the tetrachromatic patches: the observer's hue sphere or optimal colours.
+    patch_library: ReflectanceLibrary,
     display: Option<Display>,
     files: Vec<LoadedFile>,
     next_refresh: usize,
@@ -226,13 +228,17 @@ impl ScenePool {
             RgbPath::Display => Some(Display::srgb_like(&grid)?),
             RgbPath::Matrix => None,
         };
+        let mut patch_rng = StdRng::seed_from_u64(rng.random());
+        let patch_library = match config.tetra.map(|t| t.environment) {
+            Some(TetraEnvironment::HueSphere) => {
+                HueSphere::new(&projection.projector, projection.k)?
+                    .library(OPTIMAL_LIBRARY_SIZE, &mut patch_rng)
+            }
+            _ => optimal_colour_library(&grid, OPTIMAL_LIBRARY_SIZE, &mut patch_rng),
+        };
         let mut pool = ScenePool {
             library: ReflectanceLibrary::measured(&grid)?,
-            optimal: optimal_colour_library(
-                &grid,
-                OPTIMAL_LIBRARY_SIZE,
-                &mut StdRng::seed_from_u64(rng.random()),
-            ),
+            patch_library,
             config,
             projection,
             levels,
@@ -300,10 +306,10 @@ impl ScenePool {
                     )
                 }
                 Some(t) => {
-                    let scene = LeafScene::generate(&patch_config(size), &self.optimal, rng)?;
+                    let scene = LeafScene::generate(&patch_config(size), &self.patch_library, rng)?;
                     let data = match t.environment {
-                        TetraEnvironment::OptimalColours => {
-                            scene.render_projected(&self.optimal, &proj.projector)
+                        TetraEnvironment::OptimalColours | TetraEnvironment::HueSphere => {
+                            scene.render_projected(&self.patch_library, &proj.projector)
                         }
                         TetraEnvironment::Idealised => {
                             // Mosaic classes get independent values; appended reference

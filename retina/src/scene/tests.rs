@@ -3,13 +3,25 @@
 
 use super::dead_leaves::{DeadLeavesConfig, LeafScene};
 use super::library::ReflectanceLibrary;
-use super::pool::{RgbPath, ScenePool, ScenePoolConfig, SceneProjection};
+use super::pool::{RgbPath, ScenePool, ScenePoolConfig, SceneProjection, TetraMix};
 use super::rgb::{Display, RgbImage};
+use super::tetra::TetraEnvironment;
 use super::*;
 use crate::analysis::{pca_components_for_variance, power_spectrum_slope};
 use colorimetry::{ConeClass, ConeTemplate};
 use rand::rngs::StdRng;
 use rand::SeedableRng;
+
+/// Standard deviation over pixels of ln(Q / L) in `(≥ 4, nn)` planes whose planes 0 and 3 are
+/// L and Q: the contrast only a tetrachromat sees, independent of shading.
+pub(crate) fn q_over_l_contrast(planes: &[f32], nn: usize) -> f64 {
+    let v: Vec<f64> = (0..nn)
+        .filter(|&p| planes[p] > 1e-6 && planes[3 * nn + p] > 1e-6)
+        .map(|p| (planes[3 * nn + p] as f64 / planes[p] as f64).ln())
+        .collect();
+    let m = v.iter().sum::<f64>() / v.len() as f64;
+    (v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / v.len() as f64).sqrt()
+}
 
 /// Each pixel's spectrum divided by its Euclidean norm (spectral shape; shading removed).
 fn normalise_spectra(img: &SpectralImage) -> Vec<f32> {
@@ -150,4 +162,53 @@ fn pool_white_balance_and_reference_planes() {
         .copied()
         .fold(0.0f32, f32::max);
     assert!(max_l <= 1.0831, "{max_l}");
+}
+
+fn lmsq_pool(tetra: Option<TetraMix>, classes: &[ConeClass]) -> crate::error::Result<ScenePool> {
+    let g = WavelengthGrid::default();
+    let proj = SceneProjection::new(classes, &ConeTemplate::default(), &g).unwrap();
+    let cfg = ScenePoolConfig {
+        tiles: 4,
+        tile_px: 64,
+        dead_leaves: DeadLeavesConfig::default(),
+        tetra,
+        files: vec![],
+        rgb_path: RgbPath::Display,
+        white_balance: true,
+        refresh_every_batches: 0,
+    };
+    ScenePool::new(cfg, proj, 1, &mut StdRng::seed_from_u64(9))
+}
+
+#[test]
+fn a_hue_sphere_pool_holds_more_tetrachromatic_contrast_than_natural_scenes() {
+    let classes = [
+        ConeClass::l(),
+        ConeClass::m(),
+        ConeClass::s(),
+        ConeClass::human_q(),
+    ];
+    let hue = Some(TetraMix {
+        environment: TetraEnvironment::HueSphere,
+        fraction: 1.0,
+    });
+    let mean_contrast = |pool: &ScenePool| {
+        let nn = 64 * 64;
+        (0..4)
+            .map(|t| {
+                let planes: Vec<f32> = (0..4)
+                    .flat_map(|p| pool.tile(t).plane(0, p).to_vec())
+                    .collect();
+                q_over_l_contrast(&planes, nn)
+            })
+            .sum::<f64>()
+            / 4.0
+    };
+    let natural = mean_contrast(&lmsq_pool(None, &classes).unwrap());
+    let hue_sphere = mean_contrast(&lmsq_pool(hue, &classes).unwrap());
+    eprintln!("std ln(Q/L) per tile: natural {natural:.4}, hue sphere {hue_sphere:.4}");
+    assert!(hue_sphere > natural, "{hue_sphere} vs {natural}");
+    // A monochromat has no hue sphere: the pool says which setting is wrong.
+    let err = lmsq_pool(hue, &[ConeClass::l()]).unwrap_err().to_string();
+    assert!(err.contains("scenes.tetra.environment"), "{err}");
 }

@@ -4,6 +4,9 @@
 //! observer's tetrachromatic hue sphere (Lee et al. 2024), and "idealised" colours where each
 //! cone channel may take any value — the theoretical maximum of chromatic contrast. Neither set
 //! is released (authors' code, docs/references.md#scenes). Ours:
+//! - [`TetraEnvironment::HueSphere`]: dead-leaves patches of the observer's own hue-sphere
+//!   colours ([`super::hue_sphere`]): for uniformly drawn hues, the surface that goes furthest
+//!   in that hue for this observer's classes, rendered under the usual daylights.
 //! - [`TetraEnvironment::Idealised`]: dead-leaves patches whose class excitations are drawn
 //!   independently and uniformly in [0, 1] per class and per patch (then shaded like any leaf).
 //!   This lives in class space — no spectrum produces it — exactly as the paper's third
@@ -11,8 +14,8 @@
 //! - [`TetraEnvironment::OptimalColours`]: dead-leaves patches of spectrally saturated surfaces:
 //!   MacAdam-type optimal reflectances (1 inside a wavelength band, 0 outside, or the reverse),
 //!   with logistic edges 5 nm wide, under the usual daylights. They are the most saturated
-//!   surface colours for any observer, so they sample the boundary of its colour solid — our
-//!   stand-in for the hue-sphere colours.
+//!   surface colours for any observer, so they sample the boundary of its colour solid, but
+//!   not evenly in any one observer's hues (the same set for every observer).
 //!
 //! Patches are larger than natural leaves (radius 4–30 % of the scene side) so each colour
 //! covers many cones.
@@ -34,6 +37,8 @@ pub const PATCH_RADIUS_MIN_FRACTION: f64 = 0.04;
 /// Which tetrachromatic environment (module docs).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 pub enum TetraEnvironment {
+    /// The observer's hue-sphere colours ([`super::hue_sphere`]).
+    HueSphere,
     /// Independent uniform class excitations per patch.
     Idealised,
     /// Spectrally saturated (optimal) surfaces.
@@ -108,21 +113,11 @@ pub fn idealised_class_planes<R: Rng + ?Sized>(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::scene::tests::q_over_l_contrast;
     use crate::scene::Projector;
     use colorimetry::{sensitivities, ConeClass, ConeTemplate};
     use rand::rngs::StdRng;
     use rand::SeedableRng;
-
-    /// Standard deviation over pixels of ln(Q / L) (human Q, 545 nm): the contrast only a
-    /// tetrachromat sees, independent of shading.
-    fn q_over_l_contrast(planes: &[f32], nn: usize) -> f64 {
-        let v: Vec<f64> = (0..nn)
-            .filter(|&p| planes[p] > 1e-6 && planes[3 * nn + p] > 1e-6)
-            .map(|p| (planes[3 * nn + p] as f64 / planes[p] as f64).ln())
-            .collect();
-        let m = v.iter().sum::<f64>() / v.len() as f64;
-        (v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / v.len() as f64).sqrt()
-    }
 
     #[test]
     fn tetra_environments_have_more_q_versus_l_contrast_than_natural_scenes() {
