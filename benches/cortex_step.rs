@@ -25,7 +25,7 @@ use colorvision::source::RetinaSource;
 use cortex::config::{CortexConfig, MMode};
 use cortex::model::{BUCKETS, BUCKET_NAMES};
 use cortex::synthetic::{SyntheticConfig, SyntheticSource};
-use cortex::{DataSource, RuleKind, StepStats, Trainer};
+use cortex::{DataSource, OnsBatch, RuleKind, StepStats, Trainer};
 use retina::Retina;
 
 fn median(mut v: Vec<f64>) -> f64 {
@@ -45,6 +45,8 @@ struct Case {
     name: &'static str,
     trainer: Trainer,
     source: Box<dyn DataSource>,
+    /// The batch, refilled every step as the run does.
+    batch: OnsBatch,
     /// Milliseconds to draw each timed batch from the source.
     batch_ms: Vec<f64>,
     /// Whether the source is the retina (its time counts in the whole step) or a synthetic
@@ -65,6 +67,7 @@ impl Case {
             retina,
             trainer: Trainer::new(cfg).expect("preset is valid"),
             source,
+            batch: OnsBatch::default(),
             batch_ms: Vec::new(),
             stats: Vec::new(),
         }
@@ -87,9 +90,9 @@ impl Case {
         let bs = self.trainer.config().train.batch_size;
         self.trainer.set_profiling(profile && timed);
         let t0 = std::time::Instant::now();
-        let batch = self.source.next_batch(bs);
+        self.source.next_batch_into(bs, &mut self.batch);
         let batch_ms = t0.elapsed().as_secs_f64() * 1e3;
-        let s = self.trainer.step(&batch).expect("step");
+        let s = self.trainer.step(&self.batch).expect("step");
         if timed {
             self.batch_ms.push(batch_ms);
             self.stats.push(s);

@@ -16,7 +16,7 @@
 
 use colorvision::source::RetinaSource;
 use cortex::config::{CortexConfig, MMode};
-use cortex::{DataSource, RuleKind, Trainer, TrainingBatch};
+use cortex::{DataSource, OnsBatch, RuleKind, Trainer};
 use criterion::{criterion_group, criterion_main, Criterion};
 use retina::Retina;
 use std::time::{Duration, Instant};
@@ -33,7 +33,7 @@ fn trainer(rule: RuleKind) -> Trainer {
 }
 
 /// One batch of the quick LMS retina with the oracle motion.
-fn batch(size: usize) -> TrainingBatch {
+fn batch(size: usize) -> OnsBatch {
     let retina = Retina::preset("quick", "LMS").expect("retina preset");
     RetinaSource::new(retina, 1, true).next_batch(size)
 }

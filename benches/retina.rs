@@ -12,7 +12,7 @@
 use criterion::{criterion_group, criterion_main, Criterion};
 use rand::rngs::SmallRng;
 use rand::SeedableRng;
-use retina::{OnsBatch, Retina, RetinaConfig};
+use retina::{EyeBatch, Retina, RetinaConfig};
 use std::hint::black_box;
 use std::time::Duration;
 
@@ -22,7 +22,7 @@ fn batch8(c: &mut Criterion) {
         let mut retina =
             Retina::new(RetinaConfig::preset(preset).expect("preset")).expect("retina");
         let mut rng = SmallRng::seed_from_u64(0);
-        let mut out = OnsBatch::default();
+        let mut out = EyeBatch::default();
         if preset == "paper" {
             group
                 .sample_size(20)
@@ -34,8 +34,8 @@ fn batch8(c: &mut Criterion) {
         }
         group.bench_function(preset, |b| {
             b.iter(|| {
-                retina.batch_into(&mut rng, 8, &mut out);
-                black_box(&out.ons);
+                retina.batch_into(&mut rng, 8, &mut out.signal, &mut out.truth);
+                black_box(&out.signal.ons);
             })
         });
     }

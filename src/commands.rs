@@ -17,28 +17,16 @@ use std::path::{Path, PathBuf};
 
 /// `colorvision run`: train, measure at checkpoints, summarise.
 pub fn run(options: &CommonOptions) -> Result<(), RunError> {
-    train_and_report(
-        options,
-        "run",
-        RunMode {
-            cmf_sim: true,
-            pictures: true,
-            progress: true,
-        },
-    )
+    train_and_report(options, "run", RunMode::FULL)
 }
 
 /// `colorvision train`: train only (no CMF-SIM).
 pub fn train(options: &CommonOptions) -> Result<(), RunError> {
-    train_and_report(
-        options,
-        "train",
-        RunMode {
-            cmf_sim: false,
-            pictures: true,
-            progress: true,
-        },
-    )
+    let mode = RunMode {
+        cmf_sim: false,
+        ..RunMode::FULL
+    };
+    train_and_report(options, "train", mode)
 }
 
 fn train_and_report(options: &CommonOptions, command: &str, mode: RunMode) -> Result<(), RunError> {

@@ -77,22 +77,17 @@ fn sub(out: &Path, name: &str) -> PathBuf {
     out.join(name.replace([',', ':', '+', '@', '='], "_"))
 }
 
-/// Trains one retina and measures it; returns its summary.
-pub fn emergence(options: &CommonOptions, out: &Path) -> Result<Summary, RunError> {
-    let config = RunConfig::resolve(options, "quick")?;
-    let summary = run::run_in(
-        &config,
-        out,
-        RunMode {
-            cmf_sim: true,
-            pictures: true,
-            progress: true,
-        },
-        options.folder(),
-        Origin::New,
-    )?;
+/// Trains `config` into `out` with CMF-SIM and pictures (a new, resumed or replaced folder as
+/// the options say) and prints the outcome.
+fn full_run(config: &RunConfig, out: &Path, options: &CommonOptions) -> Result<Summary, RunError> {
+    let summary = run::run_in(config, out, RunMode::FULL, options.folder(), Origin::New)?;
     run::print_outcome(out, &summary);
     Ok(summary)
+}
+
+/// Trains one retina and measures it; returns its summary.
+pub fn emergence(options: &CommonOptions, out: &Path) -> Result<Summary, RunError> {
+    full_run(&RunConfig::resolve(options, "quick")?, out, options)
 }
 
 fn cone_sweep(options: &CommonOptions, out: &Path, cones: &[&str]) -> Result<(), RunError> {
@@ -136,14 +131,7 @@ fn tetrachromats(options: &CommonOptions, out: &Path) -> Result<(), RunError> {
                 environment,
                 fraction: TETRA_SCENE_FRACTION,
             });
-            let dir = sub(out, cones).join(name);
-            let mode = RunMode {
-                cmf_sim: true,
-                pictures: true,
-                progress: true,
-            };
-            let s = run::run_in(&config, &dir, mode, options.folder(), Origin::New)?;
-            run::print_outcome(&dir, &s);
+            let s = full_run(&config, &sub(out, cones).join(name), options)?;
             table.push((cones, name, s.dimension, s.steps));
         }
     }
@@ -201,17 +189,7 @@ fn baselines(options: &CommonOptions, out: &Path) -> Result<(), RunError> {
     ] {
         let mut c = eye.clone();
         c.cortex.baseline = baseline;
-        let s = run::run_in(
-            &c,
-            &sub(out, name),
-            RunMode {
-                cmf_sim: true,
-                pictures: true,
-                progress: true,
-            },
-            options.folder(),
-            Origin::New,
-        )?;
+        let s = full_run(&c, &sub(out, name), &options)?;
         println!("baseline {name}: dimension {} ({})", s.dimension, s.verdict);
     }
     Ok(())

@@ -109,11 +109,13 @@ fn write_scope(
     let mut rows: (Vec<f64>, Vec<f64>) = (Vec::new(), Vec::new());
     for _ in 0..4 {
         let b = source.next_eye_batch(4).clone();
-        let frames: Vec<f32> = (0..b.batch).flat_map(|s| b.frame(s, 0).to_vec()).collect();
-        let percept = cortex.decode_frames(&frames, b.batch);
-        let truth = source.retina.srgb_at_cones(&b, 0);
+        let samples = b.signal.batch;
+        let mut frames = Vec::new();
+        b.signal.frames(0, &mut frames);
+        let percept = cortex.decode_frames(&frames, samples);
+        let truth = source.retina.srgb_at_cones(&b.truth, 0);
         let (mut p, mut t) = (Vec::new(), Vec::new());
-        for s in 0..b.batch {
+        for s in 0..samples {
             for y in border..n - border {
                 for x in border..n - border {
                     let i = y * n + x;
@@ -125,10 +127,10 @@ fn write_scope(
         acc.add_batch(&p, &t);
         rows.0.extend_from_slice(&p);
         rows.1.extend_from_slice(&t);
-        let s = b.batch - 1;
+        let s = samples - 1;
         last_percept = percept[s * dim * nn..(s + 1) * dim * nn].to_vec();
         last_truth = truth[s * 3 * nn..(s + 1) * 3 * nn].to_vec();
-        last_ons = b.frame(s, 0).to_vec();
+        last_ons = b.signal.frame(s, 0).to_vec();
     }
     let scope = acc.finish()?;
     let scope_rmse = scope.rmse(&rows.0, &rows.1);

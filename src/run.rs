@@ -48,6 +48,15 @@ pub struct RunMode {
     pub progress: bool,
 }
 
+impl RunMode {
+    /// CMF-SIM, pictures and a progress bar: what `colorvision run` and the experiments do.
+    pub const FULL: RunMode = RunMode {
+        cmf_sim: true,
+        pictures: true,
+        progress: true,
+    };
+}
+
 /// One CMF-SIM measurement during training.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct DimensionPoint {
@@ -188,12 +197,13 @@ pub fn run_continued(
     checkpoint: &Path,
     folder: Folder,
 ) -> Result<Summary, RunError> {
-    let mode = RunMode {
-        cmf_sim: true,
-        pictures: true,
-        progress: true,
-    };
-    run_in(config, out, mode, folder, Origin::Continue(checkpoint))
+    run_in(
+        config,
+        out,
+        RunMode::FULL,
+        folder,
+        Origin::Continue(checkpoint),
+    )
 }
 
 /// A run in `out` as `folder` allows (new, resumed from its newest valid checkpoint, or
@@ -263,6 +273,8 @@ struct RunState<'a> {
     trainer: Trainer,
     source: RetinaSource,
     heldout: RetinaSource,
+    /// The training batch, refilled every step.
+    batch: cortex::OnsBatch,
     progress: Progress,
     /// Finished rows of `metrics.csv` (header included).
     metrics: String,
@@ -323,6 +335,7 @@ impl<'a> RunState<'a> {
             trainer,
             source,
             heldout,
+            batch: cortex::OnsBatch::default(),
             progress,
             metrics: METRICS_HEADER.to_string(),
             pending_row: None,
@@ -568,8 +581,8 @@ impl RunState<'_> {
     /// row pending until its measurements.
     fn train_step(&mut self, k: u64) -> Result<(), RunError> {
         let bs = self.config.cortex.train.batch_size;
-        let batch = self.source.next_batch(bs);
-        let stats = match self.trainer.step(&batch) {
+        self.source.next_batch_into(bs, &mut self.batch);
+        let stats = match self.trainer.step(&self.batch) {
             Ok(s) => s,
             Err(e) => {
                 self.bar.abandon_with_message("stopped");

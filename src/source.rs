@@ -1,17 +1,19 @@
 //! The retina as the cortex's data source: the only door between the eye and the brain.
 //!
-//! [`RetinaSource`] turns each [`retina::OnsBatch`] into a [`cortex::TrainingBatch`] that carries
-//! the ONS pairs and — only when the run asks for it (`oracle_motion = true`) — the true eye
-//! shift. Scene pixels, cone types, positions and the lateral-inhibition kernel stay behind.
+//! [`RetinaSource`] has the eye write each batch's signal straight into the cortex's
+//! [`OnsBatch`] (the one batch type from eye to tape) and keeps the ground truth
+//! ([`retina::BatchTruth`]) behind; only when the run asks for it (`oracle_motion = true`) does
+//! it copy the true eye shift into the batch. Scene pixels, cone types, positions and the
+//! lateral-inhibition kernel stay behind.
 //!
 //! Determinism: batch k is drawn with an RNG seeded from `(seed, k)`, so the source's whole state
 //! is the number of batches drawn; resuming replays that many batches to rebuild the scene
 //! pool's refresh state exactly.
 
-use cortex::{CortexError, DataSource, TrainingBatch};
+use cortex::{CortexError, DataSource, OnsBatch};
 use rand::rngs::SmallRng;
 use rand::SeedableRng;
-use retina::{OnsBatch, Retina};
+use retina::{BatchTruth, EyeBatch, Retina};
 
 /// Feeds a cortex from a simulated eye.
 pub struct RetinaSource {
@@ -20,7 +22,10 @@ pub struct RetinaSource {
     seed: u64,
     batches: u64,
     oracle_motion: bool,
-    buffer: OnsBatch,
+    /// The truth of the last batch handed to the cortex (kept here, never sent).
+    truth: BatchTruth,
+    /// The last batch drawn by [`RetinaSource::next_eye_batch`].
+    eye: EyeBatch,
 }
 
 impl RetinaSource {
@@ -31,7 +36,8 @@ impl RetinaSource {
             seed,
             batches: 0,
             oracle_motion,
-            buffer: OnsBatch::default(),
+            truth: BatchTruth::default(),
+            eye: EyeBatch::default(),
         }
     }
 
@@ -49,31 +55,34 @@ impl RetinaSource {
         SmallRng::seed_from_u64(self.seed ^ k.wrapping_mul(0x9E37_79B9_7F4A_7C15).rotate_left(17))
     }
 
-    /// The next eye batch with its ground truth (for evaluation and pictures, never for learning).
-    pub fn next_eye_batch(&mut self, batch_size: usize) -> &OnsBatch {
+    /// Draws the next batch: its signal into `signal`, its truth into `truth`; the oracle
+    /// motion goes into the signal only when the run asks for it.
+    fn draw(&mut self, batch_size: usize, signal: &mut OnsBatch, truth: &mut BatchTruth) {
         let mut rng = self.rng_for(self.batches);
         self.batches += 1;
-        self.retina
-            .batch_into(&mut rng, batch_size, &mut self.buffer);
-        &self.buffer
+        self.retina.batch_into(&mut rng, batch_size, signal, truth);
+        if self.oracle_motion {
+            let motion = signal.oracle_motion.get_or_insert_with(Vec::new);
+            motion.clear();
+            motion.extend_from_slice(&truth.oracle_shift_normalised);
+        }
     }
 
-    /// The cortex's view of an eye batch: ONS pairs and, if enabled, the oracle motion.
-    pub fn training_view(batch: &OnsBatch, oracle_motion: bool) -> TrainingBatch {
-        TrainingBatch {
-            ons: batch.ons.clone(),
-            batch: batch.batch,
-            n: batch.n,
-            oracle_motion: oracle_motion.then(|| batch.oracle_shift_normalised.clone()),
-        }
+    /// The next eye batch with its ground truth (for evaluation and pictures, never for
+    /// learning). It counts as a drawn batch, like [`DataSource::next_batch_into`].
+    pub fn next_eye_batch(&mut self, batch_size: usize) -> &EyeBatch {
+        let mut eye = std::mem::take(&mut self.eye);
+        self.draw(batch_size, &mut eye.signal, &mut eye.truth);
+        self.eye = eye;
+        &self.eye
     }
 }
 
 impl DataSource for RetinaSource {
-    fn next_batch(&mut self, batch_size: usize) -> TrainingBatch {
-        let oracle = self.oracle_motion;
-        let b = self.next_eye_batch(batch_size);
-        Self::training_view(b, oracle)
+    fn next_batch_into(&mut self, batch_size: usize, out: &mut OnsBatch) {
+        let mut truth = std::mem::take(&mut self.truth);
+        self.draw(batch_size, out, &mut truth);
+        self.truth = truth;
     }
 
     fn save_state(&self) -> Option<serde_json::Value> {

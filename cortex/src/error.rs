@@ -57,3 +57,12 @@ impl CortexError {
         }
     }
 }
+
+impl From<optic_nerve::BatchError> for CortexError {
+    fn from(e: optic_nerve::BatchError) -> Self {
+        CortexError::InvalidBatch {
+            field: e.field,
+            reason: e.reason,
+        }
+    }
+}

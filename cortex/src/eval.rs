@@ -2,17 +2,14 @@
 //! current frame", and the motion estimator's error against the oracle. Nothing here updates
 //! parameters.
 
-use crate::data::TrainingBatch;
+use crate::data::OnsBatch;
 use crate::trainer::{PredictionError, Trainer};
 use crate::CortexError;
 
 impl Trainer {
     /// Prediction error of the cortex on `batch` (no update) and of predicting frame t+1 as
     /// frame t, over the same pixels: inside the `loss.border_px` border and the warp mask.
-    pub fn prediction_error(
-        &mut self,
-        batch: &TrainingBatch,
-    ) -> Result<PredictionError, CortexError> {
+    pub fn prediction_error(&mut self, batch: &OnsBatch) -> Result<PredictionError, CortexError> {
         self.check_batch(batch)?;
         let (b, n) = (batch.batch, batch.n);
         batch.frames(0, &mut self.frames[0]);
@@ -58,7 +55,7 @@ impl Trainer {
     /// the identity layout (`(n−1)/2` per field unit). `None` when the batch has no oracle.
     pub fn motion_error_ons_px(
         &mut self,
-        batch: &TrainingBatch,
+        batch: &OnsBatch,
     ) -> Result<Option<MotionError>, CortexError> {
         self.check_batch(batch)?;
         let Some(oracle) = batch.oracle_motion.as_ref() else {

@@ -2,13 +2,13 @@
 //!
 //! The cortical model of Kotani & Ng (ICLR 2025, paper §4 and S-03; official code described in
 //! authors' code, docs/references.md#cortex-pipeline), on the `autodiff` tape. It receives optic-nerve arrays and,
-//! only when a run asks for it, the oracle eye motion ([`TrainingBatch`]); it never depends on
-//! the retina crate.
+//! only when a run asks for it, the oracle eye motion ([`OnsBatch`], from the dependency-free
+//! `optic_nerve` crate the eye writes into); it never depends on the retina crate.
 //!
 //! ## Using it (the root package)
 //! - [`CortexConfig::preset`] (`tiny`, `quick`, `sandbox`, `paper`), every number a TOML value.
-//! - Implement [`DataSource`] with the retina (`next_batch`, and `save_state`/`load_state` for
-//!   exact resume). The S-05 baseline "cone activations as ONS" is
+//! - Implement [`DataSource`] with the retina (`next_batch_into`, and `save_state`/`load_state`
+//!   for exact resume). The S-05 baseline "cone activations as ONS" is
 //!   `config.baseline == Baseline::ConeActivationsAsOns`: the data source must then deliver
 //!   cone activations instead of laterally inhibited signals.
 //! - [`Trainer::new`], [`Trainer::step`] → [`StepStats`] (loss, per-bucket timings),
@@ -37,7 +37,7 @@ pub mod synthetic;
 pub mod trainer;
 
 pub use config::CortexConfig;
-pub use data::{DataSource, TrainingBatch};
+pub use data::{DataSource, OnsBatch};
 pub use error::CortexError;
 pub use eval::MotionError;
 pub use model::Cortex;

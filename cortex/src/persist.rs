@@ -153,8 +153,9 @@ impl Trainer {
     ) -> Result<(), CortexError> {
         let every = self.cortex.config.train.checkpoint_every_steps;
         let bs = self.cortex.config.train.batch_size;
+        let mut batch = crate::data::OnsBatch::default();
         for k in 0..steps {
-            let batch = source.next_batch(bs);
+            source.next_batch_into(bs, &mut batch);
             let stats = self.step(&batch)?;
             on_step(&stats, self);
             if let Some(dir) = checkpoint_dir {

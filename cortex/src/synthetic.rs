@@ -18,7 +18,7 @@
 //!    "cone activations as ONS").
 //! 5. Oracle motion `d = s / motion_px_per_unit` in field units.
 
-use crate::data::{DataSource, TrainingBatch};
+use crate::data::{DataSource, OnsBatch};
 use crate::rng::CortexRng;
 use crate::CortexError;
 use serde::{Deserialize, Serialize};
@@ -183,12 +183,14 @@ impl SyntheticSource {
 }
 
 impl DataSource for SyntheticSource {
-    fn next_batch(&mut self, batch_size: usize) -> TrainingBatch {
+    fn next_batch_into(&mut self, batch_size: usize, out: &mut OnsBatch) {
         let n = self.cfg.n;
         let k = self.cfg.cone_probabilities.len();
         let m = self.cfg.max_shift_px.max(0) as usize + 1;
         let side = n + 2 * m;
-        let mut ons = vec![0.0f32; batch_size * 2 * n * n];
+        out.ons.clear();
+        out.ons.resize(batch_size * 2 * n * n, 0.0);
+        let ons = &mut out.ons;
         let mut motion = Vec::with_capacity(batch_size);
         self.last_shifts.clear();
         let mut img = Vec::new();
@@ -245,12 +247,9 @@ impl DataSource for SyntheticSource {
                 }
             }
         }
-        TrainingBatch {
-            ons,
-            batch: batch_size,
-            n,
-            oracle_motion: Some(motion),
-        }
+        out.batch = batch_size;
+        out.n = n;
+        out.oracle_motion = Some(motion);
     }
 
     fn save_state(&self) -> Option<serde_json::Value> {

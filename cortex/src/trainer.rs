@@ -1,5 +1,5 @@
 //! Training: one [`Trainer`] owns the cortex, Adam (with its state), the step counter, an RNG
-//! and the tape; [`Trainer::step`] turns one [`TrainingBatch`] into one gradient update.
+//! and the tape; [`Trainer::step`] turns one [`OnsBatch`] into one gradient update.
 //!
 //! - Credit assignment goes through `autodiff::learn::LearningRule` (backprop by default;
 //!   [`Trainer::set_learning_rule`] swaps in any rule: [`crate::RuleKind`] or a user's). The
@@ -17,7 +17,7 @@
 //!   copy of the last percept for the caller to fit; nothing flows back.
 
 use crate::config::CortexConfig;
-use crate::data::TrainingBatch;
+use crate::data::OnsBatch;
 use crate::model::{Bucket, Cortex, BUCKETS, BUCKET_NAMES};
 use crate::rng::CortexRng;
 use crate::CortexError;
@@ -188,7 +188,7 @@ impl Trainer {
         self.last_checkpoint.as_deref()
     }
 
-    pub(crate) fn check_batch(&self, batch: &TrainingBatch) -> Result<(), CortexError> {
+    pub(crate) fn check_batch(&self, batch: &OnsBatch) -> Result<(), CortexError> {
         batch.validate()?;
         if batch.n != self.cortex.n() {
             return Err(CortexError::InvalidBatch {
@@ -204,7 +204,7 @@ impl Trainer {
     }
 
     /// One gradient update from `batch`.
-    pub fn step(&mut self, batch: &TrainingBatch) -> Result<StepStats, CortexError> {
+    pub fn step(&mut self, batch: &OnsBatch) -> Result<StepStats, CortexError> {
         let t0 = Instant::now();
         self.check_batch(batch)?;
         let (b, n) = (batch.batch, batch.n);

@@ -24,15 +24,30 @@ fn cortex_manifest_has_no_retina_dependency() {
 }
 
 #[test]
+fn the_batch_crate_depends_on_nothing() {
+    // The one batch type lives in `optic_nerve`, which both the eye and the cortex use: it must
+    // not become a way back to the retina.
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../optic_nerve/Cargo.toml");
+    let manifest: toml::Value = toml::from_str(&std::fs::read_to_string(path).unwrap()).unwrap();
+    for table in ["dependencies", "dev-dependencies", "build-dependencies"] {
+        let deps = manifest.get(table).and_then(|t| t.as_table());
+        assert!(
+            deps.is_none_or(|d| d.is_empty()),
+            "optic_nerve/Cargo.toml [{table}] is not empty: {deps:?}"
+        );
+    }
+}
+
+#[test]
 fn training_batch_carries_only_ons_and_optional_motion() {
-    // Exhaustive destructuring: adding a field to TrainingBatch breaks this test on purpose.
-    let b = cortex::TrainingBatch {
+    // Exhaustive destructuring: adding a field to OnsBatch breaks this test on purpose.
+    let b = cortex::OnsBatch {
         ons: vec![0.0; 2 * 16],
         batch: 1,
         n: 4,
         oracle_motion: None,
     };
-    let cortex::TrainingBatch {
+    let cortex::OnsBatch {
         ons,
         batch,
         n,

@@ -14,7 +14,7 @@
 //! | cones | [`cones`] | class planes → activations `(n, n)`; photon noise |
 //! | lateral inhibition | [`lateral_inhibition`] | activations → bipolar `(n, n)`; 1 % noise |
 //! | spikes (optional) | [`spikes`], [`movie`] | bipolar → ON/OFF LIF spikes, time averages |
-//! | the eye | [`retina`] | [`Retina::batch`] → [`OnsBatch`] `(B, 2, n, n)` + oracle shift |
+//! | the eye | [`retina`] | [`Retina::batch`] → [`EyeBatch`]: the signal [`OnsBatch`] `(B, 2, n, n)` + the [`BatchTruth`] it keeps (oracle shift, tiles, origins) |
 //! | pictures | [`pictures`] | PNGs of every stage, ONS under eye motion |
 //! | stimuli | [`stimulus`] | a disc of light on black → activations and ONS (psychophysics) |
 //!
@@ -50,6 +50,6 @@ pub use error::{Result, RetinaError};
 pub use mosaic::{Mosaic, MosaicSpec};
 pub use movie::{Movie, MovieConfig, SpikeTrain};
 pub use pictures::write_stage_pictures;
-pub use retina::{OnsBatch, Retina};
+pub use retina::{BatchTruth, EyeBatch, OnsBatch, Retina};
 pub use scene::SpectralImage;
 pub use stimulus::{Disc, NoiseDraw};

@@ -1,13 +1,14 @@
 //! The whole eye: scene tile → eye motion → cone sampling → photon noise → lateral inhibition →
 //! optic nerve signal (ONS), batched for training.
 //!
-//! Stage `Retina::batch(rng, batch_size) -> OnsBatch`:
-//! - output `ons`: `(B, 2, n, n)` row-major f32 — per sample, frame 0 and frame 1 (the field
+//! Stage `Retina::batch(rng, batch_size) -> EyeBatch`, the signal ([`OnsBatch`], the one batch
+//! type from eye to cortex) and the truth the eye keeps ([`BatchTruth`]):
+//! - signal `ons`: `(B, 2, n, n)` row-major f32 — per sample, frame 0 and frame 1 (the field
 //!   moved by the oracle shift), each the noisy bipolar (LI) signal on the cone lattice (the
 //!   official training ONS; with LI off, the noisy cone activations). Values are dimensionless:
 //!   cone excitations are ≈ 1 for the sRGB white after white balance, and the LI output of a
 //!   uniform white field is ≈ 0.09 (the DoG's DC gain).
-//! - `oracle_shift_px[b] = [dx, dy]`: frame 1 samples the scene at x + d (see `eye_motion`);
+//! - truth `oracle_shift_px[b] = [dx, dy]`: frame 1 samples the scene at x + d (see `eye_motion`);
 //!   `oracle_shift_normalised[b] = d / (field_px / 2)` (official units).
 //! - the per-batch noise ratio r (official: one draw per batch), and for evaluation the tile and
 //!   frame-0 field origin of each sample.
@@ -36,16 +37,13 @@ use crate::lateral_inhibition::{add_multiplicative_noise, LateralInhibition};
 use crate::mosaic::Mosaic;
 use crate::scene::pool::{ScenePool, SceneProjection};
 use crate::scene::{ClassPlanes, SpectralImage};
+pub use optic_nerve::OnsBatch;
 
-/// One training batch (module docs).
+/// The ground truth of one batch, which the eye keeps (module docs): evaluation and pictures
+/// read it; the cortex never receives it (the run's source copies the normalised shift into the
+/// signal only when a run asks for oracle motion).
 #[derive(Debug, Clone, Default, PartialEq)]
-pub struct OnsBatch {
-    /// `(batch, 2, n, n)` row-major.
-    pub ons: Vec<f32>,
-    /// Cones per side.
-    pub n: usize,
-    /// Number of samples.
-    pub batch: usize,
+pub struct BatchTruth {
     /// Per sample `[dx, dy]`, field px.
     pub oracle_shift_px: Vec<[i32; 2]>,
     /// Per sample `d / (field_px / 2)`.
@@ -58,13 +56,13 @@ pub struct OnsBatch {
     pub origins_px: Vec<[i32; 2]>,
 }
 
-impl OnsBatch {
-    /// Frame `f` (0 or 1) of sample `b`, `(n, n)`.
-    pub fn frame(&self, b: usize, f: usize) -> &[f32] {
-        let nn = self.n * self.n;
-        let i = (b * 2 + f) * nn;
-        &self.ons[i..i + nn]
-    }
+/// One batch from the eye: the signal it sends and the truth it keeps.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct EyeBatch {
+    /// The optic nerve signal, `oracle_motion` unset.
+    pub signal: OnsBatch,
+    /// Its ground truth.
+    pub truth: BatchTruth,
 }
 
 /// The simulated eye (module docs).
@@ -206,19 +204,21 @@ impl Retina {
         Ok(self.encode_planes(&self.project(img)?))
     }
 
-    /// One batch of `batch_size` ONS pairs (module docs).
-    pub fn batch<R: Rng + ?Sized>(&mut self, rng: &mut R, batch_size: usize) -> OnsBatch {
-        let mut out = OnsBatch::default();
-        self.batch_into(rng, batch_size, &mut out);
+    /// One batch of `batch_size` ONS pairs with its ground truth (module docs).
+    pub fn batch<R: Rng + ?Sized>(&mut self, rng: &mut R, batch_size: usize) -> EyeBatch {
+        let mut out = EyeBatch::default();
+        self.batch_into(rng, batch_size, &mut out.signal, &mut out.truth);
         out
     }
 
-    /// [`Retina::batch`] into a reused buffer.
+    /// [`Retina::batch`] into reused buffers: the signal into `signal` (its `oracle_motion` set
+    /// to `None`: the eye sends only the ONS), the ground truth into `truth`.
     pub fn batch_into<R: Rng + ?Sized>(
         &mut self,
         rng: &mut R,
         batch_size: usize,
-        out: &mut OnsBatch,
+        signal: &mut OnsBatch,
+        truth: &mut BatchTruth,
     ) {
         let refresh = self.config.scenes.refresh_every_batches;
         if refresh > 0 && self.batches_done > 0 && self.batches_done.is_multiple_of(refresh) {
@@ -233,10 +233,12 @@ impl Retina {
         let f = self.config.field_px as i32;
         let m = self.config.eye_motion.max_shift_px;
         let tile_px = self.config.scenes.tile_px as i32;
-        out.n = n;
-        out.batch = batch_size;
+        signal.n = n;
+        signal.batch = batch_size;
+        signal.oracle_motion = None;
+        signal.ons.resize(batch_size * 2 * nn, 0.0);
+        let out = truth;
         out.noise_ratio = self.config.noise.draw_ratio(rng);
-        out.ons.resize(batch_size * 2 * nn, 0.0);
         out.oracle_shift_px.clear();
         out.tiles.clear();
         out.origins_px.clear();
@@ -250,16 +252,19 @@ impl Retina {
                 .push(self.config.eye_motion.draw_shift(rng));
             seeds.push(rng.random::<u64>());
         }
-        out.oracle_shift_normalised = out
-            .oracle_shift_px
-            .iter()
-            .map(|&d| normalise_shift(d, self.config.field_px))
-            .collect();
+        out.oracle_shift_normalised.clear();
+        out.oracle_shift_normalised.extend(
+            out.oracle_shift_px
+                .iter()
+                .map(|&d| normalise_shift(d, self.config.field_px)),
+        );
         self.scratch.resize_with(batch_size, || vec![0.0; nn]);
         let r = out.noise_ratio;
         let mut scratch = std::mem::take(&mut self.scratch);
         let this = &*self;
-        out.ons
+        let out = &*out;
+        signal
+            .ons
             .par_chunks_mut(2 * nn)
             .zip(scratch.par_iter_mut())
             .enumerate()
@@ -276,15 +281,16 @@ impl Retina {
         self.scratch = scratch;
     }
 
-    /// Linear sRGB of the scene at each cone for frame `frame` of every sample of `batch`:
+    /// Linear sRGB of the scene at each cone for frame `frame` of every sample of a batch:
     /// `(B, 3, n, n)` (evaluation only; from the reference L, M, S planes through the official
     /// LMS → linear sRGB matrix, noise-free, anti-aliased like the cones).
-    pub fn srgb_at_cones(&self, batch: &OnsBatch, frame: usize) -> Vec<f32> {
+    pub fn srgb_at_cones(&self, batch: &BatchTruth, frame: usize) -> Vec<f32> {
         let proj = &self.pool.projection;
         let nn = self.n() * self.n();
-        let mut out = vec![0.0f32; batch.batch * 3 * nn];
+        let samples = batch.tiles.len();
+        let mut out = vec![0.0f32; samples * 3 * nn];
         let mut lms = vec![vec![0.0f32; nn]; 3];
-        for b in 0..batch.batch {
+        for b in 0..samples {
             let stack = self.pool.tile(batch.tiles[b]);
             let o = self.frame_origin(batch, b, frame);
             for (c, buf) in lms.iter_mut().enumerate() {
@@ -306,10 +312,11 @@ impl Retina {
 
     /// Excitation of every mosaic class at each cone (not weighted by the cone's own class),
     /// frame `frame`: `(B, k, n, n)` (evaluation only).
-    pub fn class_excitations_at_cones(&self, batch: &OnsBatch, frame: usize) -> Vec<f32> {
+    pub fn class_excitations_at_cones(&self, batch: &BatchTruth, frame: usize) -> Vec<f32> {
         let (nn, k) = (self.n() * self.n(), self.mosaic.n_classes());
-        let mut out = vec![0.0f32; batch.batch * k * nn];
-        for b in 0..batch.batch {
+        let samples = batch.tiles.len();
+        let mut out = vec![0.0f32; samples * k * nn];
+        for b in 0..samples {
             let stack = self.pool.tile(batch.tiles[b]);
             let o = self.frame_origin(batch, b, frame);
             for c in 0..k {
@@ -320,7 +327,7 @@ impl Retina {
         out
     }
 
-    fn frame_origin(&self, batch: &OnsBatch, b: usize, frame: usize) -> [i32; 2] {
+    fn frame_origin(&self, batch: &BatchTruth, b: usize, frame: usize) -> [i32; 2] {
         assert!(frame < 2, "Retina: frame {frame} of a pair");
         let (o, d) = (batch.origins_px[b], batch.oracle_shift_px[b]);
         [o[0] + frame as i32 * d[0], o[1] + frame as i32 * d[1]]

@@ -54,19 +54,25 @@ fn batch_has_the_documented_shapes_and_is_reproducible() {
     let mut r = tiny("LMS");
     let mut rng = StdRng::seed_from_u64(9);
     let b = r.batch(&mut rng, 8);
-    assert_eq!(b.ons.len(), 8 * 2 * 32 * 32);
-    assert_eq!((b.n, b.batch), (32, 8));
-    assert_eq!(b.oracle_shift_px.len(), 8);
-    for (d, dn) in b.oracle_shift_px.iter().zip(&b.oracle_shift_normalised) {
+    assert_eq!(b.signal.ons.len(), 8 * 2 * 32 * 32);
+    assert_eq!((b.signal.n, b.signal.batch), (32, 8));
+    assert_eq!(b.signal.oracle_motion, None, "the eye sends only the ONS");
+    b.signal.validate().unwrap();
+    assert_eq!(b.truth.oracle_shift_px.len(), 8);
+    for (d, dn) in b
+        .truth
+        .oracle_shift_px
+        .iter()
+        .zip(&b.truth.oracle_shift_normalised)
+    {
         assert!(d.iter().all(|v| (-2..=1).contains(v)), "{d:?}");
         assert_eq!(dn[0], d[0] as f32 / 32.0);
     }
-    assert!(b.ons.iter().all(|v| v.is_finite()));
     let mut r2 = tiny("LMS");
     let b2 = r2.batch(&mut StdRng::seed_from_u64(9), 8);
     assert_eq!(b, b2);
     let b3 = r.batch(&mut rng, 8);
-    assert_ne!(b.ons, b3.ons);
+    assert_ne!(b.signal.ons, b3.signal.ons);
 }
 
 #[test]
@@ -81,8 +87,8 @@ fn frame_one_is_the_scene_moved_by_the_oracle_shift() {
     let b = r.batch(&mut StdRng::seed_from_u64(1), 4);
     let n = 64i32;
     for s in 0..4 {
-        let [dx, dy] = b.oracle_shift_px[s];
-        let (f0, f1) = (b.frame(s, 0), b.frame(s, 1));
+        let [dx, dy] = b.truth.oracle_shift_px[s];
+        let (f0, f1) = (b.signal.frame(s, 0), b.signal.frame(s, 1));
         let mut checked = 0;
         for y in 0..n {
             for x in 0..n {
@@ -155,18 +161,18 @@ fn ground_truth_matches_the_batch() {
     let mut r = Retina::new(c).unwrap();
     let b = r.batch(&mut StdRng::seed_from_u64(2), 3);
     // Without LI and noise, the ONS is Σ_k w_k · excitation_k at each cone.
-    let ex = r.class_excitations_at_cones(&b, 1);
+    let ex = r.class_excitations_at_cones(&b.truth, 1);
     let (nn, k) = (32 * 32, 3);
     for s in 0..3 {
         for i in 0..nn {
             let want: f32 = (0..k)
                 .map(|c| r.mosaic.weights[i * k + c] * ex[(s * k + c) * nn + i])
                 .sum();
-            assert!((b.frame(s, 1)[i] - want).abs() < 1e-6);
+            assert!((b.signal.frame(s, 1)[i] - want).abs() < 1e-6);
         }
     }
     // sRGB ground truth: white-balanced scenes are bright and in a sane range.
-    let rgb = r.srgb_at_cones(&b, 0);
+    let rgb = r.srgb_at_cones(&b.truth, 0);
     assert_eq!(rgb.len(), 3 * 3 * nn);
     let mean = rgb.iter().sum::<f32>() / rgb.len() as f32;
     assert!(mean > 0.02 && mean < 1.0, "{mean}");

@@ -12,6 +12,25 @@ use colorimetry::{ConeClass, ConeTemplate};
 use rand::rngs::StdRng;
 use rand::SeedableRng;
 
+/// L, M, S and `q`: a tetrachromat's classes.
+pub(crate) fn lms_plus(q: ConeClass) -> Vec<ConeClass> {
+    vec![ConeClass::l(), ConeClass::m(), ConeClass::s(), q]
+}
+
+/// A synthetic pool of `tiles` tiles of `tile_px`, white balanced, never refreshed.
+fn pool_config(tiles: usize, tile_px: usize, tetra: Option<TetraMix>) -> ScenePoolConfig {
+    ScenePoolConfig {
+        tiles,
+        tile_px,
+        dead_leaves: DeadLeavesConfig::default(),
+        tetra,
+        files: vec![],
+        rgb_path: RgbPath::Display,
+        white_balance: true,
+        refresh_every_batches: 0,
+    }
+}
+
 /// Standard deviation over pixels of ln(Q / L) in `(≥ 4, nn)` planes whose planes 0 and 3 are
 /// L and Q: the contrast only a tetrachromat sees, independent of shading.
 pub(crate) fn q_over_l_contrast(planes: &[f32], nn: usize) -> f64 {
@@ -104,28 +123,14 @@ fn synthetic_scenes_have_natural_power_spectra() {
 #[test]
 fn pool_white_balance_and_reference_planes() {
     let g = WavelengthGrid::default();
-    let classes = vec![
-        ConeClass::l(),
-        ConeClass::m(),
-        ConeClass::s(),
-        ConeClass::human_q(),
-    ];
+    let classes = lms_plus(ConeClass::human_q());
     let proj = SceneProjection::new(&classes, &ConeTemplate::default(), &g).unwrap();
     assert_eq!(proj.reference_lms, [0, 1, 2]);
     assert_eq!(proj.n_planes(), 4);
     for (w, want) in proj.white.iter().zip([1.083, 1.006, 0.520]) {
         assert!((w - want).abs() < 0.01, "{:?}", proj.white);
     }
-    let cfg = ScenePoolConfig {
-        tiles: 3,
-        tile_px: 48,
-        dead_leaves: DeadLeavesConfig::default(),
-        tetra: None,
-        files: vec![],
-        rgb_path: RgbPath::Display,
-        white_balance: true,
-        refresh_every_batches: 0,
-    };
+    let cfg = pool_config(3, 48, None);
     let pool = ScenePool::new(cfg.clone(), proj.clone(), 2, &mut StdRng::seed_from_u64(0)).unwrap();
     for t in 0..3 {
         let stack = pool.tile(t);
@@ -164,30 +169,24 @@ fn pool_white_balance_and_reference_planes() {
     assert!(max_l <= 1.0831, "{max_l}");
 }
 
-fn lmsq_pool(tetra: Option<TetraMix>, classes: &[ConeClass]) -> crate::error::Result<ScenePool> {
+/// A pool of four 64-px synthetic tiles for `classes`, with `tetra` patches.
+fn synthetic_pool(
+    tetra: Option<TetraMix>,
+    classes: &[ConeClass],
+) -> crate::error::Result<ScenePool> {
     let g = WavelengthGrid::default();
     let proj = SceneProjection::new(classes, &ConeTemplate::default(), &g).unwrap();
-    let cfg = ScenePoolConfig {
-        tiles: 4,
-        tile_px: 64,
-        dead_leaves: DeadLeavesConfig::default(),
-        tetra,
-        files: vec![],
-        rgb_path: RgbPath::Display,
-        white_balance: true,
-        refresh_every_batches: 0,
-    };
-    ScenePool::new(cfg, proj, 1, &mut StdRng::seed_from_u64(9))
+    ScenePool::new(
+        pool_config(4, 64, tetra),
+        proj,
+        1,
+        &mut StdRng::seed_from_u64(9),
+    )
 }
 
 #[test]
 fn a_hue_sphere_pool_holds_more_tetrachromatic_contrast_than_natural_scenes() {
-    let classes = [
-        ConeClass::l(),
-        ConeClass::m(),
-        ConeClass::s(),
-        ConeClass::human_q(),
-    ];
+    let classes = lms_plus(ConeClass::human_q());
     let hue = Some(TetraMix {
         environment: TetraEnvironment::HueSphere,
         fraction: 1.0,
@@ -204,11 +203,13 @@ fn a_hue_sphere_pool_holds_more_tetrachromatic_contrast_than_natural_scenes() {
             .sum::<f64>()
             / 4.0
     };
-    let natural = mean_contrast(&lmsq_pool(None, &classes).unwrap());
-    let hue_sphere = mean_contrast(&lmsq_pool(hue, &classes).unwrap());
+    let natural = mean_contrast(&synthetic_pool(None, &classes).unwrap());
+    let hue_sphere = mean_contrast(&synthetic_pool(hue, &classes).unwrap());
     eprintln!("std ln(Q/L) per tile: natural {natural:.4}, hue sphere {hue_sphere:.4}");
     assert!(hue_sphere > natural, "{hue_sphere} vs {natural}");
     // A monochromat has no hue sphere: the pool says which setting is wrong.
-    let err = lmsq_pool(hue, &[ConeClass::l()]).unwrap_err().to_string();
+    let err = synthetic_pool(hue, &[ConeClass::l()])
+        .unwrap_err()
+        .to_string();
     assert!(err.contains("scenes.tetra.environment"), "{err}");
 }

@@ -113,7 +113,7 @@ pub fn idealised_class_planes<R: Rng + ?Sized>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::tests::q_over_l_contrast;
+    use crate::scene::tests::{lms_plus, q_over_l_contrast};
     use crate::scene::Projector;
     use colorimetry::{sensitivities, ConeClass, ConeTemplate};
     use rand::rngs::StdRng;
@@ -122,12 +122,7 @@ mod tests {
     #[test]
     fn tetra_environments_have_more_q_versus_l_contrast_than_natural_scenes() {
         let g = WavelengthGrid::default();
-        let classes = vec![
-            ConeClass::l(),
-            ConeClass::m(),
-            ConeClass::s(),
-            ConeClass::human_q(),
-        ];
+        let classes = lms_plus(ConeClass::human_q());
         let f = sensitivities(&classes, &ConeTemplate::default(), &g).unwrap();
         let proj = Projector::cones(&f);
         let mut rng = StdRng::seed_from_u64(2);

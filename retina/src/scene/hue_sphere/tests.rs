@@ -1,4 +1,5 @@
 use super::*;
+use crate::scene::tests::lms_plus;
 use colorimetry::{sensitivities, ConeClass, ConeTemplate, WavelengthGrid};
 use rand::rngs::StdRng;
 use rand::SeedableRng;
@@ -9,17 +10,13 @@ fn sphere(classes: &[ConeClass]) -> HueSphere {
     HueSphere::new(&Projector::cones(&f), classes.len()).unwrap()
 }
 
-fn lmsq(q: ConeClass) -> Vec<ConeClass> {
-    vec![ConeClass::l(), ConeClass::m(), ConeClass::s(), q]
-}
-
 fn dot(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| x * y).sum()
 }
 
 #[test]
 fn each_colour_reaches_furthest_along_its_hue() {
-    let hs = sphere(&lmsq(ConeClass::human_q()));
+    let hs = sphere(&lms_plus(ConeClass::human_q()));
     let mut rng = StdRng::seed_from_u64(7);
     let n = WavelengthGrid::default().len();
     let hues: Vec<Vec<f64>> = (0..40).map(|_| hs.random_hue(&mut rng)).collect();
@@ -127,7 +124,7 @@ fn a_tetrachromat_hue_sphere_holds_colours_a_trichromat_confuses() {
     let g = WavelengthGrid::default();
     let natural = ReflectanceLibrary::measured(&g).unwrap();
     for q in [ConeClass::human_q(), ConeClass::pigeon_q()] {
-        let hs = sphere(&lmsq(q.clone()));
+        let hs = sphere(&lms_plus(q.clone()));
         let lib = hs.library(2000, &mut StdRng::seed_from_u64(3));
         let hue: Vec<_> = lib.spectra.iter().map(|r| hs.colour(r)).collect();
         let nat: Vec<_> = natural.spectra.iter().map(|r| hs.colour(r)).collect();
@@ -139,7 +136,7 @@ fn a_tetrachromat_hue_sphere_holds_colours_a_trichromat_confuses() {
         assert!(h > n, "{}: hue sphere {h} vs natural {n}", q.name);
     }
     // Known answer: a fourth class that copies L adds nothing a trichromat lacks.
-    let copy = sphere(&lmsq(ConeClass::custom("L2", ConeClass::l().peak_nm)));
+    let copy = sphere(&lms_plus(ConeClass::custom("L2", ConeClass::l().peak_nm)));
     let lib = copy.library(500, &mut StdRng::seed_from_u64(4));
     let colours: Vec<_> = lib.spectra.iter().map(|r| copy.colour(r)).collect();
     assert!(fourth_class_residual(&colours) < 1e-6);
@@ -147,8 +144,8 @@ fn a_tetrachromat_hue_sphere_holds_colours_a_trichromat_confuses() {
 
 #[test]
 fn observers_get_their_own_hue_spheres_and_a_monochromat_none() {
-    let human = sphere(&lmsq(ConeClass::human_q()));
-    let pigeon = sphere(&lmsq(ConeClass::pigeon_q()));
+    let human = sphere(&lms_plus(ConeClass::human_q()));
+    let pigeon = sphere(&lms_plus(ConeClass::pigeon_q()));
     let a = human.library(100, &mut StdRng::seed_from_u64(5));
     let b = pigeon.library(100, &mut StdRng::seed_from_u64(5));
     let differ = a
