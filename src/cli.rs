@@ -46,6 +46,11 @@ pub enum Command {
     /// truth and, with `--cmf`, the calibrated CMF-SIM — and write convergence.md/json and plots
     /// into DIR/convergence/.
     Convergence(ConvergenceOptions),
+    /// Diagnostic: from a trained run's last checkpoint, train on with W held fixed at three
+    /// zero-frequency gains (learned, the eye's true one, twice the learned) and compare the
+    /// held-out prediction errors: does the loss single out W's DC gain? Writes
+    /// DIR/w-dc-gauge/.
+    WDcGauge(WDcGaugeOptions),
     /// Run a named experiment of the paper (see `colorvision experiment list`).
     Experiment(ExperimentOptions),
     /// Continue a stopped `run` or `train` from the newest valid checkpoint of its folder
@@ -205,6 +210,17 @@ pub struct ConvergenceOptions {
     /// With `--cmf`: only at these steps (comma-separated), e.g. `--cmf-steps 4000,16000`.
     #[arg(long, value_delimiter = ',')]
     pub cmf_steps: Vec<u64>,
+}
+
+/// Options of `w-dc-gauge`.
+#[derive(Debug, Clone, Args)]
+pub struct WDcGaugeOptions {
+    /// The trained run folder.
+    #[arg(long)]
+    pub run: PathBuf,
+    /// Training steps of each arm.
+    #[arg(long, default_value_t = 2000)]
+    pub steps: u64,
 }
 
 /// Options of `experiment`.

@@ -26,3 +26,4 @@ pub mod run_lock;
 pub mod source;
 pub mod stats;
 pub mod sweep;
+pub mod w_gauge;

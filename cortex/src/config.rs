@@ -194,8 +194,9 @@ pub struct TrainConfig {
     /// Steps between checkpoints of a run (0: none but the last).
     pub checkpoint_every_steps: u64,
     /// Factor on the learning rate of W's response (1: the authors' single learning rate).
-    /// W is identified only weakly by the loss (see `colorvision convergence`); a larger
-    /// factor lets Adam move it further per step.
+    /// W is identified only weakly by the loss (see `colorvision convergence` and
+    /// `colorvision w-dc-gauge`); a larger factor lets Adam move it further per step, 0 holds W
+    /// where it starts.
     #[serde(default = "unit_scale")]
     pub w_learning_rate_scale: f64,
     /// How the learning rate changes over the run's `steps` ([`LrSchedule`]; default constant,
@@ -475,10 +476,10 @@ impl CortexConfig {
             );
         }
         let w_scale = self.train.w_learning_rate_scale;
-        if !(w_scale.is_finite() && w_scale > 0.0) {
+        if !(w_scale.is_finite() && w_scale >= 0.0) {
             return invalid(
                 "train.w_learning_rate_scale",
-                format!("{w_scale} must be positive and finite"),
+                format!("{w_scale} must be finite and ≥ 0 (0 holds W fixed)"),
             );
         }
         let floor = self.train.final_lr_fraction;

@@ -353,4 +353,10 @@ impl Cortex {
     pub fn learned_w_dc_gain(&self) -> Option<f64> {
         self.w.dc_gain(&self.params)
     }
+
+    /// Sets W's gain at zero frequency, keeping every other frequency (diagnostics only: see
+    /// [`crate::buckets::w::WBucket::set_dc_gain`]); `false` when W is not learned.
+    pub fn set_w_dc_gain(&mut self, gain: f64) -> bool {
+        self.w.set_dc_gain(&mut self.params, gain)
+    }
 }

@@ -138,3 +138,23 @@ fn evaluation_helpers_have_documented_shapes_and_start_values() {
     assert_eq!(percept.len(), b * cfg.percept_channels * n * n);
     assert!(percept.iter().all(|v| v.is_finite()) && percept.iter().any(|&v| v != 0.0));
 }
+
+#[test]
+fn a_zero_w_learning_rate_factor_holds_w_and_trains_the_rest() {
+    let mut cfg = CortexConfig::tiny();
+    cfg.train.w_learning_rate_scale = 0.0;
+    cfg.validate().unwrap();
+    let mut t = Trainer::new(cfg.clone()).unwrap();
+    assert!(t.cortex.set_w_dc_gain(0.09));
+    let (w0, c0) = (t.cortex.learned_w_kernel(7).unwrap(), t.cortex.learned_c().unwrap());
+    let mut s = src(&cfg, 8);
+    for _ in 0..3 {
+        let batch = s.next_batch(cfg.train.batch_size);
+        t.step(&batch).unwrap();
+    }
+    assert_eq!(t.cortex.learned_w_kernel(7).unwrap(), w0, "W moved");
+    assert_eq!(t.cortex.learned_w_dc_gain(), Some(0.09f32 as f64));
+    assert!(t.cortex.learned_c().unwrap().max_abs_diff(&c0) > 0.0, "C did not train");
+    cfg.train.w_learning_rate_scale = -1.0;
+    assert!(cfg.validate().is_err());
+}

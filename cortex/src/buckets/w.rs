@@ -87,6 +87,19 @@ impl WBucket {
         true
     }
 
+    /// Sets the filter's gain at zero frequency to `gain` (the response at the grid's origin
+    /// becomes `gain + 0i`; every other frequency is kept). For diagnostics of what the loss
+    /// identifies; `false` in identity mode.
+    pub fn set_dc_gain<T: Float>(&self, params: &mut ParamStore<T>, gain: f64) -> bool {
+        let Some(id) = self.response else {
+            return false;
+        };
+        let data = params.get_mut(id).data_mut();
+        data[0] = T::of(gain);
+        data[1] = T::of(0.0);
+        true
+    }
+
     /// The learned filter's gain at zero frequency (the sum of its kernel): the real part of the
     /// response at the grid's origin. 1 for the initial identity; `None` in identity mode.
     pub fn dc_gain<T: Float>(&self, params: &ParamStore<T>) -> Option<f64> {
@@ -175,5 +188,27 @@ mod tests {
             (dc - k.data().iter().sum::<f64>()).abs() < 1e-12,
             "DC gain {dc}"
         );
+        // Setting the DC gain moves the kernel's sum there and no other frequency: the kernel
+        // changes by a constant spread over the whole grid.
+        let before = params.get(id).clone();
+        assert!(w.set_dc_gain(&mut params, 0.09));
+        assert!((w.dc_gain(&params).unwrap() - 0.09).abs() < 1e-15);
+        let after = params.get(id);
+        let changed: Vec<usize> = (0..after.data().len())
+            .filter(|&i| after.data()[i] != before.data()[i])
+            .collect();
+        assert_eq!(
+            changed,
+            vec![0],
+            "only the DC bin's real part changes (its imaginary was 0)"
+        );
+        let grid = 2 * n - 1;
+        let full = w.kernel(&params, grid).unwrap();
+        assert!((full.data().iter().sum::<f64>() - 0.09).abs() < 1e-9);
+        let shift = (dc - 0.09) / (grid * grid) as f64;
+        let k7_after = w.kernel(&params, 7).unwrap();
+        for (a, b) in k7_after.data().iter().zip(k.data()) {
+            assert!((b - a - shift).abs() < 1e-12, "{a} vs {b}");
+        }
     }
 }
