@@ -77,8 +77,8 @@ pub struct ResumeOptions {
     pub steps: Option<u64>,
 }
 
-/// Options every subcommand understands.
-#[derive(Debug, Clone, Args)]
+/// Options every subcommand understands; the default is none given.
+#[derive(Debug, Clone, Default, Args)]
 pub struct CommonOptions {
     /// Named set of settings: tiny (tests, seconds), quick (CPU default), sandbox (official
     /// sandbox: no foveation, no lateral inhibition, oracle motion), paper (256×256 cones).

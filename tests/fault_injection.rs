@@ -7,6 +7,9 @@
 //! `colorvision::interrupt`) makes the process abort (as under SIGKILL) or receive a stop
 //! request at a named point. One test sends a real SIGINT.
 
+mod common;
+
+use common::text;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
@@ -48,14 +51,6 @@ fn exit_code(o: &Output) -> Option<i32> {
     o.status
         .code()
         .or_else(|| o.status.signal().map(|s| 128 + s))
-}
-
-fn text(o: &Output) -> String {
-    format!(
-        "{}{}",
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr)
-    )
 }
 
 /// A run of `command` in `dir/out`, optionally with a fault.

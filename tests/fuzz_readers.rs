@@ -70,14 +70,8 @@ fn mutation() -> impl Strategy<Value = Mutation> {
 
 fn resolve(path: &Path) -> Result<RunConfig, String> {
     let options = CommonOptions {
-        preset: None,
-        cones: None,
-        seed: None,
-        steps: None,
-        out: None,
         config: Some(path.to_path_buf()),
-        resume: false,
-        force: false,
+        ..CommonOptions::default()
     };
     RunConfig::resolve(&options, "tiny").map_err(|e| e.to_string())
 }

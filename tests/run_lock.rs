@@ -3,6 +3,9 @@
 //! folder as it was; a `.lock` naming a process that no longer runs is taken over; the lock is
 //! gone when the run ends, finished or stopped.
 
+mod common;
+
+use common::text;
 use std::path::Path;
 use std::process::{Command, Output};
 
@@ -20,14 +23,6 @@ fn train(dir: &Path, fault: Option<&str>) -> Output {
         c.env("COLORVISION_FAULT", f);
     }
     c.output().expect("the binary runs")
-}
-
-fn text(o: &Output) -> String {
-    format!(
-        "{}{}",
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr)
-    )
 }
 
 #[test]

@@ -2,6 +2,9 @@
 //! record byte for byte as it was: without `--out` the measurements land in `DIR/cmf-sim/`
 //! and `DIR/scope/`, with `--out X` in `X`, and an `--out` inside the record is refused.
 
+mod common;
+
+use common::text;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -15,14 +18,6 @@ fn colorvision(dir: &Path, args: &[&str]) -> Output {
         .env_remove("COLORVISION_FAULT")
         .output()
         .expect("the binary runs")
-}
-
-fn text(o: &Output) -> String {
-    format!(
-        "{}{}",
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr)
-    )
 }
 
 /// Every file under `dir` (relative path → bytes), leaving out the sub-folders named `skip`.

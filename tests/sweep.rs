@@ -3,6 +3,9 @@
 //! run and resuming an interrupted one; `sweep --local` runs every task; `gather` tabulates
 //! done, failed, stopped, pending and unreadable runs.
 
+mod common;
+
+use common::text;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
@@ -41,14 +44,6 @@ fn array_task(sweep: &Path, task: Option<usize>, fault: Option<&str>) -> Output 
         c.env("COLORVISION_FAULT", f);
     }
     c.output().expect("bash runs")
-}
-
-fn text(o: &Output) -> String {
-    format!(
-        "{}{}",
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr)
-    )
 }
 
 /// Writes `spec.toml` with `grid` in `dir` and expands it into `dir/sw`.

@@ -116,6 +116,21 @@ impl<'a, T> MatView<'a, T> {
     }
 }
 
+/// Panics unless the output of `op` holds `m×n` elements.
+#[track_caller]
+fn assert_dst_len(op: &str, len: usize, m: usize, n: usize) {
+    assert_eq!(len, m * n, "{op}: dst has {len} elements, want {m}×{n}");
+}
+
+/// faer's accumulation mode: add into the output, or replace it.
+fn accum(accumulate: bool) -> Accum {
+    if accumulate {
+        Accum::Add
+    } else {
+        Accum::Replace
+    }
+}
+
 /// `dst[m×n] (=|+=) alpha · a · b` for strided views `a (m×k)`, `b (k×n)`; `dst` is contiguous
 /// row-major.
 pub(crate) fn gemm_view_impl<T>(
@@ -133,24 +148,14 @@ pub(crate) fn gemm_view_impl<T>(
         "gemm_view: lhs {m}×{k} and rhs {}×{n} do not fit",
         b.rows
     );
-    assert_eq!(
-        dst.len(),
-        m * n,
-        "gemm_view: dst has {} elements, want {m}×{n}",
-        dst.len()
-    );
+    assert_dst_len("gemm_view", dst.len(), m, n);
     if m == 0 || n == 0 {
         return;
     }
     let out = MatMut::from_row_major_slice_mut(dst, m, n);
-    let accum = if accumulate {
-        Accum::Add
-    } else {
-        Accum::Replace
-    };
     matmul(
         out,
-        accum,
+        accum(accumulate),
         a.faer(),
         b.faer(),
         alpha,
@@ -173,12 +178,7 @@ pub(crate) fn gemm_impl<T>(
 ) where
     T: faer::traits::ComplexField + Copy,
 {
-    assert_eq!(
-        dst.len(),
-        m * n,
-        "gemm: dst has {} elements, want {m}×{n}",
-        dst.len()
-    );
+    assert_dst_len("gemm", dst.len(), m, n);
     assert_eq!(
         a.len(),
         m * k,
@@ -205,10 +205,12 @@ pub(crate) fn gemm_impl<T>(
         MatRef::from_row_major_slice(b, k, n)
     };
     let out = MatMut::from_row_major_slice_mut(dst, m, n);
-    let accum = if accumulate {
-        Accum::Add
-    } else {
-        Accum::Replace
-    };
-    matmul(out, accum, lhs, rhs, alpha, parallelism(m * n * k));
+    matmul(
+        out,
+        accum(accumulate),
+        lhs,
+        rhs,
+        alpha,
+        parallelism(m * n * k),
+    );
 }

@@ -19,12 +19,7 @@ impl Trainer {
             &self.frames[1],
             batch.oracle_motion.as_deref(),
         )?;
-        self.tape.clear();
-        let o1 = self.tape.constant_from([b, 1, n, n], &self.frames[0]);
-        let o2 = self.tape.constant_from([b, 1, n, n], &self.frames[1]);
-        let pred = self
-            .cortex
-            .record_prediction(&mut self.tape, o1, o2, &motion);
+        let (pred, _) = self.record_frames((b, n), &motion);
         let (p, m) = (
             self.tape.value(pred.predicted).data(),
             self.tape.value(pred.mask).data(),

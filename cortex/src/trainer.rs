@@ -18,12 +18,12 @@
 
 use crate::config::CortexConfig;
 use crate::data::OnsBatch;
-use crate::model::{Bucket, Cortex, BUCKETS, BUCKET_NAMES};
+use crate::model::{Bucket, Cortex, MotionOut, Prediction, BUCKETS, BUCKET_NAMES};
 use crate::rng::CortexRng;
 use crate::CortexError;
 use autodiff::learn::{Backprop, LearningRule, Objective, ParamGrads};
 use autodiff::optim::{Adam, Optimizer};
-use autodiff::Tape;
+use autodiff::{Tape, Var};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -203,6 +203,22 @@ impl Trainer {
         Ok(())
     }
 
+    /// Records the cortex's prediction of frame t+1 from the two frames held in `frames`
+    /// (`(b, n)`: batch and ONS side) on a cleared tape; returns it and frame t+1's variable.
+    pub(crate) fn record_frames(
+        &mut self,
+        (b, n): (usize, usize),
+        motion: &MotionOut,
+    ) -> (Prediction, Var) {
+        self.tape.clear();
+        let o1 = self.tape.constant_from([b, 1, n, n], &self.frames[0]);
+        let o2 = self.tape.constant_from([b, 1, n, n], &self.frames[1]);
+        let pred = self
+            .cortex
+            .record_prediction(&mut self.tape, o1, o2, motion);
+        (pred, o2)
+    }
+
     /// One gradient update from `batch`.
     pub fn step(&mut self, batch: &OnsBatch) -> Result<StepStats, CortexError> {
         let t0 = Instant::now();
@@ -219,12 +235,7 @@ impl Trainer {
         )?;
         fwd[Bucket::M as usize] = tm.elapsed().as_secs_f64() * 1e3;
 
-        self.tape.clear();
-        let o1 = self.tape.constant_from([b, 1, n, n], &self.frames[0]);
-        let o2 = self.tape.constant_from([b, 1, n, n], &self.frames[1]);
-        let pred = self
-            .cortex
-            .record_prediction(&mut self.tape, o1, o2, &motion);
+        let (pred, o2) = self.record_frames((b, n), &motion);
         if self.rule.needs_local_losses() {
             crate::forward_forward::record_local_losses(
                 &self.cortex,

@@ -9,6 +9,16 @@ fn src(cfg: &CortexConfig, seed: u64) -> SyntheticSource {
     SyntheticSource::new(SyntheticConfig::lms(cfg.ons_size_px, seed))
 }
 
+/// Every value of the P bucket's parameters (names starting `p.`), in parameter order.
+fn p_values(t: &Trainer) -> Vec<f32> {
+    let params = &t.cortex.params;
+    params
+        .ids()
+        .filter(|&id| params.name(id).starts_with("p."))
+        .flat_map(|id| params.get(id).data().to_vec())
+        .collect()
+}
+
 #[test]
 fn baselines_build_and_train() {
     for (baseline, want_prefixes) in [
@@ -93,22 +103,10 @@ fn learned_motion_estimator_refines_and_trains_p_on_the_blurred_objective() {
     // tenths of a pixel from the truth (the refiner itself is exact on clean shifts, see
     // `motion::learned` tests); gross block-matching failures stay failures.
     assert!(err.median_px < 0.5 && err.within_1px >= 0.9, "{err:?}");
-    let p_before: Vec<f32> = t
-        .cortex
-        .params
-        .ids()
-        .filter(|&id| t.cortex.params.name(id).starts_with("p."))
-        .flat_map(|id| t.cortex.params.get(id).data().to_vec())
-        .collect();
+    let p_before = p_values(&t);
     t.run(&mut s, 2, None, |st, _| assert!(st.loss >= st.main_loss))
         .unwrap();
-    let p_after: Vec<f32> = t
-        .cortex
-        .params
-        .ids()
-        .filter(|&id| t.cortex.params.name(id).starts_with("p."))
-        .flat_map(|id| t.cortex.params.get(id).data().to_vec())
-        .collect();
+    let p_after = p_values(&t);
     assert_ne!(p_before, p_after, "P must learn");
 }
 
@@ -146,7 +144,10 @@ fn a_zero_w_learning_rate_factor_holds_w_and_trains_the_rest() {
     cfg.validate().unwrap();
     let mut t = Trainer::new(cfg.clone()).unwrap();
     assert!(t.cortex.set_w_dc_gain(0.09));
-    let (w0, c0) = (t.cortex.learned_w_kernel(7).unwrap(), t.cortex.learned_c().unwrap());
+    let (w0, c0) = (
+        t.cortex.learned_w_kernel(7).unwrap(),
+        t.cortex.learned_c().unwrap(),
+    );
     let mut s = src(&cfg, 8);
     for _ in 0..3 {
         let batch = s.next_batch(cfg.train.batch_size);
@@ -154,7 +155,10 @@ fn a_zero_w_learning_rate_factor_holds_w_and_trains_the_rest() {
     }
     assert_eq!(t.cortex.learned_w_kernel(7).unwrap(), w0, "W moved");
     assert_eq!(t.cortex.learned_w_dc_gain(), Some(0.09f32 as f64));
-    assert!(t.cortex.learned_c().unwrap().max_abs_diff(&c0) > 0.0, "C did not train");
+    assert!(
+        t.cortex.learned_c().unwrap().max_abs_diff(&c0) > 0.0,
+        "C did not train"
+    );
     cfg.train.w_learning_rate_scale = -1.0;
     assert!(cfg.validate().is_err());
 }

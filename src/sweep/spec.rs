@@ -261,16 +261,7 @@ fn resolve(
     for (key, value) in settings {
         set_dotted(&mut file, key, value.clone());
     }
-    let options = CommonOptions {
-        preset: None,
-        cones: None,
-        seed: None,
-        steps: None,
-        out: None,
-        config: None,
-        resume: false,
-        force: false,
-    };
+    let options = CommonOptions::default();
     RunConfig::resolve_value(&options, Some((path.display().to_string(), file)), "quick")
 }
 

@@ -186,19 +186,12 @@ fn product<T: Float>(
     );
     // In a task of an op that is already parallel, or on one thread, keep faer's sequential GEMM.
     let nested = rayon::current_thread_index().is_some() || rayon::current_num_threads() == 1;
-    match plan(m, n, k) {
-        _ if nested || m == 0 || n == 0 || k == 0 => T::gemm(
-            dst,
-            accumulate,
-            a.data,
-            a.transposed,
-            b.data,
-            b.transposed,
-            m,
-            n,
-            k,
-            T::one(),
-        ),
+    let chosen = if nested || m == 0 || n == 0 || k == 0 {
+        Plan::Faer
+    } else {
+        plan(m, n, k)
+    };
+    match chosen {
         Plan::Faer => T::gemm(
             dst,
             accumulate,

@@ -60,20 +60,31 @@ fn lms() -> ConeObserver {
     .unwrap()
 }
 
+/// A problem at intensity 1 with the given test wavelengths, primaries, pairs and seed.
+fn problem<'a>(
+    observer: &'a dyn Observer,
+    tests: &'a [f64],
+    prim: &'a [f64],
+    pairs: &'a [Vec<[[f64; 2]; 2]>],
+    seed: u64,
+) -> MatchProblem<'a> {
+    MatchProblem {
+        observer,
+        test_wavelengths_nm: tests,
+        primaries_nm: prim,
+        intensity: 1.0,
+        pairs,
+        seed,
+    }
+}
+
 #[test]
 fn primary_matches_itself_with_alpha_one() {
     let o = lms();
     let prim = [450.0, 540.0, 610.0];
     let tests = [450.0, 540.0, 610.0, 500.0];
     let pairs = vec![vec![[[-0.5, 0.0], [0.5, 0.0]]]; 4];
-    let pb = MatchProblem {
-        observer: &o,
-        test_wavelengths_nm: &tests,
-        primaries_nm: &prim,
-        intensity: 1.0,
-        pairs: &pairs,
-        seed: 1,
-    };
+    let pb = problem(&o, &tests, &prim, &pairs, 1);
     let s = solve_matches(&pb, &SolverSettings::default());
     for (w, a) in s.alphas.iter().take(3).enumerate() {
         for (i, &v) in a.iter().enumerate() {
@@ -94,14 +105,7 @@ fn too_few_primaries_leave_a_residual_and_match_least_squares() {
     let prim = [450.0, 600.0];
     let tests = [520.0];
     let pairs = vec![vec![[[-0.5, 0.0], [0.5, 0.0]]]];
-    let pb = MatchProblem {
-        observer: &o,
-        test_wavelengths_nm: &tests,
-        primaries_nm: &prim,
-        intensity: 1.0,
-        pairs: &pairs,
-        seed: 1,
-    };
+    let pb = problem(&o, &tests, &prim, &pairs, 1);
     let s = solve_matches(&pb, &SolverSettings::default());
     assert!(s.errors[0] > 1e-6 * s.errors_at_zero[0]);
     // compare with the unconstrained linear least-squares optimum
@@ -146,14 +150,7 @@ fn stopping_below_a_threshold_and_resuming_follow_the_uninterrupted_path() {
     let tests = [430.0, 480.0, 520.0, 575.0, 640.0];
     let prim = [455.0, 530.0, 610.0];
     let pairs = problem_pairs(tests.len(), 2);
-    let pb = MatchProblem {
-        observer: &o,
-        test_wavelengths_nm: &tests,
-        primaries_nm: &prim,
-        intensity: 1.0,
-        pairs: &pairs,
-        seed: 3,
-    };
+    let pb = problem(&o, &tests, &prim, &pairs, 3);
     let s = SolverSettings::default();
     let all: Vec<usize> = (0..tests.len()).collect();
     let full = solve_wavelengths(&pb, &s, &all, &MatchOptions::default());
@@ -204,14 +201,7 @@ fn known_percepts_at_zero_are_not_shown_again() {
     let tests = [450.0, 560.0, 610.0];
     let prim = [470.0, 600.0];
     let pairs = problem_pairs(tests.len(), 3);
-    let pb = MatchProblem {
-        observer: &o,
-        test_wavelengths_nm: &tests,
-        primaries_nm: &prim,
-        intensity: 1.0,
-        pairs: &pairs,
-        seed: 8,
-    };
+    let pb = problem(&o, &tests, &prim, &pairs, 8);
     let (mut side_a, mut side_b) = (Vec::new(), Vec::new());
     for (w, &t) in tests.iter().enumerate() {
         for &[a, b] in &pairs[w] {
@@ -249,14 +239,7 @@ fn front_end_model_gives_the_exact_first_step_on_a_linear_observer() {
     let tests = [430.0, 500.0, 585.0, 650.0];
     let prim = [445.0, 525.0, 640.0];
     let pairs = problem_pairs(tests.len(), 2);
-    let pb = MatchProblem {
-        observer: &o,
-        test_wavelengths_nm: &tests,
-        primaries_nm: &prim,
-        intensity: 1.0,
-        pairs: &pairs,
-        seed: 5,
-    };
+    let pb = problem(&o, &tests, &prim, &pairs, 5);
     let mut f = FrontEndJacobians::new(&o, tests.len(), 1.0, 1e-3).unwrap();
     let (mut at_a, mut at_b) = (Vec::new(), Vec::new());
     for (w, &t) in tests.iter().enumerate() {

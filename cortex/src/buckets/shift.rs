@@ -19,6 +19,36 @@ pub fn integer_shift_warp<T: Float>(tape: &mut Tape<T>, v: Var, shifts: &[[i64; 
     let src = tape.value(v).data();
     let mut out = Tensor::<T>::zeros([b, c, h, w]);
     let mut mask = Tensor::<T>::zeros([b, 1, h, w]);
+    for_each_inside(shifts, (h, w), |bi, to, from| {
+        mask.data_mut()[bi * h * w + to] = T::one();
+        for ci in 0..c {
+            let plane = (bi * c + ci) * h * w;
+            out.data_mut()[plane + to] = src[plane + from];
+        }
+    });
+    let shifts = shifts.to_vec();
+    let warped = tape.custom_vjp("integer_shift_warp", &[v], out, move |cx, dx| {
+        let dy = cx.dy.data();
+        if let Some(g) = dx.slot_data(0) {
+            for_each_inside(&shifts, (h, w), |bi, to, from| {
+                for ci in 0..c {
+                    let plane = (bi * c + ci) * h * w;
+                    g[plane + from] += dy[plane + to];
+                }
+            });
+        }
+    });
+    let mask = tape.constant(mask);
+    (warped, mask)
+}
+
+/// Calls `f(b, to, from)` for every output pixel `to = y·w + x` of image `b` whose source
+/// `from = (y + s_y)·w + (x + s_x)` lies inside the `h × w` plane, rows then columns.
+fn for_each_inside(
+    shifts: &[[i64; 2]],
+    (h, w): (usize, usize),
+    mut f: impl FnMut(usize, usize, usize),
+) {
     for (bi, s) in shifts.iter().enumerate() {
         for y in 0..h as i64 {
             let ys = y + s[1];
@@ -30,42 +60,14 @@ pub fn integer_shift_warp<T: Float>(tape: &mut Tape<T>, v: Var, shifts: &[[i64; 
                 if xs < 0 || xs >= w as i64 {
                     continue;
                 }
-                mask.data_mut()[(bi * h + y as usize) * w + x as usize] = T::one();
-                for ci in 0..c {
-                    let plane = (bi * c + ci) * h * w;
-                    out.data_mut()[plane + y as usize * w + x as usize] =
-                        src[plane + ys as usize * w + xs as usize];
-                }
+                f(
+                    bi,
+                    y as usize * w + x as usize,
+                    ys as usize * w + xs as usize,
+                );
             }
         }
     }
-    let shifts = shifts.to_vec();
-    let warped = tape.custom_vjp("integer_shift_warp", &[v], out, move |cx, dx| {
-        let dy = cx.dy.data();
-        if let Some(g) = dx.slot_data(0) {
-            for (bi, s) in shifts.iter().enumerate() {
-                for y in 0..h as i64 {
-                    let ys = y + s[1];
-                    if ys < 0 || ys >= h as i64 {
-                        continue;
-                    }
-                    for x in 0..w as i64 {
-                        let xs = x + s[0];
-                        if xs < 0 || xs >= w as i64 {
-                            continue;
-                        }
-                        for ci in 0..c {
-                            let plane = (bi * c + ci) * h * w;
-                            g[plane + ys as usize * w + xs as usize] +=
-                                dy[plane + y as usize * w + x as usize];
-                        }
-                    }
-                }
-            }
-        }
-    });
-    let mask = tape.constant(mask);
-    (warped, mask)
 }
 
 #[cfg(test)]

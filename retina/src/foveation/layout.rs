@@ -285,22 +285,12 @@ fn foveated(cfg: &FoveationConfig, n: usize, field_px: usize, seed: u64) -> Cone
         let mut rng = StdRng::seed_from_u64(seed);
         let big = JITTER_LATTICE_OVERSIZE * n;
         let off = (big - n) / 2;
-        let fx = perlin_octaves(
-            &mut rng,
-            big,
-            big,
-            j.base_resolution,
-            j.octaves,
-            j.persistence,
-        );
-        let fy = perlin_octaves(
-            &mut rng,
-            big,
-            big,
-            j.base_resolution,
-            j.octaves,
-            j.persistence,
-        );
+        let field = |rng: &mut StdRng| {
+            perlin_octaves(rng, big, big, j.base_resolution, j.octaves, j.persistence)
+        };
+        // x first, then y, from one random stream
+        let fx = field(&mut rng);
+        let fy = field(&mut rng);
         // Official: the outermost ring of the (oversized) noise lattice is zeroed. It lies
         // outside the patch, so the patch sees a smooth field right up to its boundary.
         let ring = |r: usize, c: usize| r == 0 || c == 0 || r == big - 1 || c == big - 1;

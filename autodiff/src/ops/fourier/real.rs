@@ -23,6 +23,7 @@ use crate::{Float, Shape, Tape, Tensor, Var};
 use rayon::prelude::*;
 use rustfft::num_complex::Complex;
 use rustfft::Fft;
+use std::sync::Arc;
 
 /// Runs `f(src_image, dst_image)` over the images of a batch, in parallel when worthwhile.
 fn per_image<A: Sync, B: Send>(
@@ -99,6 +100,19 @@ fn store<V: Copy + std::ops::Add<Output = V> + std::ops::Mul<T, Output = V>, T: 
     };
 }
 
+/// The row (length `w`) and column (length `h`) FFT plans of one direction, and the scratch
+/// length either needs in place.
+fn row_and_column_plans<T: Float>(
+    (h, w): (usize, usize),
+    inverse: bool,
+) -> (Arc<dyn Fft<T>>, Arc<dyn Fft<T>>, usize) {
+    let (fft_w, fft_h) = (plan::<T>(w, inverse), plan::<T>(h, inverse));
+    let scratch_len = fft_w
+        .get_inplace_scratch_len()
+        .max(fft_h.get_inplace_scratch_len());
+    (fft_w, fft_h, scratch_len)
+}
+
 /// `dst (=|+=) scale · DFT2(src)` (forward sign) for real `H×W` images in `src` and complex
 /// (interleaved) full spectra in `dst`.
 ///
@@ -121,10 +135,7 @@ pub(crate) fn r2c<T: Float>(
         dst.len(),
         "r2c: spectrum and image sizes differ"
     );
-    let (fft_w, fft_h) = (plan::<T>(w, false), plan::<T>(h, false));
-    let scratch_len = fft_w
-        .get_inplace_scratch_len()
-        .max(fft_h.get_inplace_scratch_len());
+    let (fft_w, fft_h, scratch_len) = row_and_column_plans::<T>((h, w), false);
     let half_t = T::of(0.5);
     per_image(src, plane, dst, 2 * plane, |src, dst| {
         let dst = as_complex_mut(dst);
@@ -197,10 +208,7 @@ pub(crate) fn c2r<T: Float>(
         2 * dst.len(),
         "c2r: spectrum and image sizes differ"
     );
-    let (fft_w, fft_h) = (plan::<T>(w, true), plan::<T>(h, true));
-    let scratch_len = fft_w
-        .get_inplace_scratch_len()
-        .max(fft_h.get_inplace_scratch_len());
+    let (fft_w, fft_h, scratch_len) = row_and_column_plans::<T>((h, w), true);
     let half_t = T::of(0.5);
     per_image(src, 2 * plane, dst, plane, |src, dst| {
         let src = as_complex(src);

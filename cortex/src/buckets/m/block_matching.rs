@@ -110,8 +110,9 @@ pub struct MotionEstimate {
     pub shift_px: Vec<[i32; 2]>,
 }
 
-/// 2× average pooling of a `side×side` image.
-fn pool_mean(img: &[f32], side: usize, out: &mut Vec<f32>) {
+/// 2× pooling of a `side×side` image into `out`: each output pixel is `reduce` of its 2×2
+/// block, in the order top left, top right, bottom left, bottom right.
+fn pool2(img: &[f32], side: usize, out: &mut Vec<f32>, reduce: impl Fn([f32; 4]) -> f32) {
     let h = side / 2;
     out.clear();
     out.resize(h * h, 0.0);
@@ -121,26 +122,22 @@ fn pool_mean(img: &[f32], side: usize, out: &mut Vec<f32>) {
             &img[(2 * y + 1) * side..][..side],
         );
         for (x, o) in out[y * h..(y + 1) * h].iter_mut().enumerate() {
-            let v = [r0[2 * x], r0[2 * x + 1], r1[2 * x], r1[2 * x + 1]];
-            *o = v.iter().sum::<f32>() * 0.25;
+            *o = reduce([r0[2 * x], r0[2 * x + 1], r1[2 * x], r1[2 * x + 1]]);
         }
     }
 }
 
+/// 2× average pooling of a `side×side` image.
+fn pool_mean(img: &[f32], side: usize, out: &mut Vec<f32>) {
+    pool2(img, side, out, |v| v.iter().sum::<f32>() * 0.25);
+}
+
 /// 2× max pooling of a `side×side` mask.
 fn pool_max(mask: &[f32], side: usize) -> Vec<f32> {
-    let h = side / 2;
-    let mut out = vec![0.0; h * h];
-    for y in 0..h {
-        let (r0, r1) = (
-            &mask[2 * y * side..][..side],
-            &mask[(2 * y + 1) * side..][..side],
-        );
-        for (x, o) in out[y * h..(y + 1) * h].iter_mut().enumerate() {
-            let v = [r0[2 * x], r0[2 * x + 1], r1[2 * x], r1[2 * x + 1]];
-            *o = v.iter().copied().fold(0.0, f32::max);
-        }
-    }
+    let mut out = Vec::new();
+    pool2(mask, side, &mut out, |v| {
+        v.iter().copied().fold(0.0, f32::max)
+    });
     out
 }
 

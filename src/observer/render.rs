@@ -1,0 +1,169 @@
+//! Rendering shows through the eye and the decoder: directly, or from the per-location cache
+//! of unit-disc responses when the eye is noise-free (see the parent module's docs, **Speed**),
+//! and the batched decoding jobs behind [`Observer::percepts`].
+
+use super::*;
+
+/// Entries by location (bit patterns of x, y) and the bytes they hold.
+#[derive(Default)]
+pub(super) struct LocationCache {
+    entries: HashMap<[u64; 2], Arc<LocationEntry>>,
+    bytes: usize,
+}
+
+/// What the observer keeps per patch location.
+struct LocationEntry {
+    /// The cones read.
+    cells: Vec<usize>,
+    /// Noise-free, per cone-read plane: the ONS of a unit disc `(k × n·n)` for the cortex, the
+    /// readout of its percept `(k × readout length)` for linear decoders; empty with noise.
+    ons_basis: Vec<f32>,
+    readout_basis: Vec<f64>,
+}
+
+thread_local! {
+    /// Each thread's decoding tape (with its buffer pool), kept between calls: CMF-SIM makes
+    /// many small calls, and fresh pages per call would dominate them. (A tape holds `dyn Op`s
+    /// and is not `Send`, so it lives in the rayon worker threads.)
+    static TAPE: std::cell::Cell<Option<Tape<f32>>> = const { std::cell::Cell::new(None) };
+}
+
+impl EyeObserver<'_> {
+    /// The activations and ONS `(n·n)` each of one show, rendered directly.
+    pub fn render(&self, show: &Show) -> (Vec<f32>, Vec<f32>) {
+        let values = self
+            .retina
+            .class_values(&show.stimulus.to_grid(self.retina.grid()));
+        self.render_values(&values, show.location, self.noise(show.noise_seed))
+    }
+
+    fn render_values(
+        &self,
+        values: &[f64],
+        location: [f64; 2],
+        noise: Option<NoiseDraw>,
+    ) -> (Vec<f32>, Vec<f32>) {
+        let nn = self.retina.n() * self.retina.n();
+        let (mut act, mut ons) = (vec![0f32; nn], vec![0f32; nn]);
+        self.retina
+            .encode_disc(self.disc(location), values, noise, &mut act, &mut ons);
+        (act, ons)
+    }
+
+    /// The percept image `(dim, n·n)` of linear decoders, from a frame's activations and ONS
+    /// (`noise_free`: the activations are exactly those behind the ONS).
+    pub(super) fn linear_percept(&self, act: &[f32], ons: &[f32], noise_free: bool) -> Vec<f32> {
+        match &self.decoder {
+            Decoder::Ons => ons.to_vec(),
+            Decoder::Cones => act.to_vec(),
+            Decoder::Oracle(o) => {
+                let a = OracleDecoder::activations(self.retina, ons, noise_free.then_some(act));
+                let mut out = vec![0f32; oracle::ORACLE_PERCEPT_DIM * act.len()];
+                o.decode(&a, &mut out);
+                out
+            }
+            Decoder::Cortex(_) => unreachable!("the cortex is decoded in batches"),
+        }
+    }
+
+    /// The cached entry of `location` (computed on first use).
+    fn location_entry(&self, location: [f64; 2]) -> Arc<LocationEntry> {
+        let key = [location[0].to_bits(), location[1].to_bits()];
+        if let Some(e) = self.cache.lock().expect("cache lock").entries.get(&key) {
+            return e.clone();
+        }
+        let cells = self
+            .readout
+            .cells(&self.retina.layout, self.disc(location).centre_px);
+        let (mut ons_basis, mut readout_basis) = (Vec::new(), Vec::new());
+        if self.settings.noise_ratio == 0.0 {
+            let (k, dim) = (self.retina.classes_read(), self.decoder.dim());
+            for c in 0..k {
+                let mut unit = vec![0.0; c + 1];
+                unit[c] = 1.0;
+                let (act, ons) = self.render_values(&unit, location, None);
+                if self.decoder.is_linear() {
+                    let planes = self.linear_percept(&act, &ons, true);
+                    let mut r = vec![0.0; self.readout.len(dim)];
+                    self.readout.read(&planes, dim, &cells, &mut r);
+                    readout_basis.extend(r);
+                } else {
+                    ons_basis.extend(ons);
+                }
+            }
+        }
+        let entry = Arc::new(LocationEntry {
+            cells,
+            ons_basis,
+            readout_basis,
+        });
+        let bytes = entry.ons_basis.len() * 4 + entry.readout_basis.len() * 8;
+        let mut cache = self.cache.lock().expect("cache lock");
+        if cache.bytes + bytes <= CACHE_LIMIT_BYTES {
+            cache.bytes += bytes;
+            cache.entries.insert(key, entry.clone());
+        }
+        entry
+    }
+
+    /// Class-plane values of a show's stimulus (the planes the cones read).
+    pub(super) fn values(&self, show: &Show) -> Vec<f64> {
+        let mut v = self
+            .retina
+            .class_values(&show.stimulus.to_grid(self.retina.grid()));
+        v.truncate(self.retina.classes_read());
+        v
+    }
+
+    /// The readouts of `shows` into `out (shows × readout length)`, for one rayon job.
+    pub(super) fn percepts_job(&self, shows: &[Show], out: &mut [f64]) {
+        let (dim, nn) = (self.decoder.dim(), self.retina.n() * self.retina.n());
+        let len = self.readout.len(dim);
+        let noise_free = self.settings.noise_ratio == 0.0;
+        let entries: Vec<Arc<LocationEntry>> = shows
+            .iter()
+            .map(|s| self.location_entry(s.location))
+            .collect();
+        if noise_free && self.decoder.is_linear() {
+            for ((show, entry), o) in shows.iter().zip(&entries).zip(out.chunks_exact_mut(len)) {
+                o.fill(0.0);
+                for (c, &v) in self.values(show).iter().enumerate() {
+                    let basis = &entry.readout_basis[c * len..(c + 1) * len];
+                    o.iter_mut().zip(basis).for_each(|(x, b)| *x += v * b);
+                }
+            }
+            return;
+        }
+        if let Decoder::Cortex(cortex) = &self.decoder {
+            let mut ons = vec![0f32; shows.len() * nn];
+            for ((show, entry), o) in shows.iter().zip(&entries).zip(ons.chunks_exact_mut(nn)) {
+                if noise_free {
+                    for (c, &v) in self.values(show).iter().enumerate() {
+                        let b = &entry.ons_basis[c * nn..(c + 1) * nn];
+                        o.iter_mut().zip(b).for_each(|(x, b)| *x += v as f32 * b);
+                    }
+                } else {
+                    o.copy_from_slice(&self.render(show).1);
+                }
+            }
+            let mut tape = TAPE.take().unwrap_or_default();
+            tape.clear();
+            let n = self.retina.n();
+            let o = tape.constant_from([shows.len(), 1, n, n], &ons);
+            let v = cortex.record_decode(&mut tape, o).percept;
+            let percept = tape.value(v).data();
+            for (s, (entry, o)) in entries.iter().zip(out.chunks_exact_mut(len)).enumerate() {
+                let planes = &percept[s * dim * nn..(s + 1) * dim * nn];
+                self.readout.read(planes, dim, &entry.cells, o);
+            }
+            tape.clear();
+            TAPE.set(Some(tape));
+            return;
+        }
+        for ((show, entry), o) in shows.iter().zip(&entries).zip(out.chunks_exact_mut(len)) {
+            let (act, ons) = self.render(show);
+            let planes = self.linear_percept(&act, &ons, false);
+            self.readout.read(&planes, dim, &entry.cells, o);
+        }
+    }
+}

@@ -1,0 +1,275 @@
+//! The training loop of a run: a step, the CMF-SIM and held-out measurements on their
+//! schedule, `metrics.csv` and the checkpoints, and a stop on SIGINT/SIGTERM.
+
+use super::*;
+
+impl RunState<'_> {
+    /// The training loop: steps, checkpoints, measurements, and the end of the run.
+    pub(super) fn drive(mut self) -> Result<Summary, RunError> {
+        let steps = self.config.steps;
+        let mut k = self.run_step();
+        if self.pending_row.is_some() && self.measure(k)? {
+            return self.finish();
+        }
+        if self.progress.measured && self.reached_stop_dimension() {
+            return self.finish();
+        }
+        while k < steps {
+            k += 1;
+            self.train_step(k)?;
+            interrupt::fault_point("step", self.trainer.step_count());
+            if self.checkpoint_due(k) {
+                self.save(k, false)?;
+            }
+            self.stop_if_asked(k, false)?;
+            let stop_early = self.measure(k)?;
+            interrupt::fault_point("measured", self.trainer.step_count());
+            self.stop_if_asked(k, true)?;
+            if stop_early {
+                break;
+            }
+        }
+        self.finish()
+    }
+
+    fn cmf_due(&self, k: u64) -> bool {
+        let s = &self.config.schedule;
+        self.mode.cmf_sim
+            && (k == self.config.steps
+                || (s.cmf_every_steps > 0 && k.is_multiple_of(s.cmf_every_steps))
+                || s.cmf_extra_steps.contains(&k))
+    }
+
+    fn checkpoint_due(&self, k: u64) -> bool {
+        let every = self.config.cortex.train.checkpoint_every_steps;
+        k == self.config.steps || (every > 0 && k.is_multiple_of(every)) || self.cmf_due(k)
+    }
+
+    fn reached_stop_dimension(&self) -> bool {
+        let target = self.config.schedule.stop_at_dimension;
+        target > 0
+            && self
+                .progress
+                .dims
+                .last()
+                .is_some_and(|d| d.dimension >= target)
+    }
+
+    /// One gradient update and, when due, the held-out evaluation; leaves the step's metrics
+    /// row pending until its measurements.
+    fn train_step(&mut self, k: u64) -> Result<(), RunError> {
+        let bs = self.config.cortex.train.batch_size;
+        self.source.next_batch_into(bs, &mut self.batch);
+        let stats = match self.trainer.step(&self.batch) {
+            Ok(s) => s,
+            Err(e) => {
+                self.bar.abandon_with_message("stopped");
+                return Err(e.into());
+            }
+        };
+        self.progress.step_ms_total += stats.total_ms;
+        self.losses.0.push(k as f64);
+        self.losses.1.push(stats.loss);
+        let mut row = format!(
+            "{k},{},{},{:.3}",
+            stats.loss, stats.main_loss, stats.total_ms
+        );
+        let schedule = &self.config.schedule;
+        let every = schedule.eval_every_steps;
+        if k == self.config.steps || (every > 0 && k.is_multiple_of(every)) {
+            let batches = schedule.eval_batches;
+            let e = heldout_error(&mut self.trainer, &mut self.heldout, bs, batches)?;
+            self.progress.last_eval = Some(e);
+            let _ = write!(row, ",{},{},{}", e[0], e[1], e[2]);
+            if self.config.cortex.m.mode != cortex::config::MMode::Oracle {
+                let m = heldout_motion_error(&mut self.trainer, &mut self.heldout, bs, batches)?;
+                self.progress.last_motion_error = Some(m);
+                let _ = write!(row, ",{m}");
+            } else {
+                row.push(',');
+            }
+        } else {
+            row.push_str(",,,,");
+        }
+        self.pending_row = Some(row);
+        self.bar.set_position(k);
+        self.bar.set_message(format!(
+            "loss {:.4} · {:.0} ms/step",
+            stats.loss, stats.total_ms
+        ));
+        if self.bar.is_hidden() && k.is_multiple_of((self.config.steps / 10).max(1)) {
+            // Not a terminal: a line every tenth of the run instead of a bar.
+            println!(
+                "  step {k}/{}: loss {:.4}, {:.0} ms/step",
+                self.config.steps, stats.loss, stats.total_ms
+            );
+        }
+        Ok(())
+    }
+
+    /// The measurements of step `k` (CMF-SIM, pictures) when due; completes its metrics row.
+    /// Returns whether the run reached `stop_at_dimension`.
+    fn measure(&mut self, k: u64) -> Result<bool, RunError> {
+        let mut dimension_column = String::new();
+        if self.cmf_due(k) {
+            let final_step = k == self.config.steps;
+            let settings = self.config.cmf_settings(final_step);
+            self.bar.set_message(format!("step {k} · CMF-SIM…"));
+            let r = measure(&settings, self.config, &self.source.retina, &self.trainer)?;
+            let dir = self.out.join("cmf_sim").join(format!("step_{k:06}"));
+            crate::io::save_into(&dir, |staging| -> Result<(), RunError> {
+                r.save(staging)?;
+                Ok(())
+            })?;
+            self.bar.suspend(|| {
+                println!(
+                    "  step {k}: CMF-SIM dimension {} ({:.0} s; {} λ, {} sets/K; {})",
+                    r.dimension,
+                    r.seconds,
+                    settings.n_test_wavelengths,
+                    settings.sets_per_k,
+                    r.verdict
+                )
+            });
+            self.progress.dims.push(DimensionPoint {
+                step: k,
+                dimension: r.dimension,
+                seconds: r.seconds,
+                wall_seconds: self.started.elapsed().as_secs_f64(),
+                sets_per_k: settings.sets_per_k,
+                test_wavelengths: settings.n_test_wavelengths,
+            });
+            dimension_column = r.dimension.to_string();
+            self.progress.last_cmf = Some(LastMeasurement {
+                step: k,
+                dimension: r.dimension,
+                verdict: r.verdict.clone(),
+                cmf_sim_per_k: r
+                    .per_k
+                    .iter()
+                    .map(|q| q.describe(r.test_wavelengths_nm.len()))
+                    .collect(),
+                converged_ratio_per_k: r
+                    .per_k
+                    .iter()
+                    .map(|q| (q.n_primaries, q.converged_worst_ratio))
+                    .collect(),
+            });
+        }
+        if let Some(row) = self.pending_row.take() {
+            let _ = writeln!(self.metrics, "{row},{dimension_column}");
+        }
+        let every = self.config.schedule.pictures_every_steps;
+        if self.mode.pictures && every > 0 && k.is_multiple_of(every) && k != self.config.steps {
+            pictures::write_all(
+                &self.out.join("pictures").join(format!("step_{k:06}")),
+                self.config,
+                &self.source.retina,
+                &mut self.heldout,
+                &self.trainer,
+            )?;
+        }
+        self.progress.measured = true;
+        if k.is_multiple_of(200) {
+            self.write_metrics()?;
+        }
+        let stop = self.reached_stop_dimension();
+        if stop {
+            let target = self.config.schedule.stop_at_dimension;
+            self.bar
+                .suspend(|| println!("  reached dimension {target} at step {k}: stopping early"));
+        }
+        Ok(stop)
+    }
+
+    pub(super) fn write_metrics(&self) -> Result<(), RunError> {
+        let mut text = self.metrics.clone();
+        if let Some(row) = &self.pending_row {
+            let _ = writeln!(text, "{row},");
+        }
+        crate::io::write_atomic(&self.out.join("metrics.csv"), text.as_bytes())?;
+        Ok(())
+    }
+
+    /// Writes `metrics.csv`, then the checkpoint of step `k` with the run state.
+    fn save(&mut self, k: u64, measured: bool) -> Result<PathBuf, RunError> {
+        self.write_metrics()?;
+        self.progress.measured = measured;
+        self.progress.heldout_state = self.heldout.save_state();
+        self.progress.wall_seconds = self.started.elapsed().as_secs_f64();
+        let state = serde_json::to_value(&self.progress).expect("plain data");
+        let path = self.trainer.save_checkpoint_with(
+            &self.out.join("checkpoints"),
+            Some(&self.source),
+            Some(state),
+        )?;
+        self.saved = Some((k, measured, path.clone()));
+        Ok(path)
+    }
+
+    /// After step `k` (before or after its measurements): when a signal asked to stop, make
+    /// sure a checkpoint of this point exists and stop with [`RunError::Interrupted`].
+    fn stop_if_asked(&mut self, k: u64, measured: bool) -> Result<(), RunError> {
+        let Some(signal) = interrupt::requested() else {
+            return Ok(());
+        };
+        interrupt::announce();
+        let checkpoint = match &self.saved {
+            Some((s, m, path)) if *s == k && *m == measured => path.clone(),
+            _ => self.save(k, measured)?,
+        };
+        self.bar.abandon_with_message("stopped");
+        Err(RunError::Interrupted {
+            signal,
+            step: k,
+            steps: self.config.steps,
+            checkpoint,
+        })
+    }
+}
+
+/// CMF-SIM with `settings` on the observer "retina + the trainer's cortex".
+pub fn measure(
+    settings: &CmfSimSettings,
+    config: &RunConfig,
+    retina: &Retina,
+    trainer: &Trainer,
+) -> Result<CmfSimResult, RunError> {
+    let observer = EyeObserver::cortex(retina, &trainer.cortex, config.observer.clone());
+    Ok(run_cmf_sim(&observer, settings)?)
+}
+
+/// Held-out prediction error `[model MSE, next = current MSE, ratio]` over `batches` batches.
+pub fn heldout_error(
+    trainer: &mut Trainer,
+    heldout: &mut RetinaSource,
+    bs: usize,
+    batches: usize,
+) -> Result<[f64; 3], RunError> {
+    let (mut model, mut identity) = (0.0, 0.0);
+    for _ in 0..batches.max(1) {
+        let b = heldout.next_batch(bs);
+        let e = trainer.prediction_error(&b)?;
+        model += e.model_mse;
+        identity += e.identity_mse;
+    }
+    Ok([model, identity, identity / model.max(1e-30)])
+}
+
+/// Mean distance (ONS pixels) of the cortex's motion estimate from the true motion over
+/// `batches` held-out batches (evaluation: the batches carry the oracle motion).
+pub fn heldout_motion_error(
+    trainer: &mut Trainer,
+    heldout: &mut RetinaSource,
+    bs: usize,
+    batches: usize,
+) -> Result<f64, RunError> {
+    let mut total = 0.0;
+    for _ in 0..batches.max(1) {
+        let b = heldout.next_batch(bs);
+        if let Some(e) = trainer.motion_error_ons_px(&b)? {
+            total += e.mean_px;
+        }
+    }
+    Ok(total / batches.max(1) as f64)
+}
