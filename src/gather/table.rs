@@ -108,6 +108,10 @@ fn md_escape(s: &str) -> String {
     s.replace('|', "\\|").replace(['\n', '\r'], " ")
 }
 
+/// The readable table's cell for a setting absent from a run's config: an optional setting
+/// left unset (e.g. no tetrachromatic environment). The CSV leaves it empty.
+pub const UNSET_SETTING: &str = "(unset)";
+
 /// Position of the dimension column in [`display`]'s rows, after the run, the `keys` settings,
 /// status, steps and wall time.
 pub fn dimension_column(keys: &[String]) -> usize {
@@ -137,10 +141,10 @@ pub fn display(runs: &[Run], keys: &[String]) -> (Vec<String>, Vec<Vec<String>>)
         .iter()
         .map(|run| {
             let mut row = vec![run.folder.clone()];
-            row.extend(
-                keys.iter()
-                    .map(|k| run.settings.get(k).cloned().unwrap_or_default()),
-            );
+            row.extend(keys.iter().map(|k| {
+                let value = run.settings.get(k).cloned();
+                value.unwrap_or_else(|| UNSET_SETTING.to_string())
+            }));
             row.push(status_cell(run));
             row.push(run.steps.map_or(String::new(), |s| s.to_string()));
             match cells(run) {
@@ -322,5 +326,27 @@ mod tests {
             "{csv}"
         );
         assert_eq!(md.lines().next().unwrap().matches('|').count(), 12);
+    }
+
+    #[test]
+    fn an_unset_setting_reads_as_unset_in_the_readable_table_only() {
+        let cones = ("cones", "LMSQ");
+        let hue = ("retina.scenes.tetra.environment", "HueSphere");
+        let runs = [
+            run("natural", &[cones], Status::Pending),
+            run("hue", &[cones, hue], Status::Pending),
+        ];
+        let keys = varying_keys(&runs, &[]);
+        assert_eq!(keys, ["retina.scenes.tetra.environment"]);
+        let (_, rows) = display(&runs, &keys);
+        assert_eq!(
+            (rows[0][1].as_str(), rows[1][1].as_str()),
+            (UNSET_SETTING, "HueSphere")
+        );
+        let csv = csv(&runs, &keys);
+        assert!(
+            csv.lines().nth(1).unwrap().starts_with("natural,,"),
+            "{csv}"
+        );
     }
 }
