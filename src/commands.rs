@@ -39,12 +39,8 @@ fn train_and_report(options: &CommonOptions, command: &str, mode: RunMode) -> Re
 
 /// Catches SIGINT/SIGTERM so a run stops after a step with a checkpoint.
 fn install_signals() -> Result<(), RunError> {
-    crate::interrupt::install().map_err(|e| {
-        RunError::Config(crate::config::ConfigError::Invalid {
-            field: "signals".into(),
-            reason: format!("cannot catch SIGINT/SIGTERM: {e}"),
-        })
-    })
+    crate::interrupt::install()
+        .map_err(|e| RunError::invalid("signals", format!("cannot catch SIGINT/SIGTERM: {e}")))
 }
 
 /// The config and run folder of `run`/`train`. With `--resume` and no option that changes
@@ -116,13 +112,10 @@ pub fn resume(options: &ResumeOptions) -> Result<(), RunError> {
 fn extend_run(dir: &Path, config: &mut RunConfig, steps: u64) -> Result<(), RunError> {
     let old = config.steps;
     if steps < old {
-        return Err(RunError::Config(crate::config::ConfigError::Invalid {
-            field: "--steps".into(),
-            reason: format!(
+        return Err(RunError::invalid("--steps", format!(
                 "{steps} is below the run's {old} steps in {}: a run can be extended, not shortened",
                 dir.join("config.toml").display()
-            ),
-        }));
+            )));
     }
     if steps == old {
         return Ok(());
@@ -206,13 +199,13 @@ pub fn cmf_sim(options: &CmfSimOptions) -> Result<(), RunError> {
             (config, Some(trainer), out)
         }
         (None, ObserverKind::Cortex) => {
-            return Err(invalid_option(
+            return Err(RunError::invalid(
                 "--observer",
                 "`cortex` needs --run DIR (a trained run)",
             ))
         }
         (Some(_), _) => {
-            return Err(invalid_option(
+            return Err(RunError::invalid(
                 "--run",
                 "only the `cortex` observer reads a run folder; the others take --preset/--cones",
             ))
@@ -268,13 +261,6 @@ pub fn print_cmf_sim(r: &CmfSimResult) {
     for k in &r.per_k {
         println!("  {}", k.describe(nw));
     }
-}
-
-fn invalid_option(option: &str, reason: &str) -> RunError {
-    RunError::Config(crate::config::ConfigError::Invalid {
-        field: option.into(),
-        reason: reason.into(),
-    })
 }
 
 /// `colorvision scope`: Neural Scope pictures and invariants of a trained run, written to

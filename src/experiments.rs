@@ -233,18 +233,18 @@ fn w_oracle_init(options: &CommonOptions, out: &Path) -> Result<(), RunError> {
     if !checkpoint.exists() {
         let retina = Retina::new(config.retina.clone())?;
         let Some((dog, size)) = retina.dog_kernel() else {
-            return Err(RunError::Config(crate::config::ConfigError::Invalid {
-                field: "retina.lateral_inhibition".into(),
-                reason: "this eye has no lateral inhibition to start W from".into(),
-            }));
+            return Err(RunError::invalid(
+                "retina.lateral_inhibition",
+                "this eye has no lateral inhibition to start W from",
+            ));
         };
         let mut trainer = cortex::Trainer::new(config.cortex.clone())?;
         let kernel = autodiff::Tensor::from_vec([size, size], dog.to_vec());
         if !trainer.cortex.set_w_kernel(&kernel) {
-            return Err(RunError::Config(crate::config::ConfigError::Invalid {
-                field: "cortex.w.mode".into(),
-                reason: "W is not learned in this cortex".into(),
-            }));
+            return Err(RunError::invalid(
+                "cortex.w.mode",
+                "W is not learned in this cortex",
+            ));
         }
         trainer.save_checkpoint_with(&start, None, None)?;
     }
@@ -363,11 +363,9 @@ pub fn run_named(name: &str, options: &CommonOptions) -> Result<(), RunError> {
             );
             Ok(())
         }
-        other => Err(RunError::Config(crate::config::ConfigError::Invalid {
-            field: "experiment".into(),
-            reason: format!(
-                "`{other}` is not an experiment; `colorvision experiment list` shows them"
-            ),
-        })),
+        other => Err(RunError::invalid(
+            "experiment",
+            format!("`{other}` is not an experiment; `colorvision experiment list` shows them"),
+        )),
     }
 }

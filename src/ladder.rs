@@ -156,12 +156,8 @@ pub fn measure_observer(
     }
     let retina = Retina::new(eye)?;
     let oracle = |interpolate: bool| {
-        OracleDecoder::new(&retina, interpolate, config.cmf_sim.seed).map_err(|e| {
-            RunError::Config(crate::config::ConfigError::Invalid {
-                field: "cones".into(),
-                reason: e.to_string(),
-            })
-        })
+        OracleDecoder::new(&retina, interpolate, config.cmf_sim.seed)
+            .map_err(|e| RunError::invalid("cones", e.to_string()))
     };
     let decoder = match (kind, trainer) {
         (ObserverKind::Cortex, Some(t)) => Decoder::Cortex(&t.cortex),

@@ -49,6 +49,14 @@ pub enum RunError {
 }
 
 impl RunError {
+    /// A setting or option that cannot be used, naming it (`field`) and why.
+    pub fn invalid(field: impl Into<String>, reason: impl Into<String>) -> Self {
+        RunError::Config(crate::config::ConfigError::Invalid {
+            field: field.into(),
+            reason: reason.into(),
+        })
+    }
+
     /// The process exit code for this error: 130 when a signal stopped the run, else 1.
     pub fn exit_code(&self) -> i32 {
         match self {

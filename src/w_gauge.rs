@@ -41,10 +41,10 @@ pub fn w_dc_gauge(run_dir: &Path, steps: u64) -> Result<Vec<GaugeArm>, RunError>
     let learned = trainer
         .cortex
         .learned_w_dc_gain()
-        .ok_or_else(|| invalid("cortex.w.mode", "W is not learned in this run"))?;
+        .ok_or_else(|| RunError::invalid("cortex.w.mode", "W is not learned in this run"))?;
     let retina = Retina::new(config.retina.clone())?;
     let (dog, _) = retina.dog_kernel().ok_or_else(|| {
-        invalid(
+        RunError::invalid(
             "retina.lateral_inhibition",
             "this eye has no lateral inhibition",
         )
@@ -87,11 +87,4 @@ pub fn w_dc_gauge(run_dir: &Path, steps: u64) -> Result<Vec<GaugeArm>, RunError>
     }
     crate::io::write_json(&out.join("gauge.json"), &arms)?;
     Ok(arms)
-}
-
-fn invalid(field: &str, reason: &str) -> RunError {
-    RunError::Config(crate::config::ConfigError::Invalid {
-        field: field.into(),
-        reason: reason.into(),
-    })
 }
