@@ -80,8 +80,10 @@ pub struct ResumeOptions {
 /// Options every subcommand understands; the default is none given.
 #[derive(Debug, Clone, Default, Args)]
 pub struct CommonOptions {
-    /// Named set of settings: tiny (tests, seconds), quick (CPU default), sandbox (official
-    /// sandbox: no foveation, no lateral inhibition, oracle motion), paper (256×256 cones).
+    /// Named set of settings: tiny (tests, seconds), quick (CPU default, 6 000 steps), long (the
+    /// quick eye trained to convergence, 40 000 steps; the experiments' default), sandbox
+    /// (official sandbox: no foveation, no lateral inhibition, oracle motion), paper (256×256
+    /// cones).
     #[arg(long)]
     pub preset: Option<String>,
     /// Cone types of the retina: a named set (L, M, S, LM, LS, MS, LMS, LMSQ, LMS+pigeonQ, ...)

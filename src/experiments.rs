@@ -15,6 +15,9 @@
 //! | `stiles-burch` | fixed primaries 444.4/526.3/645.2 nm vs Stiles & Burch 1955 (analytic and trained) | RS-08, Fig. 11 |
 //! | `w-oracle-init` | diagnostic: W starts at the eye's true DoG; does the loss keep it? | §6 (W recovered) |
 //! | `cmf-ladder` | CMF-SIM's known-answer observers through the real eye ([`crate::ladder`]) | S-04, S-05 |
+//!
+//! Every training experiment uses the `long` preset ([`EXPERIMENT_PRESET`]) unless `--preset`
+//! names another.
 
 use crate::cli::CommonOptions;
 use crate::config::RunConfig;
@@ -66,6 +69,11 @@ pub const EXPERIMENTS: &[(&str, &str)] = &[
     ),
 ];
 
+/// The preset of every training experiment unless `--preset` says otherwise: the quick eye
+/// trained to convergence ([`crate::config::LONG_STEPS`] steps), since the paper's table is of
+/// converged cortices. `--preset quick` (6 000 steps) gives a fast, unconverged version.
+pub const EXPERIMENT_PRESET: &str = "long";
+
 fn with_cones(options: &CommonOptions, cones: &str) -> CommonOptions {
     CommonOptions {
         cones: Some(cones.to_string()),
@@ -87,7 +95,11 @@ fn full_run(config: &RunConfig, out: &Path, options: &CommonOptions) -> Result<S
 
 /// Trains one retina and measures it; returns its summary.
 pub fn emergence(options: &CommonOptions, out: &Path) -> Result<Summary, RunError> {
-    full_run(&RunConfig::resolve(options, "quick")?, out, options)
+    full_run(
+        &RunConfig::resolve(options, EXPERIMENT_PRESET)?,
+        out,
+        options,
+    )
 }
 
 fn cone_sweep(options: &CommonOptions, out: &Path, cones: &[&str]) -> Result<(), RunError> {
@@ -126,7 +138,7 @@ fn tetrachromats(options: &CommonOptions, out: &Path) -> Result<(), RunError> {
     let mut table = Vec::new();
     for cones in ["LMSQ,Q:506", "LMSQ"] {
         for (name, environment) in TETRA_ENVIRONMENTS {
-            let mut config = RunConfig::resolve(&with_cones(options, cones), "quick")?;
+            let mut config = RunConfig::resolve(&with_cones(options, cones), EXPERIMENT_PRESET)?;
             config.retina.scenes.tetra = environment.map(|environment| TetraMix {
                 environment,
                 fraction: TETRA_SCENE_FRACTION,
@@ -168,7 +180,7 @@ fn identity_percept(config: &RunConfig, dir: &Path, name: &str) -> Result<usize,
 /// Beyond the paper, `trained_on_cone_activations` trains the full cortex on that eye.
 fn baselines(options: &CommonOptions, out: &Path) -> Result<(), RunError> {
     let options = with_cones(options, options.cones.as_deref().unwrap_or("LMS"));
-    let config = RunConfig::resolve(&options, "quick")?;
+    let config = RunConfig::resolve(&options, EXPERIMENT_PRESET)?;
     let mut cone_eye = config.clone();
     cone_eye.retina.lateral_inhibition = None;
     cone_eye.retina.layout = retina::foveation::LayoutConfig::Identity;
@@ -211,7 +223,7 @@ fn continued(
         .join("checkpoints")
         .join(cortex::checkpoint::checkpoint_name(s.steps));
     for a in after {
-        let config = RunConfig::resolve(&with_cones(options, a), "quick")?;
+        let config = RunConfig::resolve(&with_cones(options, a), EXPERIMENT_PRESET)?;
         let dir = sub(out, &format!("after_{a}"));
         let s = run::run_continued(&config, &dir, &checkpoint, options.folder())?;
         println!("after ({a}): dimension {}", s.dimension);
@@ -259,7 +271,7 @@ fn w_oracle_init(options: &CommonOptions, out: &Path) -> Result<(), RunError> {
 }
 
 fn stiles_burch(options: &CommonOptions, out: &Path) -> Result<(), RunError> {
-    let config = RunConfig::resolve(&with_cones(options, "LMS"), "quick")?;
+    let config = RunConfig::resolve(&with_cones(options, "LMS"), EXPERIMENT_PRESET)?;
     let grid = colorimetry::WavelengthGrid::range(390.0, 730.0, 1.0)?;
     let observer = ConeObserver::new(
         &colorimetry::ConeClass::lms(),

@@ -17,6 +17,7 @@ pub mod io;
 pub mod ladder;
 pub mod measurement_dir;
 pub mod observer;
+pub mod paper;
 pub mod pictures;
 pub mod report;
 pub mod run;

@@ -57,8 +57,14 @@ struct Cells {
     wall: String,
 }
 
+/// `a/b/c`; a value that is not finite (d′ of a one-class retina, which has no other class)
+/// reads "—".
 fn joined(v: &[f64], digits: usize) -> String {
-    let parts: Vec<String> = v.iter().map(|x| format!("{x:.digits$}")).collect();
+    let cell = |x: &f64| match x.is_finite() {
+        true => format!("{x:.digits$}"),
+        false => "—".to_string(),
+    };
+    let parts: Vec<String> = v.iter().map(cell).collect();
     parts.join("/")
 }
 
@@ -113,9 +119,14 @@ fn md_escape(s: &str) -> String {
 pub const UNSET_SETTING: &str = "(unset)";
 
 /// Position of the dimension column in [`display`]'s rows, after the run, the `keys` settings,
-/// status, steps and wall time.
+/// status, steps, wall time and the paper's figure.
 pub fn dimension_column(keys: &[String]) -> usize {
-    keys.len() + 4
+    keys.len() + 5
+}
+
+/// The dimension the paper reports for a run's settings ([`crate::paper`]), or "—".
+fn paper_cell(run: &Run) -> String {
+    crate::paper::reported_for_settings(&run.settings).map_or("—".into(), |r| r.to_string())
 }
 
 /// The readable table (Markdown and HTML): its header and one row of plain-text cells per run.
@@ -127,6 +138,7 @@ pub fn display(runs: &[Run], keys: &[String]) -> (Vec<String>, Vec<Vec<String>>)
             "status",
             "steps done",
             "wall s",
+            "paper",
             "CMF-SIM (margins)",
             "gain",
             "C recall",
@@ -147,9 +159,11 @@ pub fn display(runs: &[Run], keys: &[String]) -> (Vec<String>, Vec<Vec<String>>)
             }));
             row.push(status_cell(run));
             row.push(run.steps.map_or(String::new(), |s| s.to_string()));
+            let paper = paper_cell(run);
             match cells(run) {
                 Some(c) => row.extend([
                     c.wall,
+                    paper,
                     c.dimension,
                     c.gain,
                     c.c_recall,
@@ -158,7 +172,11 @@ pub fn display(runs: &[Run], keys: &[String]) -> (Vec<String>, Vec<Vec<String>>)
                     c.w_dc,
                     c.p_error,
                 ]),
-                None => row.extend(std::iter::repeat_n(String::new(), 8)),
+                None => {
+                    row.push(String::new());
+                    row.push(paper);
+                    row.extend(std::iter::repeat_n(String::new(), 7));
+                }
             }
             row
         })
@@ -213,6 +231,7 @@ pub fn csv(runs: &[Run], keys: &[String]) -> String {
             "detail",
             "steps_done",
             "wall_seconds",
+            "paper_dimension",
             "dimension",
             "verdict",
         ]
@@ -244,6 +263,8 @@ pub fn csv(runs: &[Run], keys: &[String]) -> String {
         row.push(run.steps.map_or(String::new(), |s| s.to_string()));
         let s = run.summary.as_ref();
         row.push(num(s.map(|s| s.wall_seconds)));
+        let paper = crate::paper::reported_for_settings(&run.settings);
+        row.push(paper.map_or(String::new(), |r| r.to_string()));
         row.push(s.map_or(String::new(), |s| s.dimension.to_string()));
         row.push(s.map_or(String::new(), |s| s.verdict.clone()));
         for k in 1..=max_k {
@@ -325,7 +346,7 @@ mod tests {
             csv.contains(",\"bad | value, \"\"quoted\"\"\nsecond line\","),
             "{csv}"
         );
-        assert_eq!(md.lines().next().unwrap().matches('|').count(), 12);
+        assert_eq!(md.lines().next().unwrap().matches('|').count(), 13);
     }
 
     #[test]
@@ -348,5 +369,30 @@ mod tests {
             csv.lines().nth(1).unwrap().starts_with("natural,,"),
             "{csv}"
         );
+    }
+
+    #[test]
+    fn the_paper_column_shows_what_the_paper_reports_for_each_run() {
+        let environment = "retina.scenes.tetra.environment";
+        let runs = [
+            run("human", &[("cones", "LMSQ")], Status::Pending),
+            run(
+                "ideal",
+                &[("cones", "LMSQ"), (environment, "Idealised")],
+                Status::Pending,
+            ),
+            run("pigeon", &[("cones", "LMSQ,Q:506")], Status::Pending),
+            run("custom", &[("cones", "L:560,S:419,X:600")], Status::Pending),
+        ];
+        let keys = varying_keys(&runs, &[]);
+        let (head, rows) = display(&runs, &keys);
+        let paper = dimension_column(&keys) - 1;
+        assert_eq!(head[paper], "paper");
+        let column: Vec<&str> = rows.iter().map(|r| r[paper].as_str()).collect();
+        assert_eq!(column, ["3", "4", "4", "—"]);
+        // Without setting columns (cones hold commas): run, status, detail, steps, wall, paper.
+        let csv = csv(&runs, &[]);
+        let csv_column: Vec<&str> = csv.lines().map(|l| l.split(',').nth(5).unwrap()).collect();
+        assert_eq!(csv_column, ["paper_dimension", "3", "4", "4", ""], "{csv}");
     }
 }
