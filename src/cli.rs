@@ -51,6 +51,11 @@ pub enum Command {
     /// held-out prediction errors: does the loss single out W's DC gain? Writes
     /// DIR/w-dc-gauge/.
     WDcGauge(WDcGaugeOptions),
+    /// The colour-matching functions of a trained run (`--run DIR`) with the Stiles & Burch
+    /// (1955) primaries against their measured curves, beside the ceiling set by the eye's own
+    /// cone fundamentals and the oracle decoder through the same eye (into --out, or
+    /// DIR/stiles-burch/).
+    StilesBurch(RunDirOptions),
     /// Run a named experiment of the paper (see `colorvision experiment list`).
     Experiment(ExperimentOptions),
     /// Continue a stopped `run` or `train` from the newest valid checkpoint of its folder

@@ -24,8 +24,7 @@ use crate::config::RunConfig;
 use crate::observer::EyeObserver;
 use crate::run::{self, Origin, RunMode, Summary};
 use crate::run_error::RunError;
-use colorimetry::analytic::ConeObserver;
-use colorimetry::{compare_stiles_burch, run_cmf_sim, StilesBurchSettings};
+use colorimetry::run_cmf_sim;
 use cortex::config::Baseline;
 use retina::scene::pool::TetraMix;
 use retina::scene::tetra::TetraEnvironment;
@@ -270,39 +269,24 @@ fn w_oracle_init(options: &CommonOptions, out: &Path) -> Result<(), RunError> {
     Ok(())
 }
 
+/// RS-08: an LMS cortex trained, then its CMFs with the Stiles & Burch primaries beside the
+/// human standard, the eye's own fundamentals (the ceiling) and the oracle through the eye
+/// ([`crate::stiles_burch`]), written into `trained_LMS/stiles-burch/`.
 fn stiles_burch(options: &CommonOptions, out: &Path) -> Result<(), RunError> {
     let config = RunConfig::resolve(&with_cones(options, "LMS"), EXPERIMENT_PRESET)?;
-    let grid = colorimetry::WavelengthGrid::range(390.0, 730.0, 1.0)?;
-    let observer = ConeObserver::new(
-        &colorimetry::ConeClass::lms(),
-        &colorimetry::ConeTemplate::StockmanSharpe2deg,
-        &grid,
-    )?;
-    let r = compare_stiles_burch(&observer, &StilesBurchSettings::default())?;
-    save_result(&sub(out, "analytic_stockman_sharpe"), |d| {
-        Ok(r.save(d).map(|_| ())?)
-    })?;
-    println!("analytic Stockman–Sharpe observer: {}", summary_line(&r));
     let trained = sub(out, "trained_LMS");
-    run::run_in(
-        &config,
-        &trained,
-        RunMode {
-            cmf_sim: false,
-            pictures: false,
-            progress: true,
-        },
-        options.folder(),
-        Origin::New,
-    )?;
+    let mode = RunMode {
+        cmf_sim: false,
+        pictures: false,
+        progress: true,
+    };
+    run::run_in(&config, &trained, mode, options.folder(), Origin::New)?;
     // The run's lock again while its folder is read and the comparison written into it.
     let _lock = crate::run_lock::RunLock::acquire(&trained)?;
     let (_, trainer, _) = crate::run_folder::load_run(&trained)?;
-    let retina = Retina::new(config.retina.clone())?;
-    let observer = EyeObserver::cortex(&retina, &trainer.cortex, config.observer.clone());
-    let r = compare_stiles_burch(&observer, &StilesBurchSettings::default())?;
-    save_result(&trained, |d| Ok(r.save(d).map(|_| ())?))?;
-    println!("trained LMS cortex: {}", summary_line(&r));
+    let rows =
+        crate::stiles_burch::compare(&config, &trainer.cortex, &trained.join("stiles-burch"))?;
+    print!("{}", crate::stiles_burch::markdown(&rows));
     Ok(())
 }
 
@@ -312,14 +296,6 @@ fn save_result(
     save: impl FnOnce(&Path) -> Result<(), RunError>,
 ) -> Result<(), RunError> {
     crate::io::save_into(dir, save)
-}
-
-fn summary_line(r: &colorimetry::StilesBurchResult) -> String {
-    r.channels
-        .iter()
-        .map(|c| format!("{} r = {:.4}, RMSE {:.4}", c.channel, c.correlation, c.rmse))
-        .collect::<Vec<_>>()
-        .join("; ")
 }
 
 /// Runs experiment `name` (or prints the list).

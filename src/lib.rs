@@ -26,5 +26,6 @@ pub mod run_folder;
 pub mod run_lock;
 pub mod source;
 pub mod stats;
+pub mod stiles_burch;
 pub mod sweep;
 pub mod w_gauge;

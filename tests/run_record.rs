@@ -56,9 +56,10 @@ fn measurements_of_a_run_never_touch_its_record() {
         assert!(run.join(f).exists(), "the run wrote no {f}");
     }
     let before = snapshot(&run, &[]);
-    let measurements: [&[&str]; 4] = [
+    let measurements: [&[&str]; 5] = [
         &["cmf-sim", "--run", "run", "--sets-per-k", "2"],
         &["scope", "--run", "run"],
+        &["stiles-burch", "--run", "run"],
         &["cmf-sim", "--run", "run", "--sets-per-k", "2", "--out", "x"],
         &["scope", "--run", "run", "--out", "y"],
     ];
@@ -67,13 +68,15 @@ fn measurements_of_a_run_never_touch_its_record() {
         assert!(o.status.success(), "{args:?}: {}", text(&o));
     }
     assert_eq!(
-        snapshot(&run, &["cmf-sim", "scope"]),
+        snapshot(&run, &["cmf-sim", "scope", "stiles-burch"]),
         before,
         "the run's own files changed"
     );
     for f in [
         "cmf-sim/cmf_sim.json",
         "scope/scope.png",
+        "stiles-burch/table.json",
+        "stiles-burch/trained/stiles_burch.svg",
         "x/cmf_sim.json",
         "y/scope.png",
     ] {
@@ -88,6 +91,7 @@ fn measurements_of_a_run_never_touch_its_record() {
         ("cmf-sim", "run"),
         ("scope", "run/pictures"),
         ("scope", "run/./"),
+        ("stiles-burch", "run/checkpoints"),
     ] {
         let o = colorvision(&dir, &[command, "--run", "run", "--out", out]);
         assert_eq!(
@@ -98,7 +102,10 @@ fn measurements_of_a_run_never_touch_its_record() {
         );
         assert!(text(&o).contains("(--out)"), "{}", text(&o));
     }
-    assert_eq!(snapshot(&run, &["cmf-sim", "scope"]), before);
+    assert_eq!(
+        snapshot(&run, &["cmf-sim", "scope", "stiles-burch"]),
+        before
+    );
     std::fs::remove_dir_all(dir).ok();
 }
 
