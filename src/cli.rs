@@ -208,9 +208,13 @@ pub struct RunDirOptions {
 /// Options of `convergence`.
 #[derive(Debug, Clone, Args)]
 pub struct ConvergenceOptions {
-    /// The run folder.
+    /// The run folder; repeated (`--run A --run B …`, e.g. one per seed), each run is studied
+    /// and `--out` gets their measures side by side.
+    #[arg(long, required = true)]
+    pub run: Vec<PathBuf>,
+    /// With several runs: the folder for the side-by-side plots and `runs.md`.
     #[arg(long)]
-    pub run: PathBuf,
+    pub out: Option<PathBuf>,
     /// Also run CMF-SIM (the run's full budget) at every checkpoint.
     #[arg(long)]
     pub cmf: bool,

@@ -161,22 +161,45 @@ pub fn simulate(options: &CommonOptions) -> Result<(), RunError> {
 
 /// `colorvision convergence`: every checkpoint of a run folder measured the same way.
 pub fn convergence(options: &ConvergenceOptions) -> Result<(), RunError> {
-    println!(
-        "colorvision convergence: {}{}",
-        options.run.display(),
-        if options.cmf { " (with CMF-SIM)" } else { "" }
-    );
     let cmf = match (options.cmf, options.cmf_steps.is_empty()) {
         (false, _) => crate::convergence::CmfAt::Never,
         (true, true) => crate::convergence::CmfAt::Every,
         (true, false) => crate::convergence::CmfAt::Steps(options.cmf_steps.clone()),
     };
-    let rows = crate::convergence::study(&options.run, &cmf)?;
-    println!(
-        "{} checkpoints; wrote {}/convergence/convergence.md, .json and convergence_*.svg",
-        rows.len(),
-        options.run.display()
-    );
+    let side_by_side = match (&options.out, options.run.len()) {
+        (Some(out), _) => Some(out),
+        (None, 1) => None,
+        (None, _) => {
+            return Err(RunError::invalid(
+                "--out",
+                "several runs (--run … --run …) need a folder for their side-by-side plots",
+            ))
+        }
+    };
+    let mut runs = Vec::new();
+    for dir in &options.run {
+        println!(
+            "colorvision convergence: {}{}",
+            dir.display(),
+            if options.cmf { " (with CMF-SIM)" } else { "" }
+        );
+        let rows = crate::convergence::study(dir, &cmf)?;
+        println!(
+            "{} checkpoints; wrote {}/convergence/convergence.md, .json and convergence_*.svg",
+            rows.len(),
+            dir.display()
+        );
+        let seed = crate::run_folder::read_config(dir).map(|c| c.seed);
+        let name = dir.file_name().map_or(dir.display().to_string(), |n| {
+            n.to_string_lossy().into_owned()
+        });
+        let label = seed.map_or(name.clone(), |s| format!("{name} (seed {s})"));
+        runs.push((label, rows));
+    }
+    if let Some(out) = side_by_side {
+        crate::convergence::runs::write(out, &runs)?;
+        println!("wrote {}/runs.md and runs_*.svg", out.display());
+    }
     Ok(())
 }
 

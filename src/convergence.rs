@@ -7,6 +7,8 @@
 //! the next call (a study of a run still training picks up only its new checkpoints). The
 //! table lands in `convergence.md` / `convergence.json`, the plots in `convergence_*.svg`.
 
+pub mod runs;
+
 use crate::cli::ObserverKind;
 use crate::config::RunConfig;
 use crate::invariants::{self, Recovery};
@@ -371,6 +373,19 @@ mod tests {
             before
         );
         assert_eq!(again.len(), 2);
+        // Two runs side by side: a line per run in each plot, every row of each in runs.md.
+        let side = dir.join("side");
+        let runs = [("a".to_string(), rows.clone()), ("b".to_string(), again)];
+        runs::write(&side, &runs).unwrap();
+        let svg = std::fs::read_to_string(side.join("runs_c_recall.svg")).unwrap();
+        assert!(svg.contains(">a<") && svg.contains(">b<"), "{svg}");
+        let md = std::fs::read_to_string(side.join("runs.md")).unwrap();
+        let body: Vec<&str> = md.lines().skip(2).collect();
+        assert_eq!(body.len(), 4, "{md}");
+        assert!(
+            body[0].starts_with("| 10 | a |") && body[3].starts_with("| 20 | b |"),
+            "{md}"
+        );
         std::fs::remove_dir_all(&dir).ok();
     }
 }
