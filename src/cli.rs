@@ -86,7 +86,8 @@ pub struct ResumeOptions {
 #[derive(Debug, Clone, Default, Args)]
 pub struct CommonOptions {
     /// Named set of settings: tiny (tests, seconds), quick (CPU default, 6 000 steps), long (the
-    /// quick eye trained to convergence, 40 000 steps; the experiments' default), sandbox
+    /// quick eye trained 40 000 steps, until prediction and invariants plateau; the
+    /// experiments' default), sandbox
     /// (official sandbox: no foveation, no lateral inhibition, oracle motion), paper (256×256
     /// cones).
     #[arg(long)]

@@ -69,8 +69,8 @@ pub const EXPERIMENTS: &[(&str, &str)] = &[
 ];
 
 /// The preset of every training experiment unless `--preset` says otherwise: the quick eye
-/// trained to convergence ([`crate::config::LONG_STEPS`] steps), since the paper's table is of
-/// converged cortices. `--preset quick` (6 000 steps) gives a fast, unconverged version.
+/// trained until its prediction and invariants plateau ([`crate::config::LONG_STEPS`] steps),
+/// since the paper's table is of converged cortices. `--preset quick` (6 000 steps) gives a fast, unconverged version.
 pub const EXPERIMENT_PRESET: &str = "long";
 
 fn with_cones(options: &CommonOptions, cones: &str) -> CommonOptions {
