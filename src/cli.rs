@@ -56,6 +56,10 @@ pub enum Command {
     /// cone fundamentals and the oracle decoder through the same eye (into --out, or
     /// DIR/stiles-burch/).
     StilesBurch(RunDirOptions),
+    /// Average the parameters of a run's checkpoints (`--steps a,b,…`: weight averaging of a
+    /// plateau) and measure the averaged cortex: CMF-SIM with the run's full budget and the
+    /// learned invariants (into --out, or DIR/average/).
+    Average(AverageOptions),
     /// Run a named experiment of the paper (see `colorvision experiment list`).
     Experiment(ExperimentOptions),
     /// Continue a stopped `run` or `train` from the newest valid checkpoint of its folder
@@ -222,6 +226,20 @@ pub struct ConvergenceOptions {
     /// With `--cmf`: only at these steps (comma-separated), e.g. `--cmf-steps 4000,16000`.
     #[arg(long, value_delimiter = ',')]
     pub cmf_steps: Vec<u64>,
+}
+
+/// Options of `average`.
+#[derive(Debug, Clone, Args)]
+pub struct AverageOptions {
+    /// The trained run folder.
+    #[arg(long)]
+    pub run: PathBuf,
+    /// The checkpoints to average, by step (comma-separated, at least two).
+    #[arg(long, value_delimiter = ',', required = true)]
+    pub steps: Vec<u64>,
+    /// Where to write (default DIR/average/).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
 }
 
 /// Options of `w-dc-gauge`.

@@ -5,6 +5,7 @@
 //! dimensionality that emerges. This crate implements the black-box observer CMF-SIM probes
 //! (retina + learned cortex), the command line, and the run folders.
 
+pub mod averaging;
 pub mod cli;
 pub mod commands;
 pub mod config;

@@ -20,6 +20,7 @@ fn main() {
         Command::Convergence(o) => commands::convergence(o),
         Command::WDcGauge(o) => colorvision::w_gauge::w_dc_gauge(&o.run, o.steps).map(|_| ()),
         Command::StilesBurch(o) => colorvision::stiles_burch::command(o).map(|_| ()),
+        Command::Average(o) => colorvision::averaging::command(o),
         Command::Experiment(o) => commands::experiment(o),
         Command::Resume(o) => commands::resume(o),
         Command::Sweep(o) => commands::sweep(o),

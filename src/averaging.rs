@@ -1,0 +1,174 @@
+//! Weight averaging of a run's late checkpoints (`colorvision average --run DIR --steps
+//! a,b,c,…`): the cortex whose every parameter is the mean of that parameter over the named
+//! checkpoints, measured like a checkpoint — the calibrated CMF-SIM with the run's full budget
+//! and the learned invariants.
+//!
+//! Why: with a constant learning rate the weights keep moving with the minibatch noise, and a
+//! measurement of one checkpoint sees one draw of that noise. Averaging the checkpoints of a
+//! plateau (stochastic weight averaging, Izmailov et al. 2018) estimates the centre the weights
+//! move around. It is a way to read out a trained model, applied identically to every run; it
+//! reads only the run's own checkpoints, never the eye.
+//!
+//! Output, in `--out` or `DIR/average/`: `checkpoints/step_<last>/` (the averaged parameters,
+//! the last checkpoint's Adam state and metadata), `cmf_sim.json` and its plot, `average.json`
+//! (the steps averaged, the dimension, the margins and the invariants).
+
+use crate::cli::{AverageOptions, ObserverKind};
+use crate::measurement_dir::measurement_dir;
+use crate::run_error::RunError;
+use cortex::Trainer;
+use retina::Retina;
+use std::path::{Path, PathBuf};
+
+/// Sets every parameter of `into` to the mean of that parameter over `into` and `others`.
+/// Panics when a parameter's name or shape differs (checkpoints of one run never do).
+pub fn average_into(into: &mut Trainer, others: &[Trainer]) {
+    let n = (others.len() + 1) as f64;
+    let ids: Vec<_> = into.cortex.params.ids().collect();
+    for id in ids {
+        let name = into.cortex.params.name(id).to_string();
+        let mut sum: Vec<f64> = into
+            .cortex
+            .params
+            .get(id)
+            .data()
+            .iter()
+            .map(|&x| x as f64)
+            .collect();
+        for other in others {
+            let o = other.cortex.params.get(id);
+            assert_eq!(
+                other.cortex.params.name(id),
+                name,
+                "average: parameter order differs"
+            );
+            assert_eq!(
+                o.data().len(),
+                sum.len(),
+                "average: {name} has another shape"
+            );
+            for (s, &x) in sum.iter_mut().zip(o.data()) {
+                *s += x as f64;
+            }
+        }
+        for (dst, s) in into
+            .cortex
+            .params
+            .get_mut(id)
+            .data_mut()
+            .iter_mut()
+            .zip(&sum)
+        {
+            *dst = (s / n) as f32;
+        }
+    }
+}
+
+/// The checkpoint folder of `step` in run folder `dir`.
+fn checkpoint_path(dir: &Path, step: u64) -> Result<PathBuf, RunError> {
+    let path = dir
+        .join("checkpoints")
+        .join(cortex::checkpoint::checkpoint_name(step));
+    match path.is_dir() {
+        true => Ok(path),
+        false => Err(RunError::invalid(
+            "--steps",
+            format!("{} holds no checkpoint of step {step}", dir.display()),
+        )),
+    }
+}
+
+/// `colorvision average`.
+pub fn command(options: &AverageOptions) -> Result<(), RunError> {
+    if options.steps.len() < 2 {
+        return Err(RunError::invalid(
+            "--steps",
+            "name at least two checkpoints to average",
+        ));
+    }
+    let dir = &options.run;
+    let out = measurement_dir(dir, options.out.as_ref(), "average")?;
+    let lock = crate::run_lock::RunLock::acquire(dir)?;
+    let (config, _, _) = crate::run_folder::load_run(dir)?;
+    let mut steps = options.steps.clone();
+    steps.sort_unstable();
+    let paths = steps
+        .iter()
+        .map(|&s| checkpoint_path(dir, s))
+        .collect::<Result<Vec<_>, _>>()?;
+    let load = |p: &PathBuf| Trainer::continue_from(p, Some(config.cortex.clone()));
+    let mut last = load(paths.last().expect("two or more"))?;
+    let others = paths[..paths.len() - 1]
+        .iter()
+        .map(load)
+        .collect::<Result<Vec<_>, _>>()?;
+    drop(lock);
+    average_into(&mut last, &others);
+    let checkpoint = last.save_checkpoint_with(&out.join("checkpoints"), None, None)?;
+    println!(
+        "averaged {} checkpoints (steps {steps:?}) into {}",
+        paths.len(),
+        checkpoint.display()
+    );
+    let retina = Retina::new(config.retina.clone())?;
+    let recovery = crate::invariants::measure(&last.cortex, &retina);
+    for line in recovery.describe() {
+        println!("  {line}");
+    }
+    let r = crate::ladder::measure_observer(&config, ObserverKind::Cortex, Some(&last))?;
+    crate::io::save_into(&out, |d| Ok::<_, RunError>(r.save(d).map(|_| ())?))?;
+    let margins: Vec<(usize, f64)> = r
+        .per_k
+        .iter()
+        .map(|k| (k.n_primaries, k.converged_worst_ratio))
+        .collect();
+    println!(
+        "  CMF-SIM: dimension {} ({}); margins {margins:?}",
+        r.dimension, r.verdict
+    );
+    let json = serde_json::json!({
+        "steps": steps,
+        "dimension": r.dimension,
+        "verdict": r.verdict,
+        "margins": margins,
+        "invariants": recovery,
+    });
+    crate::io::write_json(&out.join("average.json"), &json)?;
+    println!("wrote {}/", out.display());
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_parameter_becomes_the_mean_of_the_checkpoints() {
+        let config = crate::config::RunConfig::preset("tiny", "LMS")
+            .unwrap()
+            .cortex;
+        let trainer = |offset: f32| {
+            let mut t = Trainer::new(config.clone()).unwrap();
+            let ids: Vec<_> = t.cortex.params.ids().collect();
+            for id in ids {
+                for (i, x) in t
+                    .cortex
+                    .params
+                    .get_mut(id)
+                    .data_mut()
+                    .iter_mut()
+                    .enumerate()
+                {
+                    *x = i as f32 + offset;
+                }
+            }
+            t
+        };
+        let mut into = trainer(0.0);
+        average_into(&mut into, &[trainer(3.0), trainer(6.0)]);
+        for id in into.cortex.params.ids() {
+            let data = into.cortex.params.get(id).data();
+            assert!(data.iter().enumerate().all(|(i, &x)| x == i as f32 + 3.0));
+        }
+    }
+}
