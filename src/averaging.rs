@@ -64,6 +64,22 @@ pub fn average_into(into: &mut Trainer, others: &[Trainer]) {
     }
 }
 
+/// Held-out batches predicted by the averaged and the single cortex alike.
+const HELDOUT_BATCHES: usize = 16;
+
+/// "next = current" error over the cortex's on [`HELDOUT_BATCHES`] held-out batches, the same
+/// batches on every call (a fresh source with the run's held-out seed).
+fn heldout_gain(config: &crate::config::RunConfig, trainer: &mut Trainer) -> Result<f64, RunError> {
+    let mut heldout = crate::source::RetinaSource::new(
+        crate::run::heldout_retina(config)?,
+        config.seed ^ 0xA5A5,
+        true,
+    );
+    let bs = config.cortex.train.batch_size;
+    let [_, _, gain] = crate::run::heldout_error(trainer, &mut heldout, bs, HELDOUT_BATCHES)?;
+    Ok(gain)
+}
+
 /// The checkpoint folder of `step` in run folder `dir`.
 fn checkpoint_path(dir: &Path, step: u64) -> Result<PathBuf, RunError> {
     let path = dir
@@ -103,7 +119,15 @@ pub fn command(options: &AverageOptions) -> Result<(), RunError> {
         .map(load)
         .collect::<Result<Vec<_>, _>>()?;
     drop(lock);
+    let mut last_alone = load(paths.last().expect("two or more"))?;
     average_into(&mut last, &others);
+    // Both cortices predict the same held-out batches: is the average as good a predictor?
+    let alone = heldout_gain(&config, &mut last_alone)?;
+    let averaged = heldout_gain(&config, &mut last)?;
+    println!(
+        "  held-out prediction gain over \"next = current\": {averaged:.2} averaged, {alone:.2} at step {}",
+        steps.last().expect("two or more")
+    );
     let checkpoint = last.save_checkpoint_with(&out.join("checkpoints"), None, None)?;
     println!(
         "averaged {} checkpoints (steps {steps:?}) into {}",
@@ -128,6 +152,8 @@ pub fn command(options: &AverageOptions) -> Result<(), RunError> {
     );
     let json = serde_json::json!({
         "steps": steps,
+        "heldout_gain_averaged": averaged,
+        "heldout_gain_last_checkpoint": alone,
         "dimension": r.dimension,
         "verdict": r.verdict,
         "margins": margins,
