@@ -117,8 +117,8 @@ pub const PRESETS: [&str; 5] = ["tiny", "quick", "long", "sandbox", "paper"];
 /// Steps of the `long` preset: the quick eye trained until the convergence study of
 /// docs/measurements.md (three seeds) finds its held-out prediction gain flat (10–11 from
 /// 16 000 steps on) and the learned invariants settled (C recall ≥ 0.97, P 0.3–0.4 cone
-/// spacings). Its CMF-SIM dimension is not settled there: from 24 000 to 40 000 steps each seed
-/// alternates between 2 and 3. The default `quick` run stops at 6 000 steps to stay within
+/// spacings). Its CMF-SIM dimension is not settled there: from 24 000 to 40 000 steps the seeds'
+/// checkpoints fall on either side of the border between 2 and 3. The default `quick` run stops at 6 000 steps to stay within
 /// half an hour on 2 cores.
 pub const LONG_STEPS: u64 = 40_000;
 
@@ -295,7 +295,7 @@ mod tests {
     }
 
     #[test]
-    fn long_is_the_quick_eye_and_cortex_trained_to_convergence() {
+    fn long_is_the_quick_eye_and_cortex_trained_to_their_plateau() {
         let quick = RunConfig::preset("quick", "LMS").unwrap();
         let long = RunConfig::preset("long", "LMS").unwrap();
         assert_eq!(
