@@ -70,11 +70,7 @@ const HELDOUT_BATCHES: usize = 16;
 /// "next = current" error over the cortex's on [`HELDOUT_BATCHES`] held-out batches, the same
 /// batches on every call (a fresh source with the run's held-out seed).
 fn heldout_gain(config: &crate::config::RunConfig, trainer: &mut Trainer) -> Result<f64, RunError> {
-    let mut heldout = crate::source::RetinaSource::new(
-        crate::run::heldout_retina(config)?,
-        config.seed ^ 0xA5A5,
-        true,
-    );
+    let mut heldout = crate::run::heldout_source(config, true)?;
     let bs = config.cortex.train.batch_size;
     let [_, _, gain] = crate::run::heldout_error(trainer, &mut heldout, bs, HELDOUT_BATCHES)?;
     Ok(gain)
@@ -96,18 +92,19 @@ fn checkpoint_path(dir: &Path, step: u64) -> Result<PathBuf, RunError> {
 
 /// `colorvision average`.
 pub fn command(options: &AverageOptions) -> Result<(), RunError> {
-    if options.steps.len() < 2 {
+    let mut steps = options.steps.clone();
+    steps.sort_unstable();
+    steps.dedup();
+    if steps.len() < 2 {
         return Err(RunError::invalid(
             "--steps",
-            "name at least two checkpoints to average",
+            "name at least two different checkpoints to average",
         ));
     }
     let dir = &options.run;
     let out = measurement_dir(dir, options.out.as_ref(), "average")?;
     let lock = crate::run_lock::RunLock::acquire(dir)?;
-    let (config, _, _) = crate::run_folder::load_run(dir)?;
-    let mut steps = options.steps.clone();
-    steps.sort_unstable();
+    let config = crate::run_folder::read_valid_config(dir)?;
     let paths = steps
         .iter()
         .map(|&s| checkpoint_path(dir, s))
@@ -119,10 +116,10 @@ pub fn command(options: &AverageOptions) -> Result<(), RunError> {
         .map(load)
         .collect::<Result<Vec<_>, _>>()?;
     drop(lock);
-    let mut last_alone = load(paths.last().expect("two or more"))?;
+    // The last checkpoint alone, then the average, predict the same held-out batches: is the
+    // average as good a predictor?
+    let alone = heldout_gain(&config, &mut last)?;
     average_into(&mut last, &others);
-    // Both cortices predict the same held-out batches: is the average as good a predictor?
-    let alone = heldout_gain(&config, &mut last_alone)?;
     let averaged = heldout_gain(&config, &mut last)?;
     println!(
         "  held-out prediction gain over \"next = current\": {averaged:.2} averaged, {alone:.2} at step {}",

@@ -292,11 +292,7 @@ pub fn scope(options: &RunDirOptions) -> Result<(), RunError> {
     let dir = measurement_dir(&options.run, options.common.out.as_ref(), "scope")?;
     let (config, trainer, _) = load_run(&options.run)?;
     let retina = Retina::new(config.retina.clone())?;
-    let mut heldout = crate::source::RetinaSource::new(
-        run::heldout_retina(&config)?,
-        config.seed ^ 0xA5A5,
-        false,
-    );
+    let mut heldout = run::heldout_source(&config, false)?;
     let inv = crate::pictures::write_all(&dir, &config, &retina, &mut heldout, &trainer)?;
     println!("Neural Scope pictures in {}", dir.display());
     println!(

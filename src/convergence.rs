@@ -74,11 +74,7 @@ impl CmfAt {
 /// Measures every checkpoint of the run folder `dir` (CMF-SIM where `cmf` says), writes the
 /// table and plots, and returns the rows in step order.
 pub fn study(dir: &Path, cmf: &CmfAt) -> Result<Vec<StudyRow>, RunError> {
-    let config = crate::run_folder::read_config(dir)?;
-    config.validate().map_err(|e| RunError::Folder {
-        path: dir.join("config.toml"),
-        reason: e.to_string(),
-    })?;
+    let config = crate::run_folder::read_valid_config(dir)?;
     let retina = Retina::new(config.retina.clone())?;
     let gains = heldout_gains(&dir.join("metrics.csv"));
     let out = dir.join("convergence");

@@ -144,6 +144,28 @@ pub const LADDER: &[Rung] = &[
     ),
 ];
 
+/// The oracle decoder of `retina` (with or without per-class interpolation), its embedding
+/// drawn from CMF-SIM's seed.
+pub fn oracle_decoder(
+    retina: &Retina,
+    config: &RunConfig,
+    interpolate: bool,
+) -> Result<OracleDecoder, RunError> {
+    OracleDecoder::new(retina, interpolate, config.cmf_sim.seed)
+        .map_err(|e| RunError::invalid("cones", e.to_string()))
+}
+
+/// This eye's own cone fundamentals (the classes of its mosaic, its template and lens) as an
+/// observer whose percept is the cone excitations: no mosaic, no noise.
+pub fn own_fundamentals(retina: &Retina, config: &RunConfig) -> Result<ConeObserver, RunError> {
+    let grid = config.retina.grid.grid()?;
+    Ok(ConeObserver::new(
+        &retina.mosaic.classes,
+        &config.retina.template,
+        &grid,
+    )?)
+}
+
 /// CMF-SIM of one observer through the eye of `config` (the cortex from `trainer`).
 pub fn measure_observer(
     config: &RunConfig,
@@ -155,10 +177,7 @@ pub fn measure_observer(
         eye.scenes.tiles = 1; // the stimuli are discs: no scenes needed
     }
     let retina = Retina::new(eye)?;
-    let oracle = |interpolate: bool| {
-        OracleDecoder::new(&retina, interpolate, config.cmf_sim.seed)
-            .map_err(|e| RunError::invalid("cones", e.to_string()))
-    };
+    let oracle = |interpolate: bool| oracle_decoder(&retina, config, interpolate);
     let decoder = match (kind, trainer) {
         (ObserverKind::Cortex, Some(t)) => Decoder::Cortex(&t.cortex),
         (ObserverKind::Cortex, None) => panic!("measure_observer: the cortex needs a trainer"),
@@ -167,9 +186,7 @@ pub fn measure_observer(
         (ObserverKind::Oracle, _) => Decoder::Oracle(oracle(true)?),
         (ObserverKind::OracleMosaic, _) => Decoder::Oracle(oracle(false)?),
         (ObserverKind::Analytic, _) => {
-            let grid = config.retina.grid.grid()?;
-            let observer =
-                ConeObserver::new(&retina.mosaic.classes, &config.retina.template, &grid)?;
+            let observer = own_fundamentals(&retina, config)?;
             return Ok(run_cmf_sim(&observer, &config.cmf_sim)?);
         }
     };

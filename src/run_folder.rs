@@ -198,13 +198,20 @@ pub fn open(out: &Path, config: &RunConfig, folder: Folder) -> Result<Opened, Ru
     }
 }
 
-/// Loads the config and last checkpoint of a run folder.
-pub fn load_run(dir: &Path) -> Result<(RunConfig, Trainer, PathBuf), RunError> {
+/// [`read_config`], validated: a setting the code no longer accepts names the folder's
+/// `config.toml`.
+pub fn read_valid_config(dir: &Path) -> Result<RunConfig, RunError> {
     let config = read_config(dir)?;
     config.validate().map_err(|e| RunError::Folder {
         path: dir.join("config.toml"),
         reason: e.to_string(),
     })?;
+    Ok(config)
+}
+
+/// Loads the config and last checkpoint of a run folder.
+pub fn load_run(dir: &Path) -> Result<(RunConfig, Trainer, PathBuf), RunError> {
+    let config = read_valid_config(dir)?;
     let checkpoints = dir.join("checkpoints");
     let valid = match cortex::checkpoint::latest_valid(&checkpoints)? {
         Ok(v) => v,

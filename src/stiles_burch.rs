@@ -20,16 +20,14 @@
 
 use crate::cli::RunDirOptions;
 use crate::config::RunConfig;
+use crate::ladder::{oracle_decoder, own_fundamentals};
 use crate::measurement_dir::measurement_dir;
-use crate::observer::oracle::OracleDecoder;
 use crate::observer::{Decoder, EyeObserver};
 use crate::run_error::RunError;
 use colorimetry::analytic::ConeObserver;
-use colorimetry::{
-    compare_stiles_burch, ConeTemplate, Observer, StilesBurchSettings, WavelengthGrid,
-};
+use colorimetry::{compare_stiles_burch, ConeTemplate, Observer, StilesBurchSettings};
 use cortex::Cortex;
-use retina::{MosaicSpec, Retina};
+use retina::Retina;
 use serde::Serialize;
 use std::path::Path;
 
@@ -48,10 +46,10 @@ pub struct Row {
 /// `out`; the rows in the module docs' order.
 pub fn compare(config: &RunConfig, cortex: &Cortex, out: &Path) -> Result<Vec<Row>, RunError> {
     let retina = Retina::new(config.retina.clone())?;
-    let [human, own] = fundamentals(config, retina.grid())?;
-    let oracle = OracleDecoder::new(&retina, true, config.cmf_sim.seed)
-        .map_err(|e| RunError::invalid("cones", e.to_string()))?;
-    let oracle = EyeObserver::new(&retina, Decoder::Oracle(oracle), config.observer.clone());
+    let human = human_standard(config)?;
+    let own = own_fundamentals(&retina, config)?;
+    let oracle = Decoder::Oracle(oracle_decoder(&retina, config, true)?);
+    let oracle = EyeObserver::new(&retina, oracle, config.observer.clone());
     let trained = EyeObserver::cortex(&retina, cortex, config.observer.clone());
     let observers: [(&str, &dyn Observer); 4] = [
         ("stockman_sharpe", &human),
@@ -79,24 +77,15 @@ pub fn compare(config: &RunConfig, cortex: &Cortex, out: &Path) -> Result<Vec<Ro
     Ok(rows)
 }
 
-/// The human standard's cone fundamentals and this eye's own (its classes, template and lens),
-/// each as an observer whose percept is the cone excitations.
-fn fundamentals(config: &RunConfig, grid: &WavelengthGrid) -> Result<[ConeObserver; 2], RunError> {
-    let spec = MosaicSpec::parse(&config.cones)?;
-    let classes = spec
-        .class_names()
-        .iter()
-        .map(|name| spec.class(name))
-        .collect::<Result<Vec<_>, _>>()?;
-    let human = ConeObserver::new(
+/// The human standard cone fundamentals (Stockman & Sharpe 2000, 2°) as an observer whose
+/// percept is the cone excitations, on the eye's wavelength grid.
+fn human_standard(config: &RunConfig) -> Result<ConeObserver, RunError> {
+    let grid = config.retina.grid.grid()?;
+    Ok(ConeObserver::new(
         &colorimetry::ConeClass::lms(),
         &ConeTemplate::StockmanSharpe2deg,
-        grid,
-    )?;
-    Ok([
-        human,
-        ConeObserver::new(&classes, &config.retina.template, grid)?,
-    ])
+        &grid,
+    )?)
 }
 
 /// The rows as a Markdown table, with the trained cortex's r as a fraction of the ceiling's.
@@ -144,13 +133,20 @@ mod tests {
         std::array::from_fn(|c| r.channels[c].correlation)
     }
 
+    /// The two cone-fundamental observers of `config`'s eye (scenes are not needed).
+    fn fundamentals(mut config: RunConfig) -> [ConeObserver; 2] {
+        config.retina.scenes.tiles = 1;
+        let retina = Retina::new(config.retina.clone()).unwrap();
+        let own = own_fundamentals(&retina, &config).unwrap();
+        [human_standard(&config).unwrap(), own]
+    }
+
     #[test]
     fn the_ceiling_is_the_eyes_own_fundamentals() {
-        let mut config = RunConfig::preset("tiny", "LMS").unwrap();
-        let grid = config.retina.grid.grid().unwrap();
         // An eye built with the human standard's fundamentals has the standard as its ceiling.
+        let mut config = RunConfig::preset("tiny", "LMS").unwrap();
         config.retina.template = ConeTemplate::StockmanSharpe2deg;
-        let [human, own] = fundamentals(&config, &grid).unwrap();
+        let [human, own] = fundamentals(config);
         let standard = correlations(&human);
         assert_eq!(correlations(&own), standard);
         // Stiles & Burch's CMFs are a linear transform of the standard fundamentals (up to
@@ -158,8 +154,7 @@ mod tests {
         assert!(standard.iter().all(|&r| r > 0.95), "{standard:?}");
         // The default eye's cones (Carroll/Neitz templates, peaks 560/530/419 nm) are not the
         // standard's: its ceiling differs.
-        let config = RunConfig::preset("tiny", "LMS").unwrap();
-        let [_, own] = fundamentals(&config, &grid).unwrap();
+        let [_, own] = fundamentals(RunConfig::preset("tiny", "LMS").unwrap());
         assert_ne!(correlations(&own), standard);
     }
 

@@ -19,8 +19,10 @@ const RUN_COLOURS: [&str; 8] = [
     "#0072B2", "#D55E00", "#009E73", "#CC79A7", "#E69F00", "#56B4E9", "#F0E442", "#000000",
 ];
 
-/// A measure read off one checkpoint, with the title and y label of its plot.
+/// A measure read off one checkpoint: its column in `runs.md` (with its decimals) and its plot.
 struct Measure {
+    column: &'static str,
+    digits: usize,
     file: &'static str,
     title: &'static str,
     y_label: &'static str,
@@ -30,6 +32,8 @@ struct Measure {
 
 const MEASURES: [Measure; 5] = [
     Measure {
+        column: "gain",
+        digits: 1,
         file: "runs_gain.svg",
         title: "Held-out prediction error of \"next = current\" over the cortex's",
         y_label: "gain (×)",
@@ -37,6 +41,8 @@ const MEASURES: [Measure; 5] = [
         value: |r| r.heldout_gain,
     },
     Measure {
+        column: "C worst recall",
+        digits: 2,
         file: "runs_c_recall.svg",
         title: "C: worst per-class recall by nearest class centre (1 = recovered)",
         y_label: "recall",
@@ -49,6 +55,8 @@ const MEASURES: [Measure; 5] = [
         },
     },
     Measure {
+        column: "W surround r",
+        digits: 2,
         file: "runs_w_surround.svg",
         title: "W: surround r against the eye's DoG (1 = recovered)",
         y_label: "r",
@@ -56,6 +64,8 @@ const MEASURES: [Measure; 5] = [
         value: |r| r.recovery.w.as_ref().map(|w| w.surround_r),
     },
     Measure {
+        column: "P error",
+        digits: 2,
         file: "runs_p_error.svg",
         title: "P: position error after the affine gauge",
         y_label: "cone spacings RMS",
@@ -63,6 +73,8 @@ const MEASURES: [Measure; 5] = [
         value: |r| Some(r.recovery.p.position_error_rms_cones),
     },
     Measure {
+        column: "CMF-SIM",
+        digits: 0,
         file: "runs_dimension.svg",
         title: "CMF-SIM: colour dimensionality where measured",
         y_label: "dimension",
@@ -102,23 +114,18 @@ pub fn table(runs: &[(String, Vec<StudyRow>)]) -> String {
         .flat_map(|(label, rows)| rows.iter().map(move |r| (r.step, label.as_str(), r)))
         .collect();
     rows.sort_by_key(|&(step, _, _)| step);
-    let mut md = String::from(
-        "| step | run | gain | CMF-SIM | C worst recall | W surround r | P error |\n\
-         |---|---|---|---|---|---|---|\n",
+    let columns: Vec<&str> = MEASURES.iter().map(|m| m.column).collect();
+    let mut md = format!(
+        "| step | run | {} |\n|{}\n",
+        columns.join(" | "),
+        "---|".repeat(columns.len() + 2)
     );
-    let cell = |v: Option<f64>, digits: usize| v.map_or("-".into(), |v| format!("{v:.digits$}"));
     for (step, label, r) in rows {
-        let _ = writeln!(
-            md,
-            "| {step} | {label} | {} | {} | {} | {} | {} |",
-            cell((MEASURES[0].value)(r), 1),
-            r.cmf
-                .as_ref()
-                .map_or("-".into(), |c| format!("{}", c.dimension)),
-            cell((MEASURES[1].value)(r), 2),
-            cell((MEASURES[2].value)(r), 2),
-            cell((MEASURES[3].value)(r), 2),
-        );
+        let cells: Vec<String> = MEASURES
+            .iter()
+            .map(|m| (m.value)(r).map_or("-".into(), |v| format!("{v:.*}", m.digits)))
+            .collect();
+        let _ = writeln!(md, "| {step} | {label} | {} |", cells.join(" | "));
     }
     md
 }

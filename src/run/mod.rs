@@ -122,10 +122,20 @@ pub struct Summary {
 }
 
 /// A held-out eye: the same mosaic and layout, different scenes.
-pub fn heldout_retina(config: &RunConfig) -> Result<Retina, RunError> {
+fn heldout_retina(config: &RunConfig) -> Result<Retina, RunError> {
     let mut c = config.retina.clone();
     c.scene_seed = c.scene_seed.wrapping_add(0x005E_ED0F_0E1D);
     Ok(Retina::new(c)?)
+}
+
+/// The run's held-out batches (the held-out eye, its own batch seed), the same sequence on
+/// every call; with `true_motion` each batch carries the eye's motion for evaluation.
+pub fn heldout_source(config: &RunConfig, true_motion: bool) -> Result<RetinaSource, RunError> {
+    Ok(RetinaSource::new(
+        heldout_retina(config)?,
+        config.seed ^ 0xA5A5,
+        true_motion,
+    ))
 }
 
 /// The last CMF-SIM measurement, as the summary reports it.
@@ -244,7 +254,7 @@ pub fn run_in(
     let source = RetinaSource::new(retina, config.seed, config.oracle_motion);
     // Held-out batches carry the true motion for evaluation (the estimator's error); the
     // cortex reads it only when the run itself uses the oracle.
-    let heldout = RetinaSource::new(heldout_retina(config)?, config.seed ^ 0xA5A5, true);
+    let heldout = heldout_source(config, true)?;
     std::fs::create_dir_all(out).map_err(crate::io::fs_err(out))?;
     for p in crate::io::clean_stale_temps(out)? {
         println!(
