@@ -28,12 +28,12 @@ pub struct Cli {
 pub enum Command {
     /// Simulate an eye, train the cortex on its optic nerve signal, measure the colour
     /// dimensionality with CMF-SIM at checkpoints, and write a run folder with summary.json.
-    Run(CommonOptions),
+    Run(RunOptions),
     /// Simulate the eye only and write a picture of every stage (scene, mosaic, cone
     /// activations, lateral inhibition, ON/OFF spikes, ONS) and ONS frames under eye motion.
     Simulate(CommonOptions),
     /// Train the cortex (no CMF-SIM): progress bar, metrics.csv, checkpoints, pictures.
-    Train(CommonOptions),
+    Train(RunOptions),
     /// Run CMF-SIM on a trained run folder (`--run DIR`) or on an observer whose answer is
     /// known (`--observer identity|cones|oracle|oracle-mosaic|analytic`, with `--cones`), and
     /// write cmf_sim.json and SVG plots (into --out, or DIR/cmf-sim/ for a run folder; the
@@ -72,6 +72,21 @@ pub enum Command {
     /// under DIR from its summary.json: the settings that vary, dimension and margins,
     /// prediction gain, invariants, status.
     Gather(crate::gather::GatherOptions),
+}
+
+/// Options of `run` and `train`.
+#[derive(Debug, Clone, Default, Args)]
+pub struct RunOptions {
+    /// The settings and output folder.
+    #[command(flatten)]
+    pub common: CommonOptions,
+    /// Start from the cortex of another run instead of a fresh one: a checkpoint folder, or a
+    /// run folder (its newest valid checkpoint). The eye may differ (gene therapy: an MS cortex
+    /// on an eye where L replaces some M; boosting: an LMS cortex on an LMSQ eye) but the
+    /// cortex's shape must match. Adam starts afresh and the step count continues from the
+    /// checkpoint's; `--steps` counts this run's steps.
+    #[arg(long, value_name = "PATH")]
+    pub continue_from: Option<PathBuf>,
 }
 
 /// Options of `resume`.

@@ -2,7 +2,7 @@
 
 use crate::cli::{
     CmfSimOptions, CommonOptions, ConvergenceOptions, ExperimentOptions, ObserverKind, ReadoutArg,
-    ResumeOptions, RunDirOptions,
+    ResumeOptions, RunDirOptions, RunOptions,
 };
 use crate::config::RunConfig;
 use crate::experiments;
@@ -16,12 +16,12 @@ use retina::Retina;
 use std::path::{Path, PathBuf};
 
 /// `colorvision run`: train, measure at checkpoints, summarise.
-pub fn run(options: &CommonOptions) -> Result<(), RunError> {
+pub fn run(options: &RunOptions) -> Result<(), RunError> {
     train_and_report(options, "run", RunMode::FULL)
 }
 
 /// `colorvision train`: train only (no CMF-SIM).
-pub fn train(options: &CommonOptions) -> Result<(), RunError> {
+pub fn train(options: &RunOptions) -> Result<(), RunError> {
     let mode = RunMode {
         cmf_sim: false,
         ..RunMode::FULL
@@ -29,10 +29,19 @@ pub fn train(options: &CommonOptions) -> Result<(), RunError> {
     train_and_report(options, "train", mode)
 }
 
-fn train_and_report(options: &CommonOptions, command: &str, mode: RunMode) -> Result<(), RunError> {
-    let (config, out) = resolve_run(options, command)?;
+fn train_and_report(options: &RunOptions, command: &str, mode: RunMode) -> Result<(), RunError> {
+    let (config, out) = resolve_run(&options.common, command)?;
+    let start = options
+        .continue_from
+        .as_deref()
+        .map(|path| crate::run_folder::checkpoint_to_continue(path, &config))
+        .transpose()?;
     install_signals()?;
-    let summary = run::run_in(&config, &out, mode, options.folder(), run::Origin::New)?;
+    let origin = match &start {
+        Some(checkpoint) => run::Origin::Continue(checkpoint),
+        None => run::Origin::New,
+    };
+    let summary = run::run_in(&config, &out, mode, options.common.folder(), origin)?;
     run::print_outcome(&out, &summary);
     Ok(())
 }

@@ -11,7 +11,7 @@
 //! | `baselines` | Φ = identity on the ONS; Φ = identity on cone activations; no demosaicker; (extra) a cortex trained on cone activations (LMS) | S-05, Fig. 8 |
 //! | `gene-therapy` | MS trained, then L replacing / co-expressing / mixing into 50 % of M | S-06, Fig. 6.1, 9 |
 //! | `boost` | LMS trained, then LMSQ, training continued | Fig. 6.2 |
-//! | `robustness` | L:M 1:1 and 1:2, three seeds | RS-08 |
+//! | `robustness` | L:M 1:1 and 1:2 (S on its sparse lattice), and L:M:S 1:1:1 drawn i.i.d., three seeds each | RS-08 |
 //! | `stiles-burch` | fixed primaries 444.4/526.3/645.2 nm vs Stiles & Burch 1955 (analytic and trained) | RS-08, Fig. 11 |
 //! | `w-oracle-init` | diagnostic: W starts at the eye's true DoG; does the loss keep it? | §6 (W recovered) |
 //! | `cmf-ladder` | CMF-SIM's known-answer observers through the real eye ([`crate::ladder`]) | S-04, S-05 |
@@ -53,7 +53,10 @@ pub const EXPERIMENTS: &[(&str, &str)] = &[
         "boost",
         "LMS trained, then LMSQ (pigeon Q), training continued",
     ),
-    ("robustness", "L:M 1:1 and 1:2, three seeds"),
+    (
+        "robustness",
+        "L:M 1:1 and 1:2, L:M:S 1:1:1 i.i.d.; three seeds each",
+    ),
     (
         "stiles-burch",
         "CMFs with primaries 444.4/526.3/645.2 nm vs Stiles & Burch 1955",
@@ -325,7 +328,7 @@ pub fn run_named(name: &str, options: &CommonOptions) -> Result<(), RunError> {
                 cone_sweep(
                     &o,
                     &out.join(format!("seed{seed}")),
-                    &["LMS,lm=1", "LMS,lm=0.5"],
+                    &["LMS,lm=1", "LMS,lm=0.5", "iid,L=1,M=1,S=1"],
                 )?;
             }
             Ok(())

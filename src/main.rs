@@ -1,7 +1,7 @@
 //! `colorvision`: see `colorvision --help`.
 
 use clap::Parser;
-use colorvision::cli::{Cli, Command};
+use colorvision::cli::{Cli, Command, RunOptions};
 use colorvision::commands;
 
 fn main() {
@@ -10,7 +10,10 @@ fn main() {
         eprintln!("colorvision: error: {e}");
         std::process::exit(2);
     }
-    let command = cli.command.unwrap_or(Command::Run(cli.common));
+    let command = cli.command.unwrap_or(Command::Run(RunOptions {
+        common: cli.common,
+        continue_from: None,
+    }));
     let result = match &command {
         Command::Run(o) => commands::run(o),
         Command::Simulate(o) => commands::simulate(o),

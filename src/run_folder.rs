@@ -209,9 +209,9 @@ pub fn read_valid_config(dir: &Path) -> Result<RunConfig, RunError> {
     Ok(config)
 }
 
-/// Loads the config and last checkpoint of a run folder.
-pub fn load_run(dir: &Path) -> Result<(RunConfig, Trainer, PathBuf), RunError> {
-    let config = read_valid_config(dir)?;
+/// The newest checkpoint of the run folder `dir` that verifies (newer ones that do not are
+/// reported and skipped).
+pub fn newest_valid_checkpoint(dir: &Path) -> Result<PathBuf, RunError> {
     let checkpoints = dir.join("checkpoints");
     let valid = match cortex::checkpoint::latest_valid(&checkpoints)? {
         Ok(v) => v,
@@ -231,8 +231,36 @@ pub fn load_run(dir: &Path) -> Result<(RunConfig, Trainer, PathBuf), RunError> {
             path.display()
         );
     }
-    let trainer = Trainer::continue_from(&valid.path, Some(config.cortex.clone()))?;
-    Ok((config, trainer, valid.path))
+    Ok(valid.path)
+}
+
+/// The checkpoint `--continue-from PATH` names: PATH itself when it is a checkpoint folder
+/// (it holds `meta.json`), else the newest valid checkpoint of the run folder PATH. Checked
+/// before any work: it verifies and its parameters load into the cortex `config` describes
+/// (the same shapes), so a run that cannot start writes nothing.
+pub fn checkpoint_to_continue(path: &Path, config: &RunConfig) -> Result<PathBuf, RunError> {
+    let checkpoint = if path.join("meta.json").is_file() {
+        path.to_path_buf()
+    } else if path.join("checkpoints").is_dir() {
+        newest_valid_checkpoint(path)?
+    } else {
+        return Err(RunError::Folder {
+            path: path.to_path_buf(),
+            reason: "--continue-from needs a checkpoint folder (with meta.json) or a run folder \
+                     (with checkpoints/)"
+                .into(),
+        });
+    };
+    Trainer::continue_from(&checkpoint, Some(config.cortex.clone()))?;
+    Ok(checkpoint)
+}
+
+/// Loads the config and last checkpoint of a run folder.
+pub fn load_run(dir: &Path) -> Result<(RunConfig, Trainer, PathBuf), RunError> {
+    let config = read_valid_config(dir)?;
+    let checkpoint = newest_valid_checkpoint(dir)?;
+    let trainer = Trainer::continue_from(&checkpoint, Some(config.cortex.clone()))?;
+    Ok((config, trainer, checkpoint))
 }
 
 #[cfg(test)]

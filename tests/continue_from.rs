@@ -1,0 +1,122 @@
+//! `run`/`train --continue-from PATH`: a cortex trained on one eye goes on learning on another
+//! (gene therapy, dimensionality boosting) from a run folder or a checkpoint folder; the step
+//! count continues, the run records where it started, and a start that cannot work (no
+//! checkpoint there, a cortex of another shape) stops before the output folder exists.
+
+mod common;
+
+use common::text;
+use std::path::Path;
+use std::process::{Command, Output};
+
+const BIN: &str = env!("CARGO_BIN_EXE_colorvision");
+
+fn colorvision(dir: &Path, args: &[&str]) -> Output {
+    Command::new(BIN)
+        .args(args)
+        .current_dir(dir)
+        .env_remove("COLORVISION_FAULT")
+        .output()
+        .expect("the binary runs")
+}
+
+fn continued_from(run: &Path) -> String {
+    let marker = std::fs::read_to_string(run.join("run.json")).unwrap();
+    let v: serde_json::Value = serde_json::from_str(&marker).unwrap();
+    v["continued_from"].as_str().unwrap_or_default().to_string()
+}
+
+#[test]
+fn a_cortex_continues_on_another_eye_from_a_run_or_a_checkpoint() {
+    let dir = std::env::temp_dir().join(format!("cv_continue_from_{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let ok = |args: &[&str]| {
+        let o = colorvision(&dir, args);
+        assert!(o.status.success(), "{args:?}: {}", text(&o));
+        text(&o)
+    };
+    ok(&[
+        "train", "--preset", "tiny", "--cones", "MS", "--steps", "3", "--out", "ms",
+    ]);
+    let said = ok(&[
+        "train",
+        "--preset",
+        "tiny",
+        "--cones",
+        "MS+L_replace_M",
+        "--steps",
+        "2",
+        "--out",
+        "therapy",
+        "--continue-from",
+        "ms",
+    ]);
+    assert!(said.contains("continuing the cortex of"), "{said}");
+    // From the run folder: its newest checkpoint; the step count goes on from 3.
+    assert!(continued_from(&dir.join("therapy")).ends_with("ms/checkpoints/step_00000003"));
+    assert!(dir
+        .join("therapy/checkpoints/step_00000005/meta.json")
+        .is_file());
+    // From a checkpoint folder named directly.
+    ok(&[
+        "train",
+        "--preset",
+        "tiny",
+        "--cones",
+        "LMSQ",
+        "--steps",
+        "1",
+        "--out",
+        "boost",
+        "--continue-from",
+        "therapy/checkpoints/step_00000005",
+    ]);
+    assert!(continued_from(&dir.join("boost")).ends_with("therapy/checkpoints/step_00000005"));
+    assert!(dir
+        .join("boost/checkpoints/step_00000006/meta.json")
+        .is_file());
+
+    let refused = |args: &[&str], out: &str, names: &[&str]| {
+        let o = colorvision(&dir, args);
+        assert!(!o.status.success(), "{args:?} ran");
+        for n in names {
+            assert!(text(&o).contains(n), "{args:?}: `{n}` not in {}", text(&o));
+        }
+        assert!(!dir.join(out).exists(), "{args:?} wrote {out}");
+    };
+    refused(
+        &[
+            "train",
+            "--preset",
+            "tiny",
+            "--steps",
+            "1",
+            "--out",
+            "none",
+            "--continue-from",
+            "nowhere",
+        ],
+        "none",
+        &["nowhere", "--continue-from"],
+    );
+    // The quick cortex's W is 127×127, the tiny checkpoint's 63×63.
+    refused(
+        &[
+            "train",
+            "--preset",
+            "quick",
+            "--cones",
+            "MS",
+            "--steps",
+            "1",
+            "--out",
+            "misfit",
+            "--continue-from",
+            "ms",
+        ],
+        "misfit",
+        &["params.safetensors", "shape"],
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
