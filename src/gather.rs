@@ -17,6 +17,8 @@
 //! Steps of an unfinished run are those of its newest checkpoint folder (`step_<k>`). The
 //! settings shown are those that vary between the runs ([`table::varying_keys`]). CMF-SIM's
 //! dimension 0 is shown as `undefined` with the verdict's reason (e.g. no colour constancy).
+//! A run that continued another run's cortex (`run --continue-from`, gene therapy, boosting)
+//! has the setting `continued_from`: that run's folder name and step, from its `run.json`.
 
 pub mod index;
 pub mod table;
@@ -209,6 +211,10 @@ fn read_run(dir: &Path, folder: String) -> Run {
         },
         |v| flatten(&v),
     );
+    let mut settings = settings;
+    if let Some(from) = continued_from(dir) {
+        settings.insert(CONTINUED_FROM_KEY.into(), from);
+    }
     let steps = summary
         .as_ref()
         .map(|s| s.steps)
@@ -220,6 +226,28 @@ fn read_run(dir: &Path, folder: String) -> Run {
         summary,
         settings,
     }
+}
+
+/// The setting naming the run a continued run's cortex came from.
+pub const CONTINUED_FROM_KEY: &str = "continued_from";
+
+/// `RUN @ STEP` for a run continued from `…/RUN/checkpoints/step_<STEP>` (the checkpoint's
+/// path as given when it is not laid out so); `None` for a fresh cortex or no `run.json`.
+fn continued_from(dir: &Path) -> Option<String> {
+    let text = std::fs::read_to_string(dir.join("run.json")).ok()?;
+    let marker: crate::run::RunMarker = serde_json::from_str(&text).ok()?;
+    let checkpoint = marker.continued_from?;
+    let step = checkpoint
+        .file_name()
+        .and_then(|n| n.to_str()?.strip_prefix("step_")?.parse::<u64>().ok());
+    let run = checkpoint
+        .parent()
+        .filter(|p| p.file_name().is_some_and(|n| n == "checkpoints"))
+        .and_then(|p| p.parent()?.file_name());
+    Some(match (run, step) {
+        (Some(run), Some(step)) => format!("{} @ {step}", run.to_string_lossy()),
+        _ => checkpoint.display().to_string(),
+    })
 }
 
 fn read_summary(path: &Path) -> Result<Summary, String> {

@@ -2,6 +2,7 @@
 //! (gene therapy, dimensionality boosting) from a run folder or a checkpoint folder; the step
 //! count continues, the run records where it started, and a start that cannot work (no
 //! checkpoint there, a cortex of another shape) stops before the output folder exists.
+//! `gather` shows where each continued run came from.
 
 mod common;
 
