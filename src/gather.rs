@@ -141,13 +141,25 @@ pub fn gather(dir: &Path) -> Result<Vec<Run>, RunError> {
     let mut folders = Vec::new();
     find_runs(dir, &mut folders)?;
     folders.sort();
-    Ok(folders
+    let mut runs: Vec<Run> = folders
         .iter()
         .map(|f| {
             let rel = f.strip_prefix(dir).unwrap_or(f).display().to_string();
             read_run(f, if rel.is_empty() { ".".into() } else { rel })
         })
-        .collect())
+        .collect();
+    // A run continued from a run gathered here is named by that run's row.
+    let rows: BTreeMap<PathBuf, String> = folders
+        .iter()
+        .zip(&runs)
+        .filter_map(|(f, r)| Some((f.canonicalize().ok()?, r.folder.clone())))
+        .collect();
+    for (f, run) in folders.iter().zip(runs.iter_mut()) {
+        if let Some(from) = continued_from(f, &rows) {
+            run.settings.insert(CONTINUED_FROM_KEY.into(), from);
+        }
+    }
+    Ok(runs)
 }
 
 fn is_run_folder(dir: &Path) -> bool {
@@ -211,10 +223,6 @@ fn read_run(dir: &Path, folder: String) -> Run {
         },
         |v| flatten(&v),
     );
-    let mut settings = settings;
-    if let Some(from) = continued_from(dir) {
-        settings.insert(CONTINUED_FROM_KEY.into(), from);
-    }
     let steps = summary
         .as_ref()
         .map(|s| s.steps)
@@ -231,9 +239,11 @@ fn read_run(dir: &Path, folder: String) -> Run {
 /// The setting naming the run a continued run's cortex came from.
 pub const CONTINUED_FROM_KEY: &str = "continued_from";
 
-/// `RUN @ STEP` for a run continued from `…/RUN/checkpoints/step_<STEP>` (the checkpoint's
-/// path as given when it is not laid out so); `None` for a fresh cortex or no `run.json`.
-fn continued_from(dir: &Path) -> Option<String> {
+/// `RUN @ STEP` for a run continued from `…/RUN/checkpoints/step_<STEP>`, RUN being that
+/// run's row when it is among `rows` (canonical folder → row name), else its folder name; the
+/// checkpoint's path as given when it is not laid out so. `None` for a fresh cortex or no
+/// `run.json`.
+fn continued_from(dir: &Path, rows: &BTreeMap<PathBuf, String>) -> Option<String> {
     let text = std::fs::read_to_string(dir.join("run.json")).ok()?;
     let marker: crate::run::RunMarker = serde_json::from_str(&text).ok()?;
     let checkpoint = marker.continued_from?;
@@ -243,9 +253,13 @@ fn continued_from(dir: &Path) -> Option<String> {
     let run = checkpoint
         .parent()
         .filter(|p| p.file_name().is_some_and(|n| n == "checkpoints"))
-        .and_then(|p| p.parent()?.file_name());
-    Some(match (run, step) {
-        (Some(run), Some(step)) => format!("{} @ {step}", run.to_string_lossy()),
+        .and_then(|p| p.parent());
+    let name = run.and_then(|r| {
+        let row = r.canonicalize().ok().and_then(|c| rows.get(&c).cloned());
+        row.or_else(|| Some(r.file_name()?.to_string_lossy().into_owned()))
+    });
+    Some(match (name, step) {
+        (Some(name), Some(step)) => format!("{name} @ {step}"),
         _ => checkpoint.display().to_string(),
     })
 }
