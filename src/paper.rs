@@ -10,6 +10,7 @@
 //! | LMS + Q at the pigeon's 506 nm, any environment | 4 | S-07 (Fig. 10), Fig. 6.2 |
 //! | LMS + Q at the human 545 nm: natural scenes, hue-sphere colours | 3 | S-07 (Fig. 10) |
 //! | LMS + Q at the human 545 nm: idealised tetrachromatic colours | 4 | S-07 (Fig. 10) |
+//! | LMS + Q at the human 545 nm, a trained cortex continued on it (boosting 3-D → 4-D) | 4 | Fig. 6.2 (caption: Q between M and L) |
 //! | no demosaicker (D = identity), any retina | 1 | S-05, Fig. 4.3 |
 //! | Φ = identity (the percept is the ONS) | undefined: no colour constancy | S-05 |
 //!
@@ -42,12 +43,13 @@ impl std::fmt::Display for Reported {
 }
 
 /// The dimension the paper reports for a retina `cones`, trained in `environment` (`None`:
-/// natural scenes) with the cortex `baseline` (table in the module docs); `None` when the paper
-/// has no such experiment.
+/// natural scenes) with the cortex `baseline`, from a fresh cortex or `continued` from a trained
+/// one (table in the module docs); `None` when the paper has no such experiment.
 pub fn reported_dimension(
     cones: &MosaicSpec,
     environment: Option<TetraEnvironment>,
     baseline: Baseline,
+    continued: bool,
 ) -> Option<Reported> {
     match baseline {
         Baseline::None => {}
@@ -66,7 +68,11 @@ pub fn reported_dimension(
                 Some(Reported::Dimension(4))
             } else if peak_nm == HUMAN_Q_PEAK_NM {
                 let idealised = environment == Some(TetraEnvironment::Idealised);
-                Some(Reported::Dimension(if idealised { 4 } else { 3 }))
+                Some(Reported::Dimension(if idealised || continued {
+                    4
+                } else {
+                    3
+                }))
             } else {
                 None
             }
@@ -76,8 +82,8 @@ pub fn reported_dimension(
 }
 
 /// [`reported_dimension`] for a run's settings flattened to dotted keys (`cones`,
-/// `retina.scenes.tetra.environment`, `cortex.baseline`, as `colorvision gather` reads them);
-/// `None` also when a setting does not parse.
+/// `retina.scenes.tetra.environment`, `cortex.baseline`, and `continued_from` for a continued
+/// run, as `colorvision gather` reads them); `None` also when a setting does not parse.
 pub fn reported_for_settings(settings: &BTreeMap<String, String>) -> Option<Reported> {
     let cones = MosaicSpec::parse(settings.get("cones")?).ok()?;
     let environment = match settings.get("retina.scenes.tetra.environment") {
@@ -88,7 +94,8 @@ pub fn reported_for_settings(settings: &BTreeMap<String, String>) -> Option<Repo
         None => Baseline::None,
         Some(b) => parse_enum(b)?,
     };
-    reported_dimension(&cones, environment, baseline)
+    let continued = settings.contains_key(crate::gather::CONTINUED_FROM_KEY);
+    reported_dimension(&cones, environment, baseline, continued)
 }
 
 /// A unit enum variant from its name as the run's `config.toml` writes it.
@@ -146,6 +153,30 @@ mod tests {
         assert_eq!(
             reported("LMS+Q_coexpress_LMS,Q:506", None, "none").as_deref(),
             Some("4")
+        );
+    }
+
+    #[test]
+    fn a_trained_trichromat_boosted_with_either_q_is_four_dimensional() {
+        for cones in ["LMSQ", "LMSQ,Q:506"] {
+            let mut s = BTreeMap::from([("cones".to_string(), cones.to_string())]);
+            s.insert(
+                crate::gather::CONTINUED_FROM_KEY.into(),
+                "lms @ 40000".into(),
+            );
+            assert_eq!(
+                reported_for_settings(&s).map(|r| r.to_string()).as_deref(),
+                Some("4")
+            );
+        }
+        let mut s = BTreeMap::from([("cones".to_string(), "MS+L_replace_M".to_string())]);
+        s.insert(
+            crate::gather::CONTINUED_FROM_KEY.into(),
+            "ms @ 24000".into(),
+        );
+        assert_eq!(
+            reported_for_settings(&s).map(|r| r.to_string()).as_deref(),
+            Some("3")
         );
     }
 
