@@ -6,20 +6,8 @@
 
 mod common;
 
-use common::text;
+use common::{colorvision, text};
 use std::path::Path;
-use std::process::{Command, Output};
-
-const BIN: &str = env!("CARGO_BIN_EXE_colorvision");
-
-fn colorvision(dir: &Path, args: &[&str]) -> Output {
-    Command::new(BIN)
-        .args(args)
-        .current_dir(dir)
-        .env_remove("COLORVISION_FAULT")
-        .output()
-        .expect("the binary runs")
-}
 
 fn continued_from(run: &Path) -> String {
     let marker = std::fs::read_to_string(run.join("run.json")).unwrap();

@@ -13,7 +13,7 @@ use common::text;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
-const BIN: &str = env!("CARGO_BIN_EXE_colorvision");
+use common::BIN;
 
 /// 12 tiny steps; checkpoints every 4; held-out evaluation every 3, pictures every 6 and
 /// CMF-SIM at step 5 and the end, so every stream and schedule crosses a resume.
@@ -35,14 +35,9 @@ fn scratch(name: &str) -> PathBuf {
 }
 
 fn colorvision(dir: &Path, args: &[&str], fault: Option<&str>) -> Output {
-    let mut c = Command::new(BIN);
-    c.args(args)
-        .current_dir(dir)
-        .env_remove("COLORVISION_FAULT");
-    if let Some(f) = fault {
-        c.env("COLORVISION_FAULT", f);
-    }
-    c.output().expect("the binary runs")
+    common::command(dir, args, fault)
+        .output()
+        .expect("the binary runs")
 }
 
 /// The exit code, or 128 + the signal that ended the process (as a shell reports it).

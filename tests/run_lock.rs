@@ -9,20 +9,16 @@ use common::text;
 use std::path::Path;
 use std::process::{Command, Output};
 
-const BIN: &str = env!("CARGO_BIN_EXE_colorvision");
+use common::BIN;
 
 /// Above Linux's largest possible process id (`PID_MAX_LIMIT` = 2²²), so never running.
 const DEAD_PID: u32 = 4_194_305;
 
 fn train(dir: &Path, fault: Option<&str>) -> Output {
-    let mut c = Command::new(BIN);
-    c.args(["train", "--preset", "tiny", "--steps", "2", "--out", "out"])
-        .current_dir(dir)
-        .env_remove("COLORVISION_FAULT");
-    if let Some(f) = fault {
-        c.env("COLORVISION_FAULT", f);
-    }
-    c.output().expect("the binary runs")
+    let args = ["train", "--preset", "tiny", "--steps", "2", "--out", "out"];
+    common::command(dir, &args, fault)
+        .output()
+        .expect("the binary runs")
 }
 
 #[test]

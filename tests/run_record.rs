@@ -4,21 +4,9 @@
 
 mod common;
 
-use common::text;
+use common::{colorvision, text};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-
-const BIN: &str = env!("CARGO_BIN_EXE_colorvision");
-
-fn colorvision(dir: &Path, args: &[&str]) -> Output {
-    Command::new(BIN)
-        .args(args)
-        .current_dir(dir)
-        .env_remove("COLORVISION_FAULT")
-        .output()
-        .expect("the binary runs")
-}
 
 /// Every file under `dir` (relative path → bytes), leaving out the sub-folders named `skip`.
 fn snapshot(dir: &Path, skip: &[&str]) -> BTreeMap<PathBuf, Vec<u8>> {

@@ -9,8 +9,6 @@ use common::text;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
-const BIN: &str = env!("CARGO_BIN_EXE_colorvision");
-
 fn scratch(name: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("cv_sweep_{name}_{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
@@ -19,10 +17,7 @@ fn scratch(name: &str) -> PathBuf {
 }
 
 fn colorvision(dir: &Path, args: &[&str]) -> Output {
-    Command::new(BIN)
-        .args(args)
-        .current_dir(dir)
-        .env_remove("COLORVISION_FAULT")
+    common::command(dir, args, None)
         .env("RAYON_NUM_THREADS", "1")
         .output()
         .expect("the binary runs")
