@@ -243,7 +243,7 @@ pub const CONTINUED_FROM_KEY: &str = "continued_from";
 /// run's row when it is among `rows` (canonical folder → row name), else its folder name; the
 /// checkpoint's path as given when it is not laid out so. `None` for a fresh cortex or no
 /// `run.json`.
-fn continued_from(dir: &Path, rows: &BTreeMap<PathBuf, String>) -> Option<String> {
+pub(crate) fn continued_from(dir: &Path, rows: &BTreeMap<PathBuf, String>) -> Option<String> {
     let text = std::fs::read_to_string(dir.join("run.json")).ok()?;
     let marker: crate::run::RunMarker = serde_json::from_str(&text).ok()?;
     let checkpoint = marker.continued_from?;

@@ -41,6 +41,13 @@ fn emerged_dimension(cones: &str, steps: u64) -> (usize, String) {
         Some(summary.dimension as u64),
         "summary.json carries the dimension"
     );
+    // The printed verdict in words says the same, beside the paper's figure for the retina.
+    let words = colorvision::run::in_words(&out, &summary).expect("CMF-SIM measured");
+    assert!(
+        words.contains(&format!("{}-dimensional", summary.dimension))
+            && words.contains("The paper reports"),
+        "{words}"
+    );
     std::fs::remove_dir_all(&out).ok();
     (summary.dimension, verdict)
 }

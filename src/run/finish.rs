@@ -163,12 +163,98 @@ pub fn print_outcome(out: &Path, summary: &Summary) {
     for line in &summary.cmf_sim_per_k {
         println!("    {line}");
     }
+    if let Some(words) = in_words(out, summary) {
+        println!();
+        for line in wrap(&words, WORDS_WIDTH) {
+            println!("  {line}");
+        }
+        println!();
+    }
     println!("  dimension.svg     dimension over training;  loss.svg  training loss");
     println!("  pictures/         ONS, Neural-Scope percept beside the truth, learned C, P positions, W kernel");
     println!("  metrics.csv, checkpoints/, config.toml");
 }
 
+/// CMF-SIM's verdict of the run in plain words, beside what the paper reports for the same
+/// retina ([`crate::paper`]); `None` when the run measured no dimension.
+pub fn in_words(out: &Path, summary: &Summary) -> Option<String> {
+    if summary.dimension_over_steps.is_empty() {
+        return None;
+    }
+    let d = summary.dimension;
+    let found = match d {
+        0 => "CMF-SIM found no colour dimension: the same light looks more different at two \
+              places on this retina than a light looks from black, so the cortex has no colour \
+              constancy to match colours against."
+            .to_string(),
+        1 => "CMF-SIM found this cortex's colour vision 1-dimensional: every test light shown at \
+              one place on the retina was matched at another by one primary at some intensity, \
+              as closely as the cortex tells the same light at two places apart."
+            .to_string(),
+        _ => format!(
+            "CMF-SIM found this cortex's colour vision {d}-dimensional: every test light shown \
+             at one place on the retina was matched at another by a mix of {d} primaries, as \
+             closely as the cortex tells the same light at two places apart, and no mix of {} \
+             did.",
+            d - 1
+        ),
+    };
+    let mut settings = toml::Value::try_from(&summary.config)
+        .map(|v| crate::gather::flatten(&v))
+        .unwrap_or_default();
+    if let Some(from) = crate::gather::continued_from(out, &Default::default()) {
+        settings.insert(crate::gather::CONTINUED_FROM_KEY.into(), from);
+    }
+    let paper = match crate::paper::reported_for_settings(&settings) {
+        None => "The paper has no figure for this retina.".to_string(),
+        Some(p) if p == crate::paper::Reported::Dimension(d) => {
+            format!("The paper reports {p} for this retina too.")
+        }
+        Some(p) => format!(
+            "The paper reports {p} for this retina, for a cortex trained about 100 000 steps \
+             on a larger eye; this one trained {} steps on the `{}` eye (docs/measurements.md: \
+             how the dimension changes with training at this scale).",
+            summary.steps, summary.config.preset
+        ),
+    };
+    Some(format!("In words: {found} {paper}"))
+}
+
+/// Line width of the printed plain-words verdict, characters.
+const WORDS_WIDTH: usize = 96;
+
+/// `text` broken at spaces into lines of at most `width` characters (a longer word stands on
+/// its own line).
+fn wrap(text: &str, width: usize) -> Vec<String> {
+    let mut lines: Vec<String> = Vec::new();
+    for word in text.split_whitespace() {
+        match lines.last_mut() {
+            Some(line) if line.chars().count() + 1 + word.chars().count() <= width => {
+                line.push(' ');
+                line.push_str(word);
+            }
+            _ => lines.push(word.to_string()),
+        }
+    }
+    lines
+}
+
 /// The run folder for `config` and an optional `--out`.
 pub fn out_dir(config: &RunConfig, out: Option<&PathBuf>, command: &str) -> PathBuf {
     out.cloned().unwrap_or_else(|| config.default_out(command))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn wrap_breaks_at_spaces_within_the_width() {
+        let text = "CMF-SIM found this cortex's colour vision 3-dimensional: every test light";
+        let lines = wrap(text, 20);
+        assert!(lines.iter().all(|l| l.chars().count() <= 20), "{lines:?}");
+        assert_eq!(lines.join(" "), text);
+        assert_eq!(wrap("a verylongword b", 4), ["a", "verylongword", "b"]);
+        assert!(wrap("", 10).is_empty());
+    }
 }
