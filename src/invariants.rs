@@ -241,11 +241,16 @@ pub fn measure(cortex: &Cortex, retina: &Retina) -> Recovery {
 }
 
 impl Recovery {
-    /// One line per invariant, in words.
+    /// One line per invariant, in words. A per-class figure that is not finite reads "—": a
+    /// class no cone has as its larger opsin (L co-expressed half and half with M) has no
+    /// recall, a one-class retina no d′.
     pub fn describe(&self) -> Vec<String> {
         let list = |v: &[f64]| {
             v.iter()
-                .map(|x| format!("{x:.2}"))
+                .map(|x| match x.is_finite() {
+                    true => format!("{x:.2}"),
+                    false => "—".to_string(),
+                })
                 .collect::<Vec<_>>()
                 .join("/")
         };

@@ -130,4 +130,15 @@ fn one_class_has_no_dprime_and_its_record_reads_back() {
     assert!(text.contains("\"dprime\":[null]"), "{text}");
     let back: CRecovery = serde_json::from_str(&text).unwrap();
     assert!(back.dprime[0].is_nan() && back.recall_nearest_centroid == r.recall_nearest_centroid);
+    let said = Recovery {
+        c: Some(r),
+        w: None,
+        p: PRecovery {
+            spacing_r: 0.9,
+            position_error_rms_cones: 0.3,
+            position_error_median_cones: 0.2,
+        },
+    }
+    .describe();
+    assert!(said[0].contains("d′ —;") && !said[0].contains("NaN"), "{said:?}");
 }
