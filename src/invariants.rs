@@ -38,9 +38,13 @@ pub struct CRecovery {
     /// Adjusted Rand index of the k-means clusters against the true classes (1: identical
     /// partitions, ≈ 0: chance).
     pub adjusted_rand_index: f64,
-    /// Per class: the fraction of its cones in the k-means cluster matched to it.
+    /// Per class: the fraction of its cones in the k-means cluster matched to it (NaN, `null`
+    /// in JSON, for a class no cone belongs to, such as L when every affected cone co-expresses
+    /// L and M half and half).
+    #[serde(deserialize_with = "nan_for_null")]
     pub recall_kmeans: Vec<f64>,
-    /// Per class: the fraction of its cones nearest to their own class's centroid.
+    /// Per class: the fraction of its cones nearest to their own class's centroid (NaN as above).
+    #[serde(deserialize_with = "nan_for_null")]
     pub recall_nearest_centroid: Vec<f64>,
     /// Per class: d′ to the nearest other class along the line joining their centroids (NaN,
     /// `null` in JSON, when there is no other class).

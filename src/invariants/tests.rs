@@ -130,6 +130,12 @@ fn one_class_has_no_dprime_and_its_record_reads_back() {
     assert!(text.contains("\"dprime\":[null]"), "{text}");
     let back: CRecovery = serde_json::from_str(&text).unwrap();
     assert!(back.dprime[0].is_nan() && back.recall_nearest_centroid == r.recall_nearest_centroid);
+    // A class no cone belongs to has no recall; its record reads back too.
+    let empty = measure_c(&c, 2, &[0; 10], &["L".to_string(), "M".to_string()]);
+    assert!(empty.recall_nearest_centroid[1].is_nan(), "{empty:?}");
+    let text = serde_json::to_string(&empty).unwrap();
+    let back: CRecovery = serde_json::from_str(&text).unwrap();
+    assert!(back.recall_kmeans[1].is_nan() && back.recall_nearest_centroid[1].is_nan());
     let said = Recovery {
         c: Some(r),
         w: None,
