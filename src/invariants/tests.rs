@@ -146,5 +146,8 @@ fn one_class_has_no_dprime_and_its_record_reads_back() {
         },
     }
     .describe();
-    assert!(said[0].contains("d′ —;") && !said[0].contains("NaN"), "{said:?}");
+    assert!(
+        said[0].contains("d′ —;") && !said[0].contains("NaN"),
+        "{said:?}"
+    );
 }
