@@ -244,20 +244,22 @@ pub fn measure(cortex: &Cortex, retina: &Retina) -> Recovery {
     }
 }
 
+/// Per-class figures as `a/b/c` with `digits` decimals; one that is not finite (no recall for
+/// a class without cones, no d′ for a one-class retina) reads "—".
+pub fn per_class(v: &[f64], digits: usize) -> String {
+    let cell = |x: &f64| match x.is_finite() {
+        true => format!("{x:.digits$}"),
+        false => "—".to_string(),
+    };
+    v.iter().map(cell).collect::<Vec<_>>().join("/")
+}
+
 impl Recovery {
     /// One line per invariant, in words. A per-class figure that is not finite reads "—": a
     /// class no cone has as its larger opsin (L co-expressed half and half with M) has no
     /// recall, a one-class retina no d′.
     pub fn describe(&self) -> Vec<String> {
-        let list = |v: &[f64]| {
-            v.iter()
-                .map(|x| match x.is_finite() {
-                    true => format!("{x:.2}"),
-                    false => "—".to_string(),
-                })
-                .collect::<Vec<_>>()
-                .join("/")
-        };
+        let list = |v: &[f64]| per_class(v, 2);
         let mut lines = Vec::new();
         if let Some(c) = &self.c {
             lines.push(format!(

@@ -57,17 +57,6 @@ struct Cells {
     wall: String,
 }
 
-/// `a/b/c`; a value that is not finite (d′ of a one-class retina, which has no other class)
-/// reads "—".
-fn joined(v: &[f64], digits: usize) -> String {
-    let cell = |x: &f64| match x.is_finite() {
-        true => format!("{x:.digits$}"),
-        false => "—".to_string(),
-    };
-    let parts: Vec<String> = v.iter().map(cell).collect();
-    parts.join("/")
-}
-
 fn cells(run: &Run) -> Option<Cells> {
     let s = run.summary.as_ref()?;
     let margins: Vec<String> = s
@@ -92,8 +81,12 @@ fn cells(run: &Run) -> Option<Cells> {
         gain: s
             .heldout_prediction
             .map_or(String::new(), |p| format!("{:.1}", p[2])),
-        c_recall: c.map_or(String::new(), |c| joined(&c.recall_nearest_centroid, 2)),
-        c_dprime: c.map_or(String::new(), |c| joined(&c.dprime, 1)),
+        c_recall: c.map_or(String::new(), |c| {
+            crate::invariants::per_class(&c.recall_nearest_centroid, 2)
+        }),
+        c_dprime: c.map_or(String::new(), |c| {
+            crate::invariants::per_class(&c.dprime, 1)
+        }),
         w_surround: w.map_or(String::new(), |w| format!("{:.2}", w.surround_r)),
         w_dc: w.map_or(String::new(), |w| format!("{:.3}", w.dc_gain)),
         p_error: rec.map_or(String::new(), |r| {
@@ -276,8 +269,12 @@ pub fn csv(runs: &[Run], keys: &[String]) -> String {
         let c = rec.and_then(|r| r.c.as_ref());
         let w = rec.and_then(|r| r.w.as_ref());
         row.push(c.map_or(String::new(), |c| c.classes.join("/")));
-        row.push(c.map_or(String::new(), |c| joined(&c.recall_nearest_centroid, 4)));
-        row.push(c.map_or(String::new(), |c| joined(&c.dprime, 4)));
+        row.push(c.map_or(String::new(), |c| {
+            crate::invariants::per_class(&c.recall_nearest_centroid, 4)
+        }));
+        row.push(c.map_or(String::new(), |c| {
+            crate::invariants::per_class(&c.dprime, 4)
+        }));
         row.push(num(w.map(|w| w.surround_r)));
         row.push(num(w.map(|w| w.dc_gain)));
         row.push(num(rec.map(|r| r.p.position_error_rms_cones)));
