@@ -141,25 +141,28 @@ pub fn gather(dir: &Path) -> Result<Vec<Run>, RunError> {
     let mut folders = Vec::new();
     find_runs(dir, &mut folders)?;
     folders.sort();
-    let mut runs: Vec<Run> = folders
+    let names: Vec<String> = folders
         .iter()
         .map(|f| {
             let rel = f.strip_prefix(dir).unwrap_or(f).display().to_string();
-            read_run(f, if rel.is_empty() { ".".into() } else { rel })
+            if rel.is_empty() {
+                ".".into()
+            } else {
+                rel
+            }
         })
         .collect();
     // A run continued from a run gathered here is named by that run's row.
     let rows: BTreeMap<PathBuf, String> = folders
         .iter()
-        .zip(&runs)
-        .filter_map(|(f, r)| Some((f.canonicalize().ok()?, r.folder.clone())))
+        .zip(&names)
+        .filter_map(|(f, name)| Some((f.canonicalize().ok()?, name.clone())))
         .collect();
-    for (f, run) in folders.iter().zip(runs.iter_mut()) {
-        if let Some(from) = continued_from(f, &rows) {
-            run.settings.insert(CONTINUED_FROM_KEY.into(), from);
-        }
-    }
-    Ok(runs)
+    Ok(folders
+        .iter()
+        .zip(names)
+        .map(|(f, name)| read_run(f, name, &rows))
+        .collect())
 }
 
 fn is_run_folder(dir: &Path) -> bool {
@@ -184,7 +187,7 @@ fn find_runs(dir: &Path, out: &mut Vec<PathBuf>) -> Result<(), RunError> {
 }
 
 /// Reads one run folder; a file that does not read is reported by path.
-fn read_run(dir: &Path, folder: String) -> Run {
+fn read_run(dir: &Path, folder: String, rows: &BTreeMap<PathBuf, String>) -> Run {
     let summary_path = dir.join("summary.json");
     let mut summary = None;
     let status = if summary_path.is_file() {
@@ -214,15 +217,13 @@ fn read_run(dir: &Path, folder: String) -> Run {
         Some(s) => toml::Value::try_from(&s.config).map_err(|e| e.to_string()),
         None => read_toml(&dir.join("config.toml")),
     };
-    let settings = settings.map_or_else(
-        |e| {
-            if dir.join("config.toml").is_file() {
-                eprintln!("colorvision gather: {}/config.toml: {e}", dir.display());
-            }
-            BTreeMap::new()
-        },
-        |v| flatten(&v),
-    );
+    let settings = settings.unwrap_or_else(|e| {
+        if dir.join("config.toml").is_file() {
+            eprintln!("colorvision gather: {}/config.toml: {e}", dir.display());
+        }
+        toml::Value::Table(Default::default())
+    });
+    let settings = run_settings(dir, &settings, rows);
     let steps = summary
         .as_ref()
         .map(|s| s.steps)
@@ -239,11 +240,27 @@ fn read_run(dir: &Path, folder: String) -> Run {
 /// The setting naming the run a continued run's cortex came from.
 pub const CONTINUED_FROM_KEY: &str = "continued_from";
 
+/// The settings of the run in `dir` whose resolved config is `config`, flattened to dotted keys
+/// ([`flatten`]), with [`CONTINUED_FROM_KEY`] when its cortex came from another run (named by
+/// its row in `rows` when it is there, [`continued_from`]). What `gather` shows and what the
+/// paper's figure for the run is looked up by ([`crate::paper::reported_for_settings`]).
+pub(crate) fn run_settings(
+    dir: &Path,
+    config: &toml::Value,
+    rows: &BTreeMap<PathBuf, String>,
+) -> BTreeMap<String, String> {
+    let mut settings = flatten(config);
+    if let Some(from) = continued_from(dir, rows) {
+        settings.insert(CONTINUED_FROM_KEY.into(), from);
+    }
+    settings
+}
+
 /// `RUN @ STEP` for a run continued from `…/RUN/checkpoints/step_<STEP>`, RUN being that
 /// run's row when it is among `rows` (canonical folder → row name), else its folder name; the
 /// checkpoint's path as given when it is not laid out so. `None` for a fresh cortex or no
 /// `run.json`.
-pub(crate) fn continued_from(dir: &Path, rows: &BTreeMap<PathBuf, String>) -> Option<String> {
+fn continued_from(dir: &Path, rows: &BTreeMap<PathBuf, String>) -> Option<String> {
     let text = std::fs::read_to_string(dir.join("run.json")).ok()?;
     let marker: crate::run::RunMarker = serde_json::from_str(&text).ok()?;
     let checkpoint = marker.continued_from?;

@@ -35,6 +35,11 @@ pub struct Invariants {
     pub scope_hue_axis: Option<colorimetry::HueAxis>,
     /// The same for the true colours of those pixels (the scenes' own spread, for comparison).
     pub truth_hue_axis: Option<colorimetry::HueAxis>,
+    /// The known answer for this retina: the hue axis of a Neural Scope fitted on the true
+    /// excitation of every cone class at each pixel — an ideal observer with exactly this eye's
+    /// cone classes (a dichromat's one axis: blue–yellow without L or M, teal–pink without S).
+    #[serde(default)]
+    pub ideal_hue_axis: Option<colorimetry::HueAxis>,
 }
 
 const CLASS_RGB: [[f64; 3]; 4] = [
@@ -80,6 +85,7 @@ pub fn write_all(
         scope_rmse: scope.rmse,
         scope_hue_axis: scope.hue_axis,
         truth_hue_axis: scope.truth_hue_axis,
+        ideal_hue_axis: scope.ideal_hue_axis,
     })
 }
 
@@ -88,6 +94,29 @@ struct ScopeFit {
     rmse: f64,
     hue_axis: Option<colorimetry::HueAxis>,
     truth_hue_axis: Option<colorimetry::HueAxis>,
+    ideal_hue_axis: Option<colorimetry::HueAxis>,
+}
+
+/// The pixels of planes `(B, channels, n, n)` inside `border` as rows `(pixels, channels)`,
+/// appended to `rows`.
+fn pixel_rows(planes: &[f32], channels: usize, n: usize, border: usize, rows: &mut Vec<f64>) {
+    let nn = n * n;
+    for sample in planes.chunks_exact(channels * nn) {
+        for y in border..n - border {
+            for x in border..n - border {
+                rows.extend((0..channels).map(|c| sample[c * nn + y * n + x] as f64));
+            }
+        }
+    }
+}
+
+/// [`colorimetry::hue_axis`] of the least-squares affine map from `inputs` rows to `targets`
+/// (linear sRGB rows) applied to `inputs`; `None` when the fit fails.
+fn fitted_hue_axis(inputs: &[f64], dim: usize, targets: &[f64]) -> Option<colorimetry::HueAxis> {
+    let fit = colorimetry::NeuralScope::fit(inputs, targets, dim).ok()?;
+    let mut rgb = vec![0.0; targets.len()];
+    fit.apply_batch(inputs, &mut rgb);
+    colorimetry::hue_axis(&rgb)
 }
 
 /// Neural Scope on held-out scenes (fit on 4 batches of 4, show the last sample): `ons.png` and
@@ -107,6 +136,8 @@ fn write_scope(
     let border = config.cortex.loss.border_px;
     let (mut last_percept, mut last_truth, mut last_ons) = (Vec::new(), Vec::new(), Vec::new());
     let mut rows: (Vec<f64>, Vec<f64>) = (Vec::new(), Vec::new());
+    let classes = source.retina.mosaic.n_classes();
+    let mut excitations = Vec::new();
     for _ in 0..4 {
         let b = source.next_eye_batch(4).clone();
         let samples = b.signal.batch;
@@ -115,15 +146,10 @@ fn write_scope(
         let percept = cortex.decode_frames(&frames, samples);
         let truth = source.retina.srgb_at_cones(&b.truth, 0);
         let (mut p, mut t) = (Vec::new(), Vec::new());
-        for s in 0..samples {
-            for y in border..n - border {
-                for x in border..n - border {
-                    let i = y * n + x;
-                    p.extend((0..dim).map(|d| percept[(s * dim + d) * nn + i] as f64));
-                    t.extend((0..3).map(|c| truth[(s * 3 + c) * nn + i] as f64));
-                }
-            }
-        }
+        pixel_rows(&percept, dim, n, border, &mut p);
+        pixel_rows(&truth, 3, n, border, &mut t);
+        let ex = source.retina.class_excitations_at_cones(&b.truth, 0);
+        pixel_rows(&ex, classes, n, border, &mut excitations);
         acc.add_batch(&p, &t);
         rows.0.extend_from_slice(&p);
         rows.1.extend_from_slice(&t);
@@ -138,6 +164,7 @@ fn write_scope(
     scope.apply_batch(&rows.0, &mut scope_rgb);
     let scope_hue_axis = colorimetry::hue_axis(&scope_rgb);
     let truth_hue_axis = colorimetry::hue_axis(&rows.1);
+    let ideal_hue_axis = fitted_hue_axis(&excitations, classes, &rows.1);
     save_rgb(&dir.join("ons.png"), n, &signed_to_rgb(&last_ons))?;
     let peak = last_truth.iter().fold(1e-6f32, |m, &v| m.max(v)) as f64;
     let (mut left, mut right) = (vec![0f32; nn * 3], vec![0f32; nn * 3]);
@@ -169,6 +196,7 @@ fn write_scope(
         rmse: scope_rmse,
         hue_axis: scope_hue_axis,
         truth_hue_axis,
+        ideal_hue_axis,
     })
 }
 
@@ -267,4 +295,44 @@ fn write_positions(dir: &Path, retina: &Retina, cortex: &Cortex) -> Result<(), R
     svg.push_str("</svg>\n");
     write_atomic(&dir.join("positions.svg"), svg.as_bytes())?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The ideal observer's hue axis for the `tiny` eye with `cones`, on 4 batches of 4 scenes.
+    fn ideal_axis(cones: &str) -> colorimetry::HueAxis {
+        let config = RunConfig::preset("tiny", cones).unwrap();
+        let retina = Retina::new(config.retina.clone()).unwrap();
+        let classes = retina.mosaic.n_classes();
+        let n = retina.n();
+        let mut source = RetinaSource::new(retina, 7, true);
+        let (mut excitations, mut truth) = (Vec::new(), Vec::new());
+        for _ in 0..4 {
+            let b = source.next_eye_batch(4).clone();
+            let ex = source.retina.class_excitations_at_cones(&b.truth, 0);
+            pixel_rows(&ex, classes, n, 3, &mut excitations);
+            let rgb = source.retina.srgb_at_cones(&b.truth, 0);
+            pixel_rows(&rgb, 3, n, 3, &mut truth);
+        }
+        fitted_hue_axis(&excitations, classes, &truth).unwrap()
+    }
+
+    #[test]
+    fn an_ideal_dichromat_sees_blue_yellow_without_l_or_m_and_teal_red_without_s() {
+        // Paper Fig. 5.2. Yellow–blue lies near b* (90°); the tritan confusion colours, red and
+        // teal (≈ 40° and ≈ 230° in a*b*), lie on an axis well away from it.
+        for cones in ["LS", "MS"] {
+            let a = ideal_axis(cones);
+            assert!((85.0..125.0).contains(&a.angle_deg), "{cones}: {a:?}");
+            assert!(a.minor_to_major < 0.25, "{cones}: {a:?}");
+        }
+        let lm = ideal_axis("LM");
+        assert!((30.0..80.0).contains(&lm.angle_deg), "LM: {lm:?}");
+        assert!(lm.minor_to_major < 0.3, "LM: {lm:?}");
+        // A trichromat has no single axis: its colours spread as the scenes' do.
+        let lms = ideal_axis("LMS");
+        assert!(lms.minor_to_major > 0.35, "LMS: {lms:?}");
+    }
 }

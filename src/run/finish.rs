@@ -148,8 +148,10 @@ pub fn print_outcome(out: &Path, summary: &Summary) {
             println!("    {line}");
         }
         println!(
-            "  Neural-Scope hue axis {} (scenes: {})",
+            "  Neural-Scope hue axis {} (an ideal observer with these cone classes: {}; the \
+             scenes: {})",
             axis(&inv.scope_hue_axis),
+            axis(&inv.ideal_hue_axis),
             axis(&inv.truth_hue_axis),
         );
     }
@@ -199,12 +201,8 @@ pub fn in_words(out: &Path, summary: &Summary) -> Option<String> {
             d - 1
         ),
     };
-    let mut settings = toml::Value::try_from(&summary.config)
-        .map(|v| crate::gather::flatten(&v))
-        .unwrap_or_default();
-    if let Some(from) = crate::gather::continued_from(out, &Default::default()) {
-        settings.insert(crate::gather::CONTINUED_FROM_KEY.into(), from);
-    }
+    let config = toml::Value::try_from(&summary.config).ok()?;
+    let settings = crate::gather::run_settings(out, &config, &Default::default());
     let paper = match crate::paper::reported_for_settings(&settings) {
         None => "The paper has no figure for this retina.".to_string(),
         Some(p)
@@ -215,9 +213,10 @@ pub fn in_words(out: &Path, summary: &Summary) -> Option<String> {
         }
         Some(p) => format!(
             "The paper reports {p} for this retina, for a cortex trained about 100 000 steps \
-             on a larger eye; this one trained {} steps on the `{}` eye (docs/measurements.md: \
-             how the dimension changes with training at this scale).",
-            summary.steps, summary.config.preset
+             on an eye of 256×256 cones; this one trained {} steps on an eye of {n}×{n} cones \
+             (docs/measurements.md: how the dimension changes with training and eye size).",
+            summary.steps,
+            n = summary.config.retina.cones_per_side
         ),
     };
     Some(format!("In words: {found} {paper}"))
