@@ -11,10 +11,13 @@
 use super::Run;
 use std::collections::{BTreeMap, BTreeSet};
 
-/// The settings worth a column: those that differ between runs, less those that follow from
-/// the ones already kept (a derived seed follows `seed`, `[retina] cones` follows `cones`, a
-/// preset's sizes follow `preset`). Candidates are taken in order: `first` (a sweep's grid
-/// keys), then shallow keys before nested ones, then by name.
+/// The settings worth a column: those that differ between runs, less those that say the same
+/// as one already kept — split the runs into the same groups (a derived seed follows `seed`,
+/// `[retina] cones` follows `cones`). A setting that only together with several kept ones
+/// singles out its runs keeps its column: one run on a larger eye shows its eye size even when
+/// its cones, seed and steps already make its row unique. When a run measures or saves
+/// ([`BOOKKEEPING`]) gets no column unless named in `first`. Candidates are taken in order:
+/// `first` (a sweep's grid keys), then shallow keys before nested ones, then by name.
 pub fn varying_keys(runs: &[Run], first: &[String]) -> Vec<String> {
     let rows: Vec<&BTreeMap<String, String>> = runs
         .iter()
@@ -28,21 +31,39 @@ pub fn varying_keys(runs: &[Run], first: &[String]) -> Vec<String> {
         values.any(|v| v != v0)
     };
     let mut order: Vec<&String> = first.iter().filter(|k| all.contains(k)).collect();
-    let mut rest: Vec<&String> = all.iter().copied().filter(|k| !first.contains(k)).collect();
+    let mut rest: Vec<&String> = all
+        .iter()
+        .copied()
+        .filter(|k| !first.contains(k) && !is_bookkeeping(k))
+        .collect();
     rest.sort_by_key(|k| (k.matches('.').count(), k.as_str()));
     order.extend(rest);
     let mut kept: Vec<String> = Vec::new();
     for key in order.into_iter().filter(|k| varies(k)) {
-        let mut seen: BTreeMap<Vec<Option<&String>>, Option<&String>> = BTreeMap::new();
-        let determined = rows.iter().all(|s| {
-            let given: Vec<Option<&String>> = kept.iter().map(|k| s.get(k)).collect();
-            *seen.entry(given).or_insert(s.get(key)) == s.get(key)
+        let same_as_kept = kept.iter().any(|k| {
+            let rows = rows.as_slice();
+            follows(rows, key, k) && follows(rows, k, key)
         });
-        if !determined {
+        if !same_as_kept {
             kept.push(key.clone());
         }
     }
     kept
+}
+
+/// Settings that change when a run measures, draws or saves, not what its cortex learns; they
+/// get a column only as a sweep's grid key.
+const BOOKKEEPING: [&str; 2] = ["schedule.", "cortex.train.checkpoint_every_steps"];
+
+fn is_bookkeeping(key: &str) -> bool {
+    BOOKKEEPING.iter().any(|b| key.starts_with(b))
+}
+
+/// Whether setting `b`'s value is a function of setting `a`'s over `rows`.
+fn follows(rows: &[&BTreeMap<String, String>], b: &str, a: &str) -> bool {
+    let mut seen: BTreeMap<Option<&String>, Option<&String>> = BTreeMap::new();
+    rows.iter()
+        .all(|s| *seen.entry(s.get(a)).or_insert(s.get(b)) == s.get(b))
 }
 
 /// The numbers of a finished run, formatted for reading (empty when not measured).
@@ -324,6 +345,30 @@ mod tests {
         // A grid key named first keeps its column even when nested.
         let first = ["retina.cones".to_string()];
         assert_eq!(varying_keys(&runs, &first), ["retina.cones", "seed"]);
+    }
+
+    #[test]
+    fn a_setting_of_one_run_keeps_its_column_though_other_columns_single_the_run_out() {
+        // `e` is the only run on a larger eye; cones and seed already make every row unique.
+        let runs = [
+            ("a", "LMS", "0", "64"),
+            ("b", "LMS", "1", "64"),
+            ("c", "LM", "0", "64"),
+            ("d", "LM", "1", "64"),
+            ("e", "LMS", "2", "128"),
+        ]
+        .map(|(f, cones, seed, size)| {
+            let s = [
+                ("cones", cones),
+                ("seed", seed),
+                ("retina.cones_per_side", size),
+                // When it measured is no setting of what it learned: no column.
+                ("schedule.cmf_every_steps", f),
+            ];
+            run(f, &s, Status::Pending)
+        });
+        let keys = varying_keys(&runs, &[]);
+        assert_eq!(keys, ["cones", "seed", "retina.cones_per_side"]);
     }
 
     #[test]
