@@ -183,6 +183,10 @@ pub struct CmfSimOptions {
     /// Primary sets tried per K before K is declared failed (the paper used 500).
     #[arg(long)]
     pub sets_per_k: Option<usize>,
+    /// Radius of the patch a test light fills, as a fraction of the field side (default 1/8):
+    /// eyes of different cone counts compared with patches of the same number of cones.
+    #[arg(long)]
+    pub patch_radius_fraction: Option<f64>,
     /// Shared options (`--cones`, `--seed`, `--out`, ...).
     #[command(flatten)]
     pub common: CommonOptions,

@@ -256,6 +256,9 @@ pub fn cmf_sim(options: &CmfSimOptions) -> Result<(), RunError> {
     if let Some(seed) = options.location_seed {
         config.cmf_sim.seed = seed;
     }
+    if let Some(r) = options.patch_radius_fraction {
+        config.observer.patch_radius_fraction = r;
+    }
     if let Some(r) = options.readout {
         config.observer.readout = match r {
             ReadoutArg::Resolved => ReadoutMode::Resolved,

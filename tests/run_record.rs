@@ -44,8 +44,19 @@ fn measurements_of_a_run_never_touch_its_record() {
         assert!(run.join(f).exists(), "the run wrote no {f}");
     }
     let before = snapshot(&run, &[]);
-    let measurements: [&[&str]; 5] = [
+    let measurements: [&[&str]; 6] = [
         &["cmf-sim", "--run", "run", "--sets-per-k", "2"],
+        &[
+            "cmf-sim",
+            "--run",
+            "run",
+            "--sets-per-k",
+            "2",
+            "--patch-radius-fraction",
+            "0.0625",
+            "--out",
+            "z",
+        ],
         &["scope", "--run", "run"],
         &["stiles-burch", "--run", "run"],
         &["cmf-sim", "--run", "run", "--sets-per-k", "2", "--out", "x"],
@@ -67,11 +78,16 @@ fn measurements_of_a_run_never_touch_its_record() {
         "stiles-burch/trained/stiles_burch.svg",
         "x/cmf_sim.json",
         "y/scope.png",
+        "z/cmf_sim.json",
     ] {
         assert!(
-            dir.join(if f.starts_with(['x', 'y']) { "" } else { "run" })
-                .join(f)
-                .is_file(),
+            dir.join(if f.starts_with(['x', 'y', 'z']) {
+                ""
+            } else {
+                "run"
+            })
+            .join(f)
+            .is_file(),
             "no {f}"
         );
     }
@@ -90,6 +106,22 @@ fn measurements_of_a_run_never_touch_its_record() {
         );
         assert!(text(&o).contains("(--out)"), "{}", text(&o));
     }
+    // A patch too large for two to fit in the field is refused by its setting, nothing written.
+    let o = colorvision(
+        &dir,
+        &[
+            "cmf-sim",
+            "--run",
+            "run",
+            "--patch-radius-fraction",
+            "0.3",
+            "--out",
+            "w",
+        ],
+    );
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    assert!(text(&o).contains("patch_radius_fraction"), "{}", text(&o));
+    assert!(!dir.join("w").exists(), "a refused measurement wrote w/");
     assert_eq!(
         snapshot(&run, &["cmf-sim", "scope", "stiles-burch"]),
         before
