@@ -229,11 +229,16 @@ fn gather_tabulates_done_failed_stopped_pending_and_unreadable_runs() {
             .unwrap_or_else(|| panic!("no row {name} in\n{md}"))
             .to_string()
     };
+    // Task 1's edited step count sets it apart from the grid: it gets a column.
     assert!(
         md.lines()
             .next()
             .unwrap()
-            .starts_with("| run | seed | status | steps done |"),
+            .starts_with("| run | seed | steps | status | steps done |"),
+        "{md}"
+    );
+    assert!(
+        row(&names[1]).starts_with(&format!("| {} | 1 | 0 |", names[1])),
         "{md}"
     );
     assert!(
