@@ -17,7 +17,6 @@ use crate::cli::{AverageOptions, ObserverKind};
 use crate::measurement_dir::measurement_dir;
 use crate::run_error::RunError;
 use cortex::Trainer;
-use retina::Retina;
 use std::path::{Path, PathBuf};
 
 /// Sets every parameter of `into` to the mean of that parameter over `into` and `others`.
@@ -131,8 +130,8 @@ pub fn command(options: &AverageOptions) -> Result<(), RunError> {
         paths.len(),
         checkpoint.display()
     );
-    let retina = Retina::new(config.retina.clone())?;
-    let recovery = crate::invariants::measure(&last.cortex, &retina);
+    let mut scenes = crate::run::heldout_source(&config, true)?;
+    let recovery = crate::invariants::measure_with_scenes(&last.cortex, &mut scenes);
     for line in recovery.describe() {
         println!("  {line}");
     }

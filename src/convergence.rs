@@ -16,7 +16,6 @@ use crate::io::write_atomic;
 use crate::run_error::RunError;
 use colorimetry::plot::{LinePlot, Series};
 use cortex::Trainer;
-use retina::Retina;
 use serde::{Deserialize, Serialize};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -75,7 +74,6 @@ impl CmfAt {
 /// table and plots, and returns the rows in step order.
 pub fn study(dir: &Path, cmf: &CmfAt) -> Result<Vec<StudyRow>, RunError> {
     let config = crate::run_folder::read_valid_config(dir)?;
-    let retina = Retina::new(config.retina.clone())?;
     let gains = heldout_gains(&dir.join("metrics.csv"));
     let out = dir.join("convergence");
     std::fs::create_dir_all(&out).map_err(|source| crate::io::IoError::Fs {
@@ -86,7 +84,7 @@ pub fn study(dir: &Path, cmf: &CmfAt) -> Result<Vec<StudyRow>, RunError> {
     checkpoints.reverse();
     let mut rows = Vec::new();
     for path in checkpoints {
-        match measure_checkpoint(&path, &config, &retina, &gains, &out, cmf) {
+        match measure_checkpoint(&path, &config, &gains, &out, cmf) {
             Ok(row) => rows.push(row),
             Err(e) => println!("  {}: skipped ({e})", path.display()),
         }
@@ -102,7 +100,6 @@ fn row_path(out: &Path, step: u64) -> PathBuf {
 fn measure_checkpoint(
     path: &Path,
     config: &RunConfig,
-    retina: &Retina,
     gains: &[(u64, f64)],
     out: &Path,
     cmf: &CmfAt,
@@ -119,7 +116,9 @@ fn measure_checkpoint(
         }
     }
     let trainer = Trainer::continue_from(path, Some(config.cortex.clone()))?;
-    let recovery = invariants::measure(&trainer.cortex, retina);
+    // The same held-out scenes at every checkpoint.
+    let mut scenes = crate::run::heldout_source(config, true)?;
+    let recovery = invariants::measure_with_scenes(&trainer.cortex, &mut scenes);
     let cmf = if with_cmf {
         let r = crate::ladder::measure_observer(config, ObserverKind::Cortex, Some(&trainer))?;
         let (base, energy): (f64, f64) = (r.base_error.iter().sum(), r.energy.iter().sum());
@@ -211,7 +210,9 @@ pub fn table(config: &RunConfig, rows: &[StudyRow]) -> String {
          \"next = current\" over the model's. CMF-SIM: dimension, and per K the converged worst \
          error/threshold of the best set (pass < 1). C recall per class (k-means matched / \
          nearest class centre). W: surround r against the DoG and DC gain (true {}). P: position \
-         error after the affine gauge, cone spacings RMS.\n\n",
+         error after the affine gauge, cone spacings RMS. Hidden: per class, the held-out R² of \
+         its own signal (what the other classes do not tell) read from the percept at the other \
+         classes' cones (1: demosaicked; 0: not carried).\n\n",
         config.preset,
         config.cones,
         config.seed,
@@ -219,8 +220,8 @@ pub fn table(config: &RunConfig, rows: &[StudyRow]) -> String {
             .find_map(|r| r.recovery.w.as_ref())
             .map_or("-".into(), |w| format!("{:.3}", w.true_dc_gain)),
     );
-    md.push_str("| step | wall s | gain | CMF-SIM | C recall k-means | C recall centre | C d′ | W surround r | W DC | P error | P spacing r |\n");
-    md.push_str("|---|---|---|---|---|---|---|---|---|---|---|\n");
+    md.push_str("| step | wall s | gain | CMF-SIM | C recall k-means | C recall centre | C d′ | W surround r | W DC | P error | P spacing r | hidden R² |\n");
+    md.push_str("|---|---|---|---|---|---|---|---|---|---|---|---|\n");
     for r in rows {
         let cmf = r.cmf.as_ref().map_or("-".into(), |c| {
             let ks: Vec<String> = c
@@ -244,9 +245,14 @@ pub fn table(config: &RunConfig, rows: &[StudyRow]) -> String {
         let (ws, wd) = r.recovery.w.as_ref().map_or(("-".into(), "-".into()), |w| {
             (format!("{:.2}", w.surround_r), format!("{:.3}", w.dc_gain))
         });
+        let hidden = r
+            .recovery
+            .hidden
+            .as_ref()
+            .map_or("-".into(), |h| invariants::per_class(&h.unique_r2, 2));
         let _ = writeln!(
             md,
-            "| {} | {} | {} | {cmf} | {ck} | {cc} | {cd} | {ws} | {wd} | {:.2} | {:.2} |",
+            "| {} | {} | {} | {cmf} | {ck} | {cc} | {cd} | {ws} | {wd} | {:.2} | {:.2} | {hidden} |",
             r.step,
             r.wall_seconds.map_or("-".into(), |w| format!("{w:.0}")),
             r.heldout_gain.map_or("-".into(), |g| format!("{g:.1}")),
@@ -290,6 +296,19 @@ fn write_outputs(out: &Path, config: &RunConfig, rows: &[StudyRow]) -> Result<()
         r.recovery.w.as_ref().map(|w| w.surround_r)
     }));
     recovered.push(series("P spacing r", &|r| Some(r.recovery.p.spacing_r)));
+    let classes = rows
+        .iter()
+        .find_map(|r| r.recovery.hidden.as_ref())
+        .map_or(Vec::new(), |h| h.classes.clone());
+    for (k, name) in classes.iter().enumerate() {
+        recovered.push(series(&format!("hidden {name} R²"), &|r| {
+            r.recovery
+                .hidden
+                .as_ref()
+                .and_then(|h| h.unique_r2.get(k).copied())
+                .filter(|v| v.is_finite())
+        }));
+    }
     // From 0, or lower where a correlation is negative.
     let lowest = recovered.series.iter().flat_map(|s| s.ys.iter().copied());
     recovered.y_min = Some(lowest.fold(0.0, f64::min));

@@ -19,11 +19,24 @@
 //!   ones are first mapped onto the truth by least squares; the error is then in local cone
 //!   spacings (the mean distance from each true cone to its lattice neighbours). The
 //!   spacing-map correlation compares the nearest-neighbour distance maps.
+//! - **What the eye hides** ([`hidden`]): how much of each class's own signal the percept
+//!   carries at the other classes' cones on held-out scenes — the demosaicking the colour
+//!   dimensions rest on (the S figure is the third dimension's carrier).
 
+pub mod hidden;
+
+use crate::source::RetinaSource;
 use crate::stats;
 use cortex::Cortex;
+use hidden::{HiddenRecovery, HiddenSamples};
 use retina::Retina;
 use serde::{Deserialize, Serialize};
+
+/// Held-out batches (of [`HIDDEN_BATCH_SIZE`] samples) behind [`measure_hidden`]; half fit, half
+/// score.
+pub const HIDDEN_BATCHES: usize = 4;
+/// Samples per held-out batch of [`measure_hidden`].
+pub const HIDDEN_BATCH_SIZE: usize = 4;
 
 /// Restarts of the k-means behind [`CRecovery`] (deterministic seeds).
 const KMEANS_RESTARTS: usize = 10;
@@ -212,6 +225,9 @@ pub struct Recovery {
     pub w: Option<WRecovery>,
     /// P against the true positions.
     pub p: PRecovery,
+    /// What the eye hides, recovered on held-out scenes (`None` where no scenes were drawn).
+    #[serde(default)]
+    pub hidden: Option<HiddenRecovery>,
 }
 
 /// Measures every learned invariant of `cortex` against `retina`.
@@ -241,7 +257,47 @@ pub fn measure(cortex: &Cortex, retina: &Retina) -> Recovery {
         c,
         w,
         p: measure_p(&learned, &true_positions(retina), n),
+        hidden: None,
     }
+}
+
+/// [`measure`] and, on `source`'s held-out scenes, what the eye hides ([`measure_hidden`]).
+pub fn measure_with_scenes(cortex: &Cortex, source: &mut RetinaSource) -> Recovery {
+    let mut recovery = measure(cortex, &source.retina);
+    recovery.hidden = Some(measure_hidden(cortex, source));
+    recovery
+}
+
+/// How much of each class's own signal the percept carries at the other classes' cones
+/// ([`hidden`]), on [`HIDDEN_BATCHES`] batches of `source` (frame 0), inside the loss border.
+pub fn measure_hidden(cortex: &Cortex, source: &mut RetinaSource) -> HiddenRecovery {
+    let n = source.retina.n();
+    let classes = source.retina.mosaic.n_classes();
+    let dim = cortex.percept_dim();
+    let border = cortex.config.loss.border_px;
+    let dominant = source.retina.mosaic.dominant_class();
+    let mut samples = HiddenSamples::new(dim, classes);
+    let mut frames = Vec::new();
+    for _ in 0..HIDDEN_BATCHES {
+        let batch = source.next_eye_batch(HIDDEN_BATCH_SIZE).clone();
+        batch.signal.frames(0, &mut frames);
+        let count = batch.signal.batch;
+        let percept = cortex.decode_frames(&frames, count);
+        let excitation = source.retina.class_excitations_at_cones(&batch.truth, 0);
+        for s in 0..count {
+            let p = &percept[s * dim * n * n..(s + 1) * dim * n * n];
+            let e = &excitation[s * classes * n * n..(s + 1) * classes * n * n];
+            samples.add(p, e, &dominant, n, border);
+        }
+    }
+    let names: Vec<String> = source
+        .retina
+        .mosaic
+        .classes
+        .iter()
+        .map(|c| c.name.clone())
+        .collect();
+    samples.measure(&names)
 }
 
 /// Per-class figures as `a/b/c` with `digits` decimals; one that is not finite (no recall for
@@ -281,6 +337,14 @@ impl Recovery {
             "P (positions): error after the affine gauge {:.2} cone spacings RMS ({:.2} median), spacing-map r {:.2}",
             self.p.position_error_rms_cones, self.p.position_error_median_cones, self.p.spacing_r
         ));
+        if let Some(h) = &self.hidden {
+            lines.push(format!(
+                "what the eye hides ({}): each class's own signal at the other classes' cones, held-out R² {} (its share of the class's variance in these scenes {})",
+                h.classes.join("/"),
+                list(&h.unique_r2),
+                per_class(&h.unique_share, 3)
+            ));
+        }
         lines
     }
 }

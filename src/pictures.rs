@@ -80,8 +80,10 @@ pub fn write_all(
     write_learned_c(dir, retina, cortex)?;
     write_w_kernel(dir, retina, cortex)?;
     write_positions(dir, retina, cortex)?;
+    let mut recovery = crate::invariants::measure(cortex, retina);
+    recovery.hidden = Some(crate::invariants::measure_hidden(cortex, source));
     Ok(Invariants {
-        recovery: crate::invariants::measure(cortex, retina),
+        recovery,
         scope_rmse: scope.rmse,
         scope_hue_axis: scope.hue_axis,
         truth_hue_axis: scope.truth_hue_axis,

@@ -1,0 +1,363 @@
+//! What the eye hides, recovered: how much of each cone class's *own* signal the percept carries
+//! at the cones of the other classes (paper §4: the demosaicker D "fills in" the colour the mosaic
+//! leaves out). Evaluation only: this reads the true excitations and classes of held-out scenes;
+//! nothing here feeds learning.
+//!
+//! At a cone of class j the eye measures class j alone; what class k ≠ j would have caught there
+//! is hidden. In natural scenes the classes are strongly correlated (L predicts most of M and
+//! much of S), so a percept that carries only luminance already predicts every class well. The
+//! measure removes that part:
+//! 1. at each hidden site of class k (a cone whose dominant class is not k, inside the loss
+//!    border), the **unique part** `u_k = e_k − (affine least-squares prediction of e_k from the
+//!    other classes' true excitations at the same place)`: what class k tells beyond the others;
+//! 2. an affine least-squares map from the `N`-dimensional percept to `u_k`, fitted on the first
+//!    half of the held-out samples;
+//! 3. the **unique recovery** of class k: the fraction of `u_k`'s variance that map explains on
+//!    the second half (R², held out; can be negative for a map that does worse than the mean).
+//!
+//! 1 means the percept carries class k's own signal everywhere, as an oracle demosaicker does;
+//! 0 means it carries only what the other classes already tell (a (K−1)-class percept), or class
+//! k only where its own cones are. For a trichromat the S figure is the third dimension's
+//! carrier across the mosaic, the L and M figures the red–green one. A class with no hidden
+//! site (a monochromat) or no other class has no figure (NaN, `null` in JSON).
+
+use colorimetry::linalg::lstsq;
+use serde::{Deserialize, Serialize};
+
+/// Per class, the unique recovery at its hidden sites (module docs).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct HiddenRecovery {
+    /// Class names in the order of `unique_r2`.
+    pub classes: Vec<String>,
+    /// Held-out R² of the percept's affine fit to each class's unique part at its hidden sites.
+    #[serde(deserialize_with = "super::nan_for_null")]
+    pub unique_r2: Vec<f64>,
+    /// Per class, the unique part's share of the class's variance at its hidden sites: how much
+    /// of the class the scenes leave to be told apart from the others (a property of the scenes,
+    /// not of the cortex; NaN where there is no figure).
+    #[serde(default, deserialize_with = "super::nan_for_null")]
+    pub unique_share: Vec<f64>,
+    /// Held-out sites the figure of each class was evaluated on.
+    pub sites: Vec<usize>,
+}
+
+/// Held-out samples of percepts and true excitations at the cones, gathered per sample.
+#[derive(Clone, Debug, Default)]
+pub struct HiddenSamples {
+    /// Per sample, rows `(sites, dim)` of the percept.
+    percept: Vec<Vec<f64>>,
+    /// Per sample, rows `(sites, classes)` of the true excitations.
+    excitation: Vec<Vec<f64>>,
+    /// Per sample, the dominant class of each site.
+    class: Vec<Vec<usize>>,
+    dim: usize,
+    classes: usize,
+}
+
+impl HiddenSamples {
+    /// An empty collection for `dim`-channel percepts of an eye with `classes` classes.
+    pub fn new(dim: usize, classes: usize) -> Self {
+        HiddenSamples {
+            dim,
+            classes,
+            ..Default::default()
+        }
+    }
+
+    /// Adds one sample: `percept (dim, n, n)`, `excitation (classes, n, n)`, `class (n²)`; the
+    /// sites are the cones at least `border` cells from the lattice edge.
+    pub fn add(
+        &mut self,
+        percept: &[f32],
+        excitation: &[f32],
+        class: &[usize],
+        n: usize,
+        border: usize,
+    ) {
+        let nn = n * n;
+        assert!(
+            percept.len() == self.dim * nn
+                && excitation.len() == self.classes * nn
+                && class.len() == nn,
+            "HiddenSamples::add: percept {} (dim {}), excitation {} (classes {}), class {} for n = {n}",
+            percept.len(),
+            self.dim,
+            excitation.len(),
+            self.classes,
+            class.len()
+        );
+        let (mut p, mut e, mut c) = (Vec::new(), Vec::new(), Vec::new());
+        for y in border..n.saturating_sub(border) {
+            for x in border..n.saturating_sub(border) {
+                let i = y * n + x;
+                p.extend((0..self.dim).map(|d| percept[d * nn + i] as f64));
+                e.extend((0..self.classes).map(|k| excitation[k * nn + i] as f64));
+                c.push(class[i]);
+            }
+        }
+        self.percept.push(p);
+        self.excitation.push(e);
+        self.class.push(c);
+    }
+
+    /// The unique recovery of every class (module docs), fitted on the first half of the
+    /// samples and scored on the rest.
+    pub fn measure(&self, names: &[String]) -> HiddenRecovery {
+        assert_eq!(
+            names.len(),
+            self.classes,
+            "HiddenSamples::measure: {} names for {} classes",
+            names.len(),
+            self.classes
+        );
+        assert!(
+            self.percept.len() >= 2,
+            "HiddenSamples::measure: needs at least 2 samples (fit and score), has {}",
+            self.percept.len()
+        );
+        let half = self.percept.len() / 2;
+        let mut unique_r2 = Vec::with_capacity(self.classes);
+        let mut unique_share = Vec::with_capacity(self.classes);
+        let mut sites = Vec::with_capacity(self.classes);
+        for k in 0..self.classes {
+            let fit = self.hidden_rows(k, 0..half);
+            let score = self.hidden_rows(k, half..self.percept.len());
+            sites.push(score.rows());
+            let (r2, share) = match (self.classes > 1, fit.rows() > 0, score.rows() > 0) {
+                (true, true, true) => unique_r2_of(&fit, &score, self.dim, self.classes - 1),
+                _ => (f64::NAN, f64::NAN),
+            };
+            unique_r2.push(r2);
+            unique_share.push(share);
+        }
+        HiddenRecovery {
+            classes: names.to_vec(),
+            unique_r2,
+            unique_share,
+            sites,
+        }
+    }
+
+    /// Rows of the hidden sites of class `k` in `samples`.
+    fn hidden_rows(&self, k: usize, samples: std::ops::Range<usize>) -> Rows {
+        let mut rows = Rows::default();
+        for s in samples {
+            for (i, &c) in self.class[s].iter().enumerate() {
+                if c == k {
+                    continue;
+                }
+                let e = &self.excitation[s][i * self.classes..(i + 1) * self.classes];
+                rows.target.push(e[k]);
+                rows.others.extend(
+                    e.iter()
+                        .enumerate()
+                        .filter(|&(j, _)| j != k)
+                        .map(|(_, &v)| v),
+                );
+                rows.percept
+                    .extend_from_slice(&self.percept[s][i * self.dim..(i + 1) * self.dim]);
+            }
+        }
+        rows
+    }
+}
+
+/// The hidden sites of one class: target excitation, the other classes' excitations, percept.
+#[derive(Default)]
+struct Rows {
+    target: Vec<f64>,
+    others: Vec<f64>,
+    percept: Vec<f64>,
+}
+
+impl Rows {
+    fn rows(&self) -> usize {
+        self.target.len()
+    }
+}
+
+/// Relative singular-value cut-off of the fits: directions of the standardised inputs this much
+/// weaker than the strongest are dropped, so a nearly dead percept channel cannot carry a huge
+/// coefficient from the fitting half to the scoring half.
+const FIT_RCOND: f64 = 1e-6;
+
+/// Affine least squares `y ≈ x·β + c` on `fit`, applied to `apply`: the residuals there. The
+/// columns are standardised on `fit` first (the solution is the same up to the cut-off).
+fn affine_residuals(fit: (&[f64], &[f64]), apply: (&[f64], &[f64]), cols: usize) -> Vec<f64> {
+    let (xf, yf) = fit;
+    let (xa, ya) = apply;
+    let rows = yf.len();
+    let column = |c: usize| xf.iter().skip(c).step_by(cols);
+    let mean: Vec<f64> = (0..cols)
+        .map(|c| column(c).sum::<f64>() / rows as f64)
+        .collect();
+    let scale: Vec<f64> = (0..cols)
+        .map(|c| {
+            let var = column(c).map(|x| (x - mean[c]).powi(2)).sum::<f64>() / rows as f64;
+            if var > 0.0 {
+                1.0 / var.sqrt()
+            } else {
+                0.0
+            }
+        })
+        .collect();
+    let design = |x: &[f64]| -> Vec<f64> {
+        let mut out = Vec::with_capacity(x.len() / cols.max(1) * (cols + 1));
+        for r in x.chunks_exact(cols) {
+            out.extend((0..cols).map(|c| (r[c] - mean[c]) * scale[c]));
+            out.push(1.0);
+        }
+        out
+    };
+    let beta = lstsq(&design(xf), rows, cols + 1, yf, 1, FIT_RCOND).x;
+    design(xa)
+        .chunks_exact(cols + 1)
+        .zip(ya)
+        .map(|(r, y)| y - r.iter().zip(&beta).map(|(a, b)| a * b).sum::<f64>())
+        .collect()
+}
+
+/// Held-out R² of the percept's affine fit to the unique part (module docs, steps 1–3). The
+/// unique part is defined by one regression on the others over both halves together (it is a
+/// property of the scenes, not of the cortex). Also returns the unique part's share of the
+/// target's variance over both halves.
+fn unique_r2_of(fit: &Rows, score: &Rows, dim: usize, others: usize) -> (f64, f64) {
+    let all_others: Vec<f64> = fit.others.iter().chain(&score.others).copied().collect();
+    let all_target: Vec<f64> = fit.target.iter().chain(&score.target).copied().collect();
+    let unique = affine_residuals(
+        (&all_others, &all_target),
+        (&all_others, &all_target),
+        others,
+    );
+    let (u_fit, u_score) = unique.split_at(fit.rows());
+    let residual = affine_residuals((&fit.percept, u_fit), (&score.percept, u_score), dim);
+    let variance = |v: &[f64]| {
+        let mean = v.iter().sum::<f64>() / v.len() as f64;
+        v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / v.len() as f64
+    };
+    let total = variance(u_score);
+    let left = residual.iter().map(|r| r * r).sum::<f64>() / residual.len() as f64;
+    let of_target = variance(&all_target);
+    let ratio = |a: f64, b: f64| if b > 0.0 { a / b } else { f64::NAN };
+    (
+        1.0 - ratio(left, total),
+        ratio(variance(&unique), of_target),
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::rngs::SmallRng;
+    use rand::{Rng, SeedableRng};
+
+    const N: usize = 24;
+
+    /// A smooth 3-class scene: a shared luminance field and independent chromatic fields, so
+    /// each class has a unique part; classes on a random mosaic (S one cone in ten).
+    fn scene(rng: &mut SmallRng) -> (Vec<f32>, Vec<usize>) {
+        let mut ex = vec![0f32; 3 * N * N];
+        let (fx, fy) = (rng.random_range(0.1..0.4), rng.random_range(0.1..0.4));
+        let ph: [f64; 4] = std::array::from_fn(|_| rng.random_range(0.0..std::f64::consts::TAU));
+        for y in 0..N {
+            for x in 0..N {
+                let (xf, yf) = (x as f64, y as f64);
+                let lum = 1.0 + 0.5 * (fx * xf + ph[0]).sin();
+                let rg = 0.2 * (fy * yf + ph[1]).sin();
+                let by = 0.3 * (fx * yf + fy * xf + ph[2]).cos();
+                let i = y * N + x;
+                ex[i] = (lum + rg) as f32;
+                ex[N * N + i] = (0.9 * lum - rg) as f32;
+                ex[2 * N * N + i] = (0.5 * lum + by) as f32;
+            }
+        }
+        let class = (0..N * N)
+            .map(|_| match rng.random_range(0..10) {
+                0 => 2,
+                1..=4 => 1,
+                _ => 0,
+            })
+            .collect();
+        (ex, class)
+    }
+
+    fn names() -> Vec<String> {
+        ["L", "M", "S"].iter().map(|s| s.to_string()).collect()
+    }
+
+    /// Measures a percept built from each scene by `percept(excitation, class) -> (dim, n, n)`.
+    fn measure_with(dim: usize, percept: impl Fn(&[f32], &[usize]) -> Vec<f32>) -> HiddenRecovery {
+        let mut rng = SmallRng::seed_from_u64(5);
+        let mut samples = HiddenSamples::new(dim, 3);
+        for _ in 0..10 {
+            let (ex, class) = scene(&mut rng);
+            samples.add(&percept(&ex, &class), &ex, &class, N, 2);
+        }
+        samples.measure(&names())
+    }
+
+    #[test]
+    fn a_percept_of_every_class_everywhere_recovers_all_and_l_plus_m_recovers_no_s() {
+        let full = measure_with(3, |ex, _| ex.to_vec());
+        for r in &full.unique_r2 {
+            assert!(
+                *r > 0.999,
+                "the true excitations recover every class: {full:?}"
+            );
+        }
+        // L + M only, in a rotated 2-channel percept: S's unique part is not there, and of L's
+        // and M's only the share their sum carries.
+        let lum = measure_with(2, |ex, _| {
+            let nn = N * N;
+            let mut p = vec![0f32; 2 * nn];
+            for i in 0..nn {
+                let l = ex[i] + ex[nn + i];
+                p[i] = 0.6 * l;
+                p[nn + i] = -0.8 * l;
+            }
+            p
+        });
+        assert!(lum.unique_r2[2].abs() < 0.1, "no S in L + M: {lum:?}");
+        for r in &lum.unique_r2[..2] {
+            assert!(
+                *r < 0.5,
+                "L + M carries little of L's or M's own part: {lum:?}"
+            );
+        }
+    }
+
+    #[test]
+    fn a_percept_that_copies_the_mosaic_recovers_nothing_at_hidden_sites() {
+        // Each class's excitation only where its own cone is (no interpolation): at the other
+        // classes' cones the channel is zero, so nothing of the class is recovered there.
+        let mosaic = measure_with(3, |ex, class| {
+            let nn = N * N;
+            let mut p = vec![0f32; 3 * nn];
+            for (i, &c) in class.iter().enumerate() {
+                p[c * nn + i] = ex[c * nn + i];
+            }
+            p
+        });
+        for r in &mosaic.unique_r2 {
+            assert!(*r < 0.1, "a mosaic copy recovers little: {mosaic:?}");
+        }
+        // L and M interpolated everywhere, S dropped: S's own part is not recovered, and L's
+        // and M's are recovered as far as S does not enter them.
+        let dichromat = measure_with(2, |ex, _| ex[..2 * N * N].to_vec());
+        assert!(dichromat.unique_r2[2].abs() < 0.1, "{dichromat:?}");
+        assert!(
+            dichromat.unique_r2[..2].iter().all(|r| *r > 0.3),
+            "{dichromat:?}"
+        );
+    }
+
+    #[test]
+    fn a_single_class_has_no_figure() {
+        let mut samples = HiddenSamples::new(1, 1);
+        for _ in 0..2 {
+            samples.add(&[1.0; N * N], &[1.0; N * N], &[0; N * N], N, 1);
+        }
+        let r = samples.measure(&["L".to_string()]);
+        assert!(r.unique_r2[0].is_nan(), "{r:?}");
+    }
+}
