@@ -269,29 +269,48 @@ pub fn measure_with_scenes(cortex: &Cortex, source: &mut RetinaSource) -> Recove
 }
 
 /// How much of each class's own signal the percept carries at the other classes' cones
-/// ([`hidden`]), on [`HIDDEN_BATCHES`] batches of `source` (frame 0), inside the loss border.
+/// ([`hidden`]), on the next [`HIDDEN_BATCHES`] batches of `source` (frame 0), inside the loss
+/// border.
 pub fn measure_hidden(cortex: &Cortex, source: &mut RetinaSource) -> HiddenRecovery {
-    let n = source.retina.n();
-    let classes = source.retina.mosaic.n_classes();
-    let dim = cortex.percept_dim();
+    let batches: Vec<_> = (0..HIDDEN_BATCHES)
+        .map(|_| source.next_eye_batch(HIDDEN_BATCH_SIZE).clone())
+        .collect();
     let border = cortex.config.loss.border_px;
-    let dominant = source.retina.mosaic.dominant_class();
+    hidden_of(
+        &source.retina,
+        &batches,
+        cortex.percept_dim(),
+        border,
+        |frames, count| cortex.decode_frames(frames, count),
+    )
+}
+
+/// [`HiddenSamples`] of the percepts (`dim` channels) `decode(frames, count)` gives for frame 0
+/// of `batches` of `retina`, inside `border`.
+fn hidden_of(
+    retina: &Retina,
+    batches: &[retina::EyeBatch],
+    dim: usize,
+    border: usize,
+    mut decode: impl FnMut(&[f32], usize) -> Vec<f32>,
+) -> HiddenRecovery {
+    let n = retina.n();
+    let classes = retina.mosaic.n_classes();
+    let dominant = retina.mosaic.dominant_class();
     let mut samples = HiddenSamples::new(dim, classes);
     let mut frames = Vec::new();
-    for _ in 0..HIDDEN_BATCHES {
-        let batch = source.next_eye_batch(HIDDEN_BATCH_SIZE).clone();
+    for batch in batches {
         batch.signal.frames(0, &mut frames);
         let count = batch.signal.batch;
-        let percept = cortex.decode_frames(&frames, count);
-        let excitation = source.retina.class_excitations_at_cones(&batch.truth, 0);
+        let percept = decode(&frames, count);
+        let excitation = retina.class_excitations_at_cones(&batch.truth, 0);
         for s in 0..count {
             let p = &percept[s * dim * n * n..(s + 1) * dim * n * n];
             let e = &excitation[s * classes * n * n..(s + 1) * classes * n * n];
             samples.add(p, e, &dominant, n, border);
         }
     }
-    let names: Vec<String> = source
-        .retina
+    let names: Vec<String> = retina
         .mosaic
         .classes
         .iter()
