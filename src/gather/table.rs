@@ -5,7 +5,9 @@
 //! margin (worst error / threshold of the reported set; < 1 passes), the held-out prediction
 //! gain ("next frame = this frame" error over the cortex's), and the learned invariants
 //! against the eye's truth: C recall by nearest class centre and d′ per class, W's surround
-//! correlation and DC gain, P's position error after the affine gauge (cone spacings RMS).
+//! correlation and DC gain, P's position error after the affine gauge (cone spacings RMS), and
+//! what the eye hides recovered (per class, the held-out R² of its own signal at the other
+//! classes' cones, [`crate::invariants::hidden`]).
 //! The Markdown cells are formatted as the README's tables; the CSV keeps full precision.
 
 use super::Run;
@@ -75,6 +77,7 @@ struct Cells {
     w_surround: String,
     w_dc: String,
     p_error: String,
+    hidden: String,
     wall: String,
 }
 
@@ -113,6 +116,11 @@ fn cells(run: &Run) -> Option<Cells> {
         p_error: rec.map_or(String::new(), |r| {
             format!("{:.2}", r.p.position_error_rms_cones)
         }),
+        hidden: rec
+            .and_then(|r| r.hidden.as_ref())
+            .map_or(String::new(), |h| {
+                crate::invariants::per_class(&h.unique_r2, 2)
+            }),
         wall: format!("{:.0}", s.wall_seconds),
     })
 }
@@ -160,6 +168,7 @@ pub fn display(runs: &[Run], keys: &[String]) -> (Vec<String>, Vec<Vec<String>>)
             "W surround r",
             "W DC",
             "P error",
+            "hidden R²",
         ]
         .map(String::from),
     );
@@ -185,11 +194,12 @@ pub fn display(runs: &[Run], keys: &[String]) -> (Vec<String>, Vec<Vec<String>>)
                     c.w_surround,
                     c.w_dc,
                     c.p_error,
+                    c.hidden,
                 ]),
                 None => {
                     row.push(String::new());
                     row.push(paper);
-                    row.extend(std::iter::repeat_n(String::new(), 7));
+                    row.extend(std::iter::repeat_n(String::new(), 8));
                 }
             }
             row
@@ -261,6 +271,7 @@ pub fn csv(runs: &[Run], keys: &[String]) -> String {
             "w_surround_r",
             "w_dc_gain",
             "p_error_rms_cones",
+            "hidden_r2",
         ]
         .map(String::from),
     );
@@ -299,6 +310,12 @@ pub fn csv(runs: &[Run], keys: &[String]) -> String {
         row.push(num(w.map(|w| w.surround_r)));
         row.push(num(w.map(|w| w.dc_gain)));
         row.push(num(rec.map(|r| r.p.position_error_rms_cones)));
+        row.push(
+            rec.and_then(|r| r.hidden.as_ref())
+                .map_or(String::new(), |h| {
+                    crate::invariants::per_class(&h.unique_r2, 4)
+                }),
+        );
         let row: Vec<String> = row.iter().map(|c| csv_field(c)).collect();
         out.push_str(&(row.join(",") + "\n"));
     }
@@ -388,7 +405,7 @@ mod tests {
             csv.contains(",\"bad | value, \"\"quoted\"\"\nsecond line\","),
             "{csv}"
         );
-        assert_eq!(md.lines().next().unwrap().matches('|').count(), 13);
+        assert_eq!(md.lines().next().unwrap().matches('|').count(), 14);
     }
 
     #[test]
