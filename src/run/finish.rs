@@ -34,10 +34,19 @@ impl RunState<'_> {
                 names: vec![(0.0, "undefined".into())],
                 ..Scale::default()
             };
-            p.x.integer = true;
             let top = dims.iter().map(|d| d.dimension).max().unwrap_or(1).max(1);
             (p.y_min, p.y_max) = (Some(-0.25), Some(top as f64 + 0.25));
-            (p.x_min, p.x_max) = (Some(0.0), Some(self.config.steps as f64));
+            // Log-spaced measurements (paper Fig. 3.3: 1-D at 700 steps, 2-D at 1 200, 3-D far
+            // later) on a log axis when they span more than a decade.
+            let first = dims.iter().map(|d| d.step).min().unwrap_or(1).max(1) as f64;
+            let last = (self.config.steps as f64).max(first);
+            if last >= 10.0 * first {
+                p.x.log = true;
+                (p.x_min, p.x_max) = (Some(first), Some(last));
+            } else {
+                p.x.integer = true;
+                (p.x_min, p.x_max) = (Some(0.0), Some(last));
+            }
             p.push(
                 Series::new(
                     "CMF-SIM dimension",
