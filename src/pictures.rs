@@ -80,8 +80,10 @@ pub fn write_all(
     write_learned_c(dir, retina, cortex)?;
     write_w_kernel(dir, retina, cortex)?;
     write_positions(dir, retina, cortex)?;
-    let mut recovery = crate::invariants::measure(cortex, retina);
-    recovery.hidden = Some(crate::invariants::measure_hidden(cortex, source));
+    // What the eye hides on the run's fixed held-out scenes (a fresh held-out stream, as
+    // `convergence` measures every checkpoint), not on wherever `source` has got to.
+    let mut scenes = crate::run::heldout_source(config, true)?;
+    let recovery = crate::invariants::measure_with_scenes(cortex, &mut scenes);
     Ok(Invariants {
         recovery,
         scope_rmse: scope.rmse,

@@ -1,6 +1,7 @@
 //! Sweeps as a user runs them: a spec expands to run folders and a Slurm job array; the array's
 //! script runs the task `SLURM_ARRAY_TASK_ID` names (here, without Slurm), skipping a finished
-//! run and resuming an interrupted one; `sweep --local` runs every task; `gather` tabulates
+//! run and resuming an interrupted one; `sweep --local` runs every task and, stopped, starts no
+//! further one; `gather` tabulates
 //! done, failed, stopped, pending and unreadable runs.
 
 mod common;
@@ -183,6 +184,49 @@ fn the_array_script_runs_its_task_resumes_and_skips() {
         text(&o)
     );
     assert_eq!(std::fs::read(run1.join("summary.json")).unwrap(), before);
+    std::fs::remove_dir_all(dir).ok();
+}
+
+#[test]
+fn a_local_sweep_stopped_like_ctrl_c_starts_no_further_task_and_continues() {
+    let dir = scratch("local_stop");
+    let sw = expand(&dir, "seed = [0, 1, 2]\n");
+    let names = folders(&sw);
+    // Every task would stop at step 6 as by Ctrl-C: the first does, and no other starts.
+    let o = common::command(
+        &dir,
+        &["sweep", "--local", "-j", "1", "sw"],
+        Some("interrupt@step:6"),
+    )
+    .env("RAYON_NUM_THREADS", "1")
+    .output()
+    .expect("the binary runs");
+    assert!(!o.status.success(), "{}", text(&o));
+    assert!(
+        text(&o).contains("1 (not started), 2 (not started)"),
+        "{}",
+        text(&o)
+    );
+    assert!(sw
+        .join(&names[0])
+        .join("checkpoints/step_00000006")
+        .is_dir());
+    for other in &names[1..] {
+        assert!(
+            !sw.join(other).join("checkpoints").exists(),
+            "{other} was started after the stop"
+        );
+    }
+    // The same command continues: every run finishes.
+    let o = colorvision(&dir, &["sweep", "--local", "-j", "1", "sw"]);
+    assert!(o.status.success(), "{}", text(&o));
+    for name in &names {
+        assert_eq!(
+            json(&sw.join(name).join("summary.json"))["steps"],
+            12,
+            "{name}"
+        );
+    }
     std::fs::remove_dir_all(dir).ok();
 }
 

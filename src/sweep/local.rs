@@ -4,14 +4,15 @@
 //!
 //! Each task gets `max(1, CPUs / N)` threads (`RAYON_NUM_THREADS`, unless already set): a run
 //! resumed later must use the same thread count to continue bit-identically. Ctrl-C reaches
-//! every task (one process group): each checkpoints and stops; the same command continues.
+//! every task (one process group): each checkpoints and stops, no further task starts, and the
+//! same command continues.
 
 use super::task::Manifest;
 use crate::run_error::RunError;
 use std::fs::OpenOptions;
 use std::path::Path;
 use std::process::{Command, Stdio};
-use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::Mutex;
 
 /// How one task ended.
@@ -45,15 +46,23 @@ pub fn run_local(dir: &Path, jobs: usize) -> Result<(), RunError> {
         logs.display()
     );
     let next = AtomicUsize::new(0);
+    let stopping = AtomicBool::new(false);
     let ended = Mutex::new(Vec::new());
     std::thread::scope(|scope| {
         for _ in 0..jobs {
             scope.spawn(|| loop {
+                if stopping.load(Ordering::SeqCst) || crate::interrupt::requested().is_some() {
+                    break;
+                }
                 let index = next.fetch_add(1, Ordering::SeqCst);
                 if index >= n {
                     break;
                 }
                 let code = run_one(&script, &exe, &threads, &logs, index);
+                // A task stopped by a signal (Ctrl-C reached the group): start no other.
+                if matches!(code, Some(130) | None) {
+                    stopping.store(true, Ordering::SeqCst);
+                }
                 let folder = &manifest.tasks[index].folder;
                 let (log, word) = (logs.join(format!("task-{index}.log")), outcome(code));
                 println!("  task {index} {folder}: {word} ({})", log.display());
@@ -66,11 +75,17 @@ pub fn run_local(dir: &Path, jobs: usize) -> Result<(), RunError> {
     });
     let mut ended = ended.into_inner().expect("no task panics");
     ended.sort_by_key(|e| e.index);
-    let bad: Vec<String> = ended
+    let mut bad: Vec<String> = ended
         .iter()
         .filter(|e| e.code != Some(0))
         .map(|e| format!("{} ({})", e.index, outcome(e.code)))
         .collect();
+    let started: Vec<usize> = ended.iter().map(|e| e.index).collect();
+    bad.extend(
+        (0..n)
+            .filter(|i| !started.contains(i))
+            .map(|i| format!("{i} (not started)")),
+    );
     if bad.is_empty() {
         println!(
             "all {n} tasks done; table: colorvision gather {}",

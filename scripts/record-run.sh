@@ -1,0 +1,22 @@
+#!/bin/bash
+# Copies the record of a finished run folder into results/NAME: its settings, start, summary,
+# final CMF-SIM and dimension plot (and its convergence table when measured) — the small files
+# the README's table is generated from (`colorvision gather results --markdown`). No
+# checkpoints, pictures or per-step log.
+# Usage: scripts/record-run.sh RUN_DIR NAME
+set -euo pipefail
+RUN=${1:?usage: scripts/record-run.sh RUN_DIR NAME}
+NAME=${2:?usage: scripts/record-run.sh RUN_DIR NAME}
+ROOT=$(cd "$(dirname "$0")/.." && pwd)
+[ -f "$RUN/summary.json" ] || { echo "record-run.sh: $RUN/summary.json: not a finished run" >&2; exit 1; }
+DEST="$ROOT/results/$NAME"
+TMP=$(mktemp -d "$ROOT/results/.tmp.XXXXXX")
+trap 'rm -rf "$TMP"' EXIT
+for f in config.toml run.json summary.json cmf_sim.json dimension.svg; do
+    [ -f "$RUN/$f" ] && cp "$RUN/$f" "$TMP/"
+done
+[ -f "$RUN/convergence/convergence.md" ] && cp "$RUN/convergence/convergence.md" "$TMP/"
+rm -rf "$DEST"
+mv "$TMP" "$DEST"
+trap - EXIT
+echo "recorded $RUN as results/$NAME"
