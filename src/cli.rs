@@ -34,6 +34,10 @@ pub enum Command {
     Simulate(CommonOptions),
     /// Train the cortex (no CMF-SIM): progress bar, metrics.csv, checkpoints, pictures.
     Train(RunOptions),
+    /// How far each CMF-SIM test light lies from the colours of the eye's training scenes, in
+    /// the eye's own cone-excitation directions: where the test lights leave every colour the
+    /// cortex learned from (writes gamut.json and gamut.md into --out).
+    Gamut(CommonOptions),
     /// Run CMF-SIM on a trained run folder (`--run DIR`) or on an observer whose answer is
     /// known (`--observer identity|cones|oracle|oracle-mosaic|analytic`, with `--cones`), and
     /// write cmf_sim.json and SVG plots (into --out, or DIR/cmf-sim/ for a run folder; the

@@ -168,6 +168,52 @@ pub fn simulate(options: &CommonOptions) -> Result<(), RunError> {
     Ok(())
 }
 
+/// `colorvision gamut`: the CMF-SIM test lights against the colours of the eye's training
+/// scenes (the first batches of the training stream a run with these settings draws).
+pub fn gamut(options: &CommonOptions) -> Result<(), RunError> {
+    let config = RunConfig::resolve(options, "quick")?;
+    let out = run::out_dir(&config, options.out.as_ref(), "gamut");
+    crate::run_folder::refuse_file(&out)?;
+    let s = &config.cmf_sim;
+    let tests = colorimetry::WavelengthGrid::linspace(
+        s.test_range_nm.0,
+        s.test_range_nm.1,
+        s.n_test_wavelengths,
+    )
+    .map_err(|e| RunError::invalid("cmf_sim.n_test_wavelengths", e.to_string()))?;
+    let retina = Retina::new(config.retina.clone())?;
+    let mut source = crate::source::RetinaSource::new(retina, config.seed, false);
+    let g = crate::gamut::measure(&mut source, tests.wavelengths_nm());
+    let beyond: Vec<String> = g
+        .beyond(10.0)
+        .iter()
+        .map(|(a, b)| format!("{a:.0}–{b:.0} nm"))
+        .collect();
+    println!(
+        "colorvision gamut: {} test lights against {} colours of the training scenes ({} cones)",
+        g.wavelengths_nm.len(),
+        g.scene_colours,
+        g.classes.join("")
+    );
+    println!(
+        "  lights more than 10° from every scene colour: {}",
+        if beyond.is_empty() {
+            "none".to_string()
+        } else {
+            beyond.join(", ")
+        }
+    );
+    let md = g.markdown((g.wavelengths_nm.len() / 25).max(1));
+    print!("{md}");
+    crate::io::save_into(&out, |dir| -> Result<(), RunError> {
+        crate::io::write_json(&dir.join("gamut.json"), &g)?;
+        crate::io::write_atomic(&dir.join("gamut.md"), g.markdown(1).as_bytes())?;
+        Ok(())
+    })?;
+    println!("wrote {}/gamut.json and gamut.md", out.display());
+    Ok(())
+}
+
 /// `colorvision convergence`: every checkpoint of a run folder measured the same way.
 pub fn convergence(options: &ConvergenceOptions) -> Result<(), RunError> {
     let cmf = match (options.cmf, options.cmf_steps.is_empty()) {

@@ -11,6 +11,7 @@ pub mod commands;
 pub mod config;
 pub mod convergence;
 pub mod experiments;
+pub mod gamut;
 pub mod gather;
 pub mod interrupt;
 pub mod invariants;

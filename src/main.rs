@@ -18,6 +18,7 @@ fn main() {
         Command::Run(o) => commands::run(o),
         Command::Simulate(o) => commands::simulate(o),
         Command::Train(o) => commands::train(o),
+        Command::Gamut(o) => commands::gamut(o),
         Command::CmfSim(o) => commands::cmf_sim(o),
         Command::Scope(o) => commands::scope(o),
         Command::Convergence(o) => commands::convergence(o),
