@@ -58,7 +58,7 @@ fn directions(x: &[f64], k: usize) -> Vec<f64> {
 /// only their directions count.
 pub fn compare(lights: &[f64], colours: &[f64], k: usize, near_deg: f64) -> (Vec<f64>, Vec<f64>) {
     assert!(
-        k > 0 && lights.len() % k == 0 && colours.len() % k == 0,
+        k > 0 && lights.len().is_multiple_of(k) && colours.len().is_multiple_of(k),
         "gamut::compare: {} light and {} colour values for {k} classes",
         lights.len(),
         colours.len()
