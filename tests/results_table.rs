@@ -1,0 +1,33 @@
+//! The README's table of recorded runs is generated, not typed: it must be exactly what
+//! `colorvision gather results --markdown` prints from the run records in `results/`.
+
+mod common;
+
+use common::{colorvision, text};
+use std::path::Path;
+
+#[test]
+fn the_readme_table_of_recorded_runs_is_what_gather_prints_from_results() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let out = colorvision(root, &["gather", "results", "--markdown"]);
+    assert!(
+        out.status.success(),
+        "gather results failed:\n{}",
+        text(&out)
+    );
+    let table = String::from_utf8(out.stdout).expect("gather prints UTF-8");
+    let rows: Vec<&str> = table.lines().skip(2).collect();
+    assert!(!rows.is_empty(), "results/ holds no run record:\n{table}");
+    for row in &rows {
+        assert!(
+            row.contains("| done |"),
+            "a record in results/ is not a finished run (its summary.json does not read?):\n{row}"
+        );
+    }
+    let readme = std::fs::read_to_string(root.join("README.md")).expect("README.md reads");
+    assert!(
+        readme.contains(table.trim_end()),
+        "README.md does not hold the table `colorvision gather results --markdown` prints; \
+         paste it in:\n{table}"
+    );
+}
