@@ -1,8 +1,8 @@
 #!/bin/bash
 # Copies the record of a finished run folder into results/NAME: its settings, start, summary,
-# final CMF-SIM and dimension plot (and its convergence table when measured) — the small files
-# the README's table is generated from (`colorvision gather results --markdown`). No
-# checkpoints, pictures or per-step log.
+# final CMF-SIM and dimension plot (and, when measured, its convergence table and its CMFs
+# against Stiles & Burch) — the small files the README's tables are generated from
+# (`colorvision gather results --markdown`). No checkpoints, pictures or per-step log.
 # Usage: scripts/record-run.sh RUN_DIR NAME
 set -euo pipefail
 RUN=${1:?usage: scripts/record-run.sh RUN_DIR NAME}
@@ -16,6 +16,9 @@ for f in config.toml run.json summary.json cmf_sim.json dimension.svg; do
     [ -f "$RUN/$f" ] && cp "$RUN/$f" "$TMP/"
 done
 [ -f "$RUN/convergence/convergence.md" ] && cp "$RUN/convergence/convergence.md" "$TMP/"
+if [ -f "$RUN/stiles-burch/table.json" ]; then
+    mkdir "$TMP/stiles-burch" && cp "$RUN/stiles-burch/table.json" "$TMP/stiles-burch/"
+fi
 rm -rf "$DEST"
 mv "$TMP" "$DEST"
 trap - EXIT

@@ -36,7 +36,8 @@ pub enum Command {
     Train(RunOptions),
     /// How far each CMF-SIM test light lies from the colours of the eye's training scenes, in
     /// the eye's own cone-excitation directions: where the test lights leave every colour the
-    /// cortex learned from (writes gamut.json and gamut.md into --out).
+    /// cortex learned from, over the scenes a training of `--steps` draws (writes gamut.json
+    /// and gamut.md into --out).
     Gamut(CommonOptions),
     /// Run CMF-SIM on a trained run folder (`--run DIR`) or on an observer whose answer is
     /// known (`--observer identity|cones|oracle|oracle-mosaic|analytic`, with `--cones`), and

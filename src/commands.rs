@@ -169,7 +169,7 @@ pub fn simulate(options: &CommonOptions) -> Result<(), RunError> {
 }
 
 /// `colorvision gamut`: the CMF-SIM test lights against the colours of the eye's training
-/// scenes (the first batches of the training stream a run with these settings draws).
+/// scenes, sampled over the batches a training with these settings (its `steps`) draws.
 pub fn gamut(options: &CommonOptions) -> Result<(), RunError> {
     let config = RunConfig::resolve(options, "quick")?;
     let out = run::out_dir(&config, options.out.as_ref(), "gamut");
@@ -183,17 +183,20 @@ pub fn gamut(options: &CommonOptions) -> Result<(), RunError> {
     .map_err(|e| RunError::invalid("cmf_sim.n_test_wavelengths", e.to_string()))?;
     let retina = Retina::new(config.retina.clone())?;
     let mut source = crate::source::RetinaSource::new(retina, config.seed, false);
-    let g = crate::gamut::measure(&mut source, tests.wavelengths_nm());
+    let g = crate::gamut::measure(&mut source, tests.wavelengths_nm(), config.steps);
     let beyond: Vec<String> = g
         .beyond(10.0)
         .iter()
         .map(|(a, b)| format!("{a:.0}–{b:.0} nm"))
         .collect();
     println!(
-        "colorvision gamut: {} test lights against {} colours of the training scenes ({} cones)",
+        "colorvision gamut: {} test lights against {} colours of the training scenes ({} cones; \
+         {} frames spread over the {} batches of a training with these settings)",
         g.wavelengths_nm.len(),
         g.scene_colours,
-        g.classes.join("")
+        g.classes.join(""),
+        crate::gamut::GAMUT_FRAMES.min(config.steps.max(1)),
+        config.steps
     );
     println!(
         "  lights more than 10° from every scene colour: {}",

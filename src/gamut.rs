@@ -6,7 +6,10 @@
 //! *direction* of its excitation vector `e = (e_1 … e_K)` over the eye's K cone classes — its
 //! chromaticity in the eye's own terms. For each test wavelength λ the light's direction
 //! `e(λ)` (exactly the class values CMF-SIM renders it with) is compared with the directions of
-//! the training scenes' colours, one per cone position of every sampled frame:
+//! the training scenes' colours, one per cone position of every sampled frame. The frames are
+//! [`GAMUT_FRAMES`] spread evenly over the batches a training draws: the scene pool replaces a
+//! tile every few batches, so a rare kind of tile (a tenth of a tetrachromatic environment's
+//! patches) is seen at the rate training sees it, not only among the pool's first tiles:
 //! - **nearest angle**: the angle, in degrees, from `e(λ)` to the closest scene colour (0° when
 //!   some scene colour has the same chromaticity; large when the light lies beyond every colour
 //!   the cortex learned from);
@@ -21,10 +24,8 @@ use serde::{Deserialize, Serialize};
 
 /// Angle below which a scene colour counts as near a test light, degrees.
 pub const NEAR_DEG: f64 = 5.0;
-/// Batches of scenes sampled (frame 0 of each sample).
-pub const GAMUT_BATCHES: usize = 16;
-/// Samples per batch.
-pub const GAMUT_BATCH_SIZE: usize = 4;
+/// Frames sampled over the training's batches (one sample each).
+pub const GAMUT_FRAMES: u64 = 256;
 
 /// The test lights against the scenes' colours (module docs).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -81,8 +82,11 @@ pub fn compare(lights: &[f64], colours: &[f64], k: usize, near_deg: f64) -> (Vec
     (nearest, share)
 }
 
-/// The test lights at `wavelengths_nm` against [`GAMUT_BATCHES`] batches of `source`'s scenes.
-pub fn measure(source: &mut RetinaSource, wavelengths_nm: &[f64]) -> Gamut {
+/// The test lights at `wavelengths_nm` against the scenes of a training of `batches` batches
+/// from a fresh `source`: [`GAMUT_FRAMES`] frames at evenly spaced batches (all of them when
+/// fewer). The batches between are replayed with one sample each, which rebuilds the scene
+/// pool exactly as training leaves it ([`RetinaSource`]'s determinism).
+pub fn measure(source: &mut RetinaSource, wavelengths_nm: &[f64], batches: u64) -> Gamut {
     let retina = &source.retina;
     let k = retina.mosaic.n_classes();
     let nn = retina.n() * retina.n();
@@ -90,14 +94,17 @@ pub fn measure(source: &mut RetinaSource, wavelengths_nm: &[f64]) -> Gamut {
     for &w in wavelengths_nm {
         lights.extend(retina.class_values(&Stimulus::monochromatic(w, 1.0).to_grid(retina.grid())));
     }
-    let mut colours = Vec::new();
-    for _ in 0..GAMUT_BATCHES {
-        let batch = source.next_eye_batch(GAMUT_BATCH_SIZE).clone();
+    let frames = GAMUT_FRAMES.min(batches.max(1));
+    let mut colours = Vec::with_capacity(frames as usize * nn * k);
+    for f in 0..frames {
+        let at = f * batches.max(1) / frames;
+        while source.batches_drawn() < at {
+            source.next_eye_batch(1);
+        }
+        let batch = source.next_eye_batch(1).clone();
         let planes = source.retina.class_excitations_at_cones(&batch.truth, 0);
-        for sample in planes.chunks_exact(k * nn) {
-            for i in 0..nn {
-                colours.extend((0..k).map(|c| sample[c * nn + i] as f64));
-            }
+        for i in 0..nn {
+            colours.extend((0..k).map(|c| planes[c * nn + i] as f64));
         }
     }
     let (nearest_deg, share_near) = compare(&lights, &colours, k, NEAR_DEG);

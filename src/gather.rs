@@ -19,8 +19,12 @@
 //! dimension 0 is shown as `undefined` with the verdict's reason (e.g. no colour constancy).
 //! A run that continued another run's cortex (`run --continue-from`, gene therapy, boosting)
 //! has the setting `continued_from`: that run's folder name and step, from its `run.json`.
+//!
+//! Runs whose colour-matching functions were compared with Stiles & Burch (`colorvision
+//! stiles-burch --run DIR`) get a second table below the first ([`stiles_burch`]).
 
 pub mod index;
+pub mod stiles_burch;
 pub mod table;
 
 use crate::run::Summary;
@@ -93,6 +97,9 @@ pub struct Run {
     pub summary: Option<Summary>,
     /// Its settings, flattened to dotted keys (from the summary, else `config.toml`).
     pub settings: BTreeMap<String, String>,
+    /// Its colour-matching functions against Stiles & Burch, when measured
+    /// ([`stiles_burch::TABLE_FILE`]).
+    pub stiles_burch: Option<Vec<crate::stiles_burch::Row>>,
 }
 
 /// `colorvision gather`.
@@ -113,7 +120,11 @@ pub fn command(options: &GatherOptions) -> Result<(), RunError> {
     }
     let first = Manifest::read(dir).map(|m| m.keys).unwrap_or_default();
     let keys = table::varying_keys(&runs, &first);
-    let markdown = table::markdown(&runs, &keys);
+    let mut markdown = table::markdown(&runs, &keys);
+    let cmfs = stiles_burch::markdown(&runs);
+    if !cmfs.is_empty() {
+        markdown = format!("{markdown}\n{cmfs}");
+    }
     if options.markdown {
         print!("{markdown}");
         return Ok(());
@@ -228,12 +239,20 @@ fn read_run(dir: &Path, folder: String, rows: &BTreeMap<PathBuf, String>) -> Run
         .as_ref()
         .map(|s| s.steps)
         .or_else(|| newest_checkpoint(dir));
+    let stiles_burch = stiles_burch::read(dir).and_then(|r| {
+        r.map_err(|e| {
+            let path = dir.join(stiles_burch::TABLE_FILE);
+            eprintln!("colorvision gather: {}: {e}", path.display());
+        })
+        .ok()
+    });
     Run {
         folder,
         status,
         steps,
         summary,
         settings,
+        stiles_burch,
     }
 }
 

@@ -28,11 +28,11 @@ use colorimetry::analytic::ConeObserver;
 use colorimetry::{compare_stiles_burch, ConeTemplate, Observer, StilesBurchSettings};
 use cortex::Cortex;
 use retina::Retina;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use std::path::Path;
 
 /// One observer's agreement with Stiles & Burch.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Row {
     /// `stockman_sharpe`, `own_fundamentals`, `oracle` or `trained`.
     pub observer: String,

@@ -333,6 +333,7 @@ mod tests {
             status,
             steps: None,
             summary: None,
+            stiles_burch: None,
             settings: settings
                 .iter()
                 .map(|(k, v)| (k.to_string(), v.to_string()))
