@@ -195,8 +195,8 @@ pub fn gamut(options: &CommonOptions) -> Result<(), RunError> {
         g.wavelengths_nm.len(),
         g.scene_colours,
         g.classes.join(""),
-        crate::gamut::GAMUT_FRAMES.min(config.steps.max(1)),
-        config.steps
+        g.frames,
+        g.batches
     );
     println!(
         "  lights more than 10° from every scene colour: {}",

@@ -40,6 +40,12 @@ pub struct Gamut {
     pub share_near: Vec<f64>,
     /// Scene colours compared (cone positions × frames, zero excitations left out).
     pub scene_colours: usize,
+    /// Frames sampled, spread evenly over `batches`.
+    #[serde(default)]
+    pub frames: u64,
+    /// Batches of the training whose scenes were sampled.
+    #[serde(default)]
+    pub batches: u64,
 }
 
 /// Unit vectors of the rows of `x (rows, k)`; rows with no excitation are left out.
@@ -120,6 +126,8 @@ pub fn measure(source: &mut RetinaSource, wavelengths_nm: &[f64], batches: u64) 
         nearest_deg,
         share_near,
         scene_colours: directions(&colours, k).len() / k,
+        frames,
+        batches,
     }
 }
 
@@ -201,6 +209,8 @@ mod tests {
             nearest_deg: vec![20.0, 15.0, 2.0, 12.0, 1.0],
             share_near: vec![0.0; 5],
             scene_colours: 1,
+            frames: 1,
+            batches: 1,
         };
         assert_eq!(g.beyond(10.0), vec![(400.0, 410.0), (430.0, 430.0)]);
     }
