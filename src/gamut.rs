@@ -90,8 +90,8 @@ pub fn compare(lights: &[f64], colours: &[f64], k: usize, near_deg: f64) -> (Vec
 
 /// The test lights at `wavelengths_nm` against the scenes of a training of `batches` batches
 /// from a fresh `source`: [`GAMUT_FRAMES`] frames at evenly spaced batches (all of them when
-/// fewer). The batches between are replayed with one sample each, which rebuilds the scene
-/// pool exactly as training leaves it ([`RetinaSource`]'s determinism).
+/// fewer). The batches between are replayed ([`RetinaSource::replay_to`]), which rebuilds the
+/// scene pool exactly as training leaves it.
 pub fn measure(source: &mut RetinaSource, wavelengths_nm: &[f64], batches: u64) -> Gamut {
     let retina = &source.retina;
     let k = retina.mosaic.n_classes();
@@ -100,13 +100,11 @@ pub fn measure(source: &mut RetinaSource, wavelengths_nm: &[f64], batches: u64) 
     for &w in wavelengths_nm {
         lights.extend(retina.class_values(&Stimulus::monochromatic(w, 1.0).to_grid(retina.grid())));
     }
-    let frames = GAMUT_FRAMES.min(batches.max(1));
+    let span = batches.max(1);
+    let frames = GAMUT_FRAMES.min(span);
     let mut colours = Vec::with_capacity(frames as usize * nn * k);
     for f in 0..frames {
-        let at = f * batches.max(1) / frames;
-        while source.batches_drawn() < at {
-            source.next_eye_batch(1);
-        }
+        source.replay_to(f * span / frames);
         let batch = source.next_eye_batch(1).clone();
         let planes = source.retina.class_excitations_at_cones(&batch.truth, 0);
         for i in 0..nn {

@@ -68,6 +68,15 @@ impl RetinaSource {
         }
     }
 
+    /// Draws batches until `batches` have been drawn, one sample each: each batch has its own
+    /// RNG, so this rebuilds the scene pool's refresh state exactly at a fraction of the cost
+    /// (resuming, and sampling the scenes of a whole training).
+    pub fn replay_to(&mut self, batches: u64) {
+        while self.batches < batches {
+            self.next_eye_batch(1);
+        }
+    }
+
     /// The next eye batch with its ground truth (for evaluation and pictures, never for
     /// learning). It counts as a drawn batch, like [`DataSource::next_batch_into`].
     pub fn next_eye_batch(&mut self, batch_size: usize) -> &EyeBatch {
@@ -111,11 +120,7 @@ impl DataSource for RetinaSource {
         if batches < self.batches {
             return Err(bad("cannot rewind a retina source; build a fresh one"));
         }
-        // Each batch has its own RNG, so replaying with one sample per batch rebuilds the
-        // pool's refresh state exactly at a fraction of the cost.
-        while self.batches < batches {
-            self.next_eye_batch(1);
-        }
+        self.replay_to(batches);
         Ok(())
     }
 }
