@@ -1,7 +1,8 @@
 #!/bin/bash
 # Copies the record of a finished run folder into results/NAME: its settings, start, summary,
 # final CMF-SIM and dimension plot (and, when measured, its convergence table and its CMFs
-# against Stiles & Burch) — the small files the README's tables are generated from
+# against Stiles & Burch), and record.json naming the folder it was trained in (so that `gather`
+# names a run continued from that folder by this record) — the small files the README's tables are generated from
 # (`colorvision gather results --markdown`). No checkpoints, pictures or per-step log.
 # Usage: scripts/record-run.sh RUN_DIR NAME
 set -euo pipefail
@@ -15,6 +16,7 @@ trap 'rm -rf "$TMP"' EXIT
 for f in config.toml run.json summary.json cmf_sim.json dimension.svg; do
     [ -f "$RUN/$f" ] && cp "$RUN/$f" "$TMP/"
 done
+printf '{"trained_in": "%s"}\n' "$(cd "$RUN" && pwd)" > "$TMP/record.json"
 [ -f "$RUN/convergence/convergence.md" ] && cp "$RUN/convergence/convergence.md" "$TMP/"
 if [ -f "$RUN/stiles-burch/table.json" ]; then
     mkdir "$TMP/stiles-burch" && cp "$RUN/stiles-burch/table.json" "$TMP/stiles-burch/"

@@ -18,7 +18,10 @@
 //! settings shown are those that vary between the runs ([`table::varying_keys`]). CMF-SIM's
 //! dimension 0 is shown as `undefined` with the verdict's reason (e.g. no colour constancy).
 //! A run that continued another run's cortex (`run --continue-from`, gene therapy, boosting)
-//! has the setting `continued_from`: that run's folder name and step, from its `run.json`.
+//! has the setting `continued_from`: that run's folder name and step, from its `run.json` —
+//! or the name of its record, when a gathered folder is the record of that run
+//! ([`RECORD_FILE`]: `scripts/record-run.sh` copies a run's small files into `results/NAME` and
+//! says which folder it was trained in).
 //!
 //! Runs whose colour-matching functions were compared with Stiles & Burch (`colorvision
 //! stiles-burch --run DIR`) get a second table below the first ([`stiles_burch`]).
@@ -163,12 +166,19 @@ pub fn gather(dir: &Path) -> Result<Vec<Run>, RunError> {
             }
         })
         .collect();
-    // A run continued from a run gathered here is named by that run's row.
-    let rows: BTreeMap<PathBuf, String> = folders
+    // A run continued from a run gathered here, or from a run recorded here, is named by that
+    // run's row.
+    let mut rows: BTreeMap<PathBuf, String> = folders
         .iter()
         .zip(&names)
         .filter_map(|(f, name)| Some((f.canonicalize().ok()?, name.clone())))
         .collect();
+    for (f, name) in folders.iter().zip(&names) {
+        if let Some(trained_in) = recorded_from(f) {
+            rows.entry(comparable(&trained_in))
+                .or_insert_with(|| name.clone());
+        }
+    }
     Ok(folders
         .iter()
         .zip(names)
@@ -256,6 +266,27 @@ fn read_run(dir: &Path, folder: String, rows: &BTreeMap<PathBuf, String>) -> Run
     }
 }
 
+/// The file of a run record naming the folder the run was trained in: `{"trained_in": PATH}`.
+pub const RECORD_FILE: &str = "record.json";
+
+#[derive(serde::Deserialize)]
+struct Record {
+    trained_in: PathBuf,
+}
+
+/// The folder the run recorded in `dir` was trained in, when `dir` holds a readable
+/// [`RECORD_FILE`].
+fn recorded_from(dir: &Path) -> Option<PathBuf> {
+    let text = std::fs::read_to_string(dir.join(RECORD_FILE)).ok()?;
+    Some(serde_json::from_str::<Record>(&text).ok()?.trained_in)
+}
+
+/// `path` canonical when it exists here, else as written (a record's training folder may be
+/// on another machine).
+fn comparable(path: &Path) -> PathBuf {
+    path.canonicalize().unwrap_or_else(|_| path.to_path_buf())
+}
+
 /// The setting naming the run a continued run's cortex came from.
 pub const CONTINUED_FROM_KEY: &str = "continued_from";
 
@@ -276,7 +307,8 @@ pub(crate) fn run_settings(
 }
 
 /// `RUN @ STEP` for a run continued from `…/RUN/checkpoints/step_<STEP>`, RUN being that
-/// run's row when it is among `rows` (canonical folder → row name), else its folder name; the
+/// run's row when it is among `rows` (canonical folder, or a record's training folder, → row
+/// name), else its folder name; the
 /// checkpoint's path as given when it is not laid out so. `None` for a fresh cortex or no
 /// `run.json`.
 fn continued_from(dir: &Path, rows: &BTreeMap<PathBuf, String>) -> Option<String> {
@@ -291,7 +323,7 @@ fn continued_from(dir: &Path, rows: &BTreeMap<PathBuf, String>) -> Option<String
         .filter(|p| p.file_name().is_some_and(|n| n == "checkpoints"))
         .and_then(|p| p.parent());
     let name = run.and_then(|r| {
-        let row = r.canonicalize().ok().and_then(|c| rows.get(&c).cloned());
+        let row = rows.get(&comparable(r)).cloned();
         row.or_else(|| Some(r.file_name()?.to_string_lossy().into_owned()))
     });
     Some(match (name, step) {

@@ -55,6 +55,20 @@ pub fn install() -> std::io::Result<()> {
     Ok(())
 }
 
+/// Lets a closed pipe end the process quietly, as it ends `cat` or `grep`: `colorvision gather
+/// results | head` then exits when `head` has read enough instead of panicking in `println!`
+/// (Rust starts programs with SIGPIPE ignored, so a write to a closed pipe returns an error).
+/// A training run killed this way leaves its folder as after any kill: every file written whole
+/// (`atomic_io`), resumable from its last checkpoint.
+pub fn default_sigpipe() {
+    #[cfg(unix)]
+    // SAFETY: `signal` with SIG_DFL installs no handler code; it is called at start-up, before
+    // any thread exists.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
+}
+
 /// The signal that asked the run to stop, if one did.
 pub fn requested() -> Option<&'static str> {
     if flag(&INT).load(Ordering::SeqCst) {

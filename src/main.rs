@@ -5,6 +5,7 @@ use colorvision::cli::{Cli, Command, RunOptions};
 use colorvision::commands;
 
 fn main() {
+    colorvision::interrupt::default_sigpipe();
     let cli = Cli::parse();
     if let Err(e) = colorvision::interrupt::install_fault_injection() {
         eprintln!("colorvision: error: {e}");

@@ -66,6 +66,55 @@ fn a_cortex_continues_on_another_eye_from_a_run_or_a_checkpoint() {
         .join("boost/checkpoints/step_00000006/meta.json")
         .is_file());
 
+    // A record of a run (its small files copied elsewhere, as `scripts/record-run.sh` does)
+    // names the folder it was trained in; gather then names a run continued from that folder
+    // by the record's row, not by the training folder's name.
+    // A therapy eye trained from scratch, so that `continued_from` is not redundant with
+    // `cones` (gather drops a column that splits the runs as another does).
+    ok(&[
+        "train",
+        "--preset",
+        "tiny",
+        "--cones",
+        "MS+L_replace_M",
+        "--steps",
+        "1",
+        "--out",
+        "fresh",
+    ]);
+    let records = dir.join("records");
+    for (run, record) in [
+        ("ms", "MS-3"),
+        ("therapy", "therapy-2"),
+        ("fresh", "fresh-1"),
+    ] {
+        std::fs::create_dir_all(records.join(record)).unwrap();
+        for file in ["config.toml", "run.json"] {
+            std::fs::copy(dir.join(run).join(file), records.join(record).join(file)).unwrap();
+        }
+    }
+    let gathered = |records: &Path| {
+        text(&colorvision(
+            &dir,
+            &["gather", records.to_str().unwrap(), "--markdown"],
+        ))
+    };
+    assert!(
+        gathered(&records).contains("| ms @ 3 |"),
+        "{}",
+        gathered(&records)
+    );
+    std::fs::write(
+        records.join("MS-3/record.json"),
+        serde_json::json!({ "trained_in": dir.join("ms") }).to_string(),
+    )
+    .unwrap();
+    assert!(
+        gathered(&records).contains("| MS-3 @ 3 |"),
+        "{}",
+        gathered(&records)
+    );
+
     let refused = |args: &[&str], out: &str, names: &[&str]| {
         let o = colorvision(&dir, args);
         assert!(!o.status.success(), "{args:?} ran");

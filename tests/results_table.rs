@@ -36,3 +36,29 @@ fn the_readme_table_of_recorded_runs_is_what_gather_prints_from_results() {
          paste it in:\n{table}"
     );
 }
+
+/// `colorvision gather results | head` must end quietly when its reader has gone: the write to
+/// the closed pipe ends the process as it ends `cat`, with no panic message.
+#[cfg(unix)]
+#[test]
+fn printing_into_a_closed_pipe_ends_quietly() {
+    use std::os::unix::process::ExitStatusExt;
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let (reader, writer) = std::io::pipe().expect("a pipe");
+    drop(reader);
+    let out = common::command(root, &["gather", "results", "--markdown"], None)
+        .stdout(writer)
+        .output()
+        .expect("colorvision starts");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !stderr.contains("panicked"),
+        "writing into a closed pipe panicked:\n{stderr}"
+    );
+    assert_eq!(
+        out.status.signal(),
+        Some(13),
+        "expected the end by SIGPIPE (13); exit {:?}, stderr:\n{stderr}",
+        out.status
+    );
+}
