@@ -48,6 +48,18 @@ fn emerged_dimension(cones: &str, steps: u64) -> (usize, String) {
             && words.contains("The paper reports"),
         "{words}"
     );
+    // It names the scenes when some tiles came from a richer environment, and only then.
+    assert!(!words.contains("of the tiles holding"), "{words}");
+    let mut mixed = summary.clone();
+    mixed.config.retina.scenes.tetra = Some(retina::scene::pool::TetraMix {
+        environment: retina::scene::tetra::TetraEnvironment::HueSphere,
+        fraction: 0.1,
+    });
+    let words = colorvision::run::in_words(&out, &mixed).expect("CMF-SIM measured");
+    assert!(
+        words.contains("10 % of the tiles holding surfaces of the most saturated colour"),
+        "{words}"
+    );
     std::fs::remove_dir_all(&out).ok();
     (summary.dimension, verdict)
 }

@@ -228,7 +228,16 @@ pub fn in_words(out: &Path, summary: &Summary) -> Option<String> {
             n = summary.config.retina.cones_per_side
         ),
     };
-    Some(format!("In words: {found} {paper}"))
+    let scenes = match &summary.config.retina.scenes.tetra {
+        Some(mix) => format!(
+            " It learned from natural scenes with {:.0} % of the tiles holding {} (one of the \
+             environments of paper S-07).",
+            100.0 * mix.fraction,
+            mix.environment.describe()
+        ),
+        None => String::new(),
+    };
+    Some(format!("In words: {found} {paper}{scenes}"))
 }
 
 /// Line width of the printed plain-words verdict, characters.

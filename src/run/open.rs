@@ -143,6 +143,14 @@ impl<'a> RunState<'a> {
                 "  the cortex receives the optic nerve signal only (eye motion estimated by bucket M)"
             );
         }
+        if let Some(mix) = &c.retina.scenes.tetra {
+            println!(
+                "  scenes: natural, with {:.0} % of the tiles holding {} (one of the environments \
+                 of paper S-07)",
+                100.0 * mix.fraction,
+                mix.environment.describe()
+            );
+        }
         if c.learning_rule != cortex::RuleKind::Backprop {
             println!("  learning rule: {}", c.learning_rule.describe());
         }

@@ -45,6 +45,20 @@ pub enum TetraEnvironment {
     OptimalColours,
 }
 
+impl TetraEnvironment {
+    /// What the environment's patches are, in words (for run logs).
+    pub fn describe(self) -> &'static str {
+        match self {
+            TetraEnvironment::HueSphere => {
+                "surfaces of the most saturated colour the eye's cone classes see in each hue \
+                 (its hue sphere)"
+            }
+            TetraEnvironment::Idealised => "idealised colours, each cone class excited freely",
+            TetraEnvironment::OptimalColours => "spectrally saturated (optimal) surfaces",
+        }
+    }
+}
+
 /// Dead-leaves settings for colour patches in a `size_px` scene.
 pub fn patch_config(size_px: usize) -> DeadLeavesConfig {
     DeadLeavesConfig {
