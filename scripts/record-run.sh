@@ -2,8 +2,8 @@
 # Copies the record of a finished run folder into results/NAME: its settings, start, summary,
 # final CMF-SIM and dimension plot (and, when measured, its convergence table and its CMFs
 # against Stiles & Burch), and record.json naming the folder it was trained in (so that `gather`
-# names a run continued from that folder by this record) — the small files the README's tables are generated from
-# (`colorvision gather results --markdown`). No checkpoints, pictures or per-step log.
+# names a run continued from that folder by this record) — the small files the README's tables
+# are generated from (`colorvision gather results --markdown`). No checkpoints, pictures or per-step log.
 # Usage: scripts/record-run.sh RUN_DIR NAME
 set -euo pipefail
 RUN=${1:?usage: scripts/record-run.sh RUN_DIR NAME}
@@ -16,7 +16,8 @@ trap 'rm -rf "$TMP"' EXIT
 for f in config.toml run.json summary.json cmf_sim.json dimension.svg; do
     [ -f "$RUN/$f" ] && cp "$RUN/$f" "$TMP/"
 done
-printf '{"trained_in": "%s"}\n' "$(cd "$RUN" && pwd)" > "$TMP/record.json"
+TRAINED_IN=$(cd "$RUN" && pwd | sed 's/[\\"]/\\&/g')   # a JSON string: \ and " escaped
+printf '{"trained_in": "%s"}\n' "$TRAINED_IN" > "$TMP/record.json"
 [ -f "$RUN/convergence/convergence.md" ] && cp "$RUN/convergence/convergence.md" "$TMP/"
 if [ -f "$RUN/stiles-burch/table.json" ]; then
     mkdir "$TMP/stiles-burch" && cp "$RUN/stiles-burch/table.json" "$TMP/stiles-burch/"

@@ -308,9 +308,8 @@ pub(crate) fn run_settings(
 
 /// `RUN @ STEP` for a run continued from `…/RUN/checkpoints/step_<STEP>`, RUN being that
 /// run's row when it is among `rows` (canonical folder, or a record's training folder, → row
-/// name), else its folder name; the
-/// checkpoint's path as given when it is not laid out so. `None` for a fresh cortex or no
-/// `run.json`.
+/// name), else its folder name; the checkpoint's path as given when it is not laid out so.
+/// `None` for a fresh cortex or no `run.json`.
 fn continued_from(dir: &Path, rows: &BTreeMap<PathBuf, String>) -> Option<String> {
     let text = std::fs::read_to_string(dir.join("run.json")).ok()?;
     let marker: crate::run::RunMarker = serde_json::from_str(&text).ok()?;

@@ -68,9 +68,9 @@ fn a_cortex_continues_on_another_eye_from_a_run_or_a_checkpoint() {
 
     // A record of a run (its small files copied elsewhere, as `scripts/record-run.sh` does)
     // names the folder it was trained in; gather then names a run continued from that folder
-    // by the record's row, not by the training folder's name.
-    // A therapy eye trained from scratch, so that `continued_from` is not redundant with
-    // `cones` (gather drops a column that splits the runs as another does).
+    // by the record's row, not by the training folder's name. A therapy eye trained from
+    // scratch joins them, so that `continued_from` is not redundant with `cones` (gather drops
+    // a column that splits the runs as another does).
     ok(&[
         "train",
         "--preset",
@@ -93,27 +93,21 @@ fn a_cortex_continues_on_another_eye_from_a_run_or_a_checkpoint() {
             std::fs::copy(dir.join(run).join(file), records.join(record).join(file)).unwrap();
         }
     }
-    let gathered = |records: &Path| {
+    let gathered = || {
         text(&colorvision(
             &dir,
             &["gather", records.to_str().unwrap(), "--markdown"],
         ))
     };
-    assert!(
-        gathered(&records).contains("| ms @ 3 |"),
-        "{}",
-        gathered(&records)
-    );
+    let table = gathered();
+    assert!(table.contains("| ms @ 3 |"), "{table}");
     std::fs::write(
         records.join("MS-3/record.json"),
         serde_json::json!({ "trained_in": dir.join("ms") }).to_string(),
     )
     .unwrap();
-    assert!(
-        gathered(&records).contains("| MS-3 @ 3 |"),
-        "{}",
-        gathered(&records)
-    );
+    let table = gathered();
+    assert!(table.contains("| MS-3 @ 3 |"), "{table}");
 
     let refused = |args: &[&str], out: &str, names: &[&str]| {
         let o = colorvision(&dir, args);
