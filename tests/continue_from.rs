@@ -25,22 +25,16 @@ fn a_cortex_continues_on_another_eye_from_a_run_or_a_checkpoint() {
         assert!(o.status.success(), "{args:?}: {}", text(&o));
         text(&o)
     };
-    ok(&[
-        "train", "--preset", "tiny", "--cones", "MS", "--steps", "3", "--out", "ms",
-    ]);
-    let said = ok(&[
-        "train",
-        "--preset",
-        "tiny",
-        "--cones",
-        "MS+L_replace_M",
-        "--steps",
-        "2",
-        "--out",
-        "therapy",
-        "--continue-from",
-        "ms",
-    ]);
+    // `train --preset tiny` of `cones` for `steps` into `out`, from the cortex at `from`.
+    let train_tiny = |cones: &str, steps: &str, out: &str, from: Option<&str>| {
+        let mut args = vec![
+            "train", "--preset", "tiny", "--cones", cones, "--steps", steps, "--out", out,
+        ];
+        args.extend(from.map(|f| ["--continue-from", f]).into_iter().flatten());
+        ok(&args)
+    };
+    train_tiny("MS", "3", "ms", None);
+    let said = train_tiny("MS+L_replace_M", "2", "therapy", Some("ms"));
     assert!(said.contains("continuing the cortex of"), "{said}");
     // From the run folder: its newest checkpoint; the step count goes on from 3.
     assert!(continued_from(&dir.join("therapy")).ends_with("ms/checkpoints/step_00000003"));
@@ -48,19 +42,12 @@ fn a_cortex_continues_on_another_eye_from_a_run_or_a_checkpoint() {
         .join("therapy/checkpoints/step_00000005/meta.json")
         .is_file());
     // From a checkpoint folder named directly.
-    ok(&[
-        "train",
-        "--preset",
-        "tiny",
-        "--cones",
+    train_tiny(
         "LMSQ",
-        "--steps",
         "1",
-        "--out",
         "boost",
-        "--continue-from",
-        "therapy/checkpoints/step_00000005",
-    ]);
+        Some("therapy/checkpoints/step_00000005"),
+    );
     assert!(continued_from(&dir.join("boost")).ends_with("therapy/checkpoints/step_00000005"));
     assert!(dir
         .join("boost/checkpoints/step_00000006/meta.json")
@@ -71,17 +58,7 @@ fn a_cortex_continues_on_another_eye_from_a_run_or_a_checkpoint() {
     // by the record's row, not by the training folder's name. A therapy eye trained from
     // scratch joins them, so that `continued_from` is not redundant with `cones` (gather drops
     // a column that splits the runs as another does).
-    ok(&[
-        "train",
-        "--preset",
-        "tiny",
-        "--cones",
-        "MS+L_replace_M",
-        "--steps",
-        "1",
-        "--out",
-        "fresh",
-    ]);
+    train_tiny("MS+L_replace_M", "1", "fresh", None);
     let records = dir.join("records");
     for (run, record) in [
         ("ms", "MS-3"),
