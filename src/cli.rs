@@ -9,9 +9,10 @@ use std::path::PathBuf;
 
 /// Emergence of colour vision from the optic nerve signal.
 ///
-/// With no subcommand, `colorvision` runs `run`: an LMS eye looks at the built-in scenes, the
-/// `quick` cortex learns from its optic nerve signal alone, and CMF-SIM measures the colour
-/// dimensionality that emerges. Everything lands in a run folder (default `runs/<name>`).
+/// With no subcommand, `colorvision` runs `run`: an LMS eye looks at the built-in scenes (a
+/// tenth of them from its hue sphere: the `main` preset), the cortex learns from its optic
+/// nerve signal alone, and CMF-SIM measures the colour dimensionality that emerges.
+/// Everything lands in a run folder (default `runs/<name>`).
 #[derive(Debug, Parser)]
 #[command(name = "colorvision", version, about, long_about = None)]
 pub struct Cli {
@@ -109,9 +110,10 @@ pub struct ResumeOptions {
 /// Options every subcommand understands; the default is none given.
 #[derive(Debug, Clone, Default, Args)]
 pub struct CommonOptions {
-    /// Named set of settings: tiny (tests, seconds), quick (CPU default, 6 000 steps), long (the
-    /// quick eye trained 40 000 steps, until prediction and invariants plateau; the
-    /// experiments' default), sandbox
+    /// Named set of settings: tiny (tests, seconds), quick (64×64 cones, natural scenes, 6 000
+    /// steps), main (the default of run and train: the quick eye with a tenth of its scene tiles
+    /// from its hue sphere, 12 000 steps), long (the quick eye trained 40 000 steps, until
+    /// prediction and invariants plateau; the experiments' default), sandbox
     /// (official sandbox: no foveation, no lateral inhibition, oracle motion), paper (256×256
     /// cones).
     #[arg(long)]

@@ -52,9 +52,9 @@ fn install_signals() -> Result<(), RunError> {
         .map_err(|e| RunError::invalid("signals", format!("cannot catch SIGINT/SIGTERM: {e}")))
 }
 
-/// The config and run folder of `run`/`train`. With `--resume` and no option that changes
-/// the settings, the folder's own `config.toml` is the config (any option given must agree
-/// with it, which [`run::run_in`] checks).
+/// The config and run folder of `run`/`train` (the `main` preset unless told otherwise). With
+/// `--resume` and no option that changes the settings, the folder's own `config.toml` is the
+/// config (any option given must agree with it, which [`run::run_in`] checks).
 pub fn resolve_run(
     options: &CommonOptions,
     command: &str,
@@ -72,7 +72,7 @@ pub fn resolve_run(
             return Ok((config, out.clone()));
         }
     }
-    let config = RunConfig::resolve(options, "quick")?;
+    let config = RunConfig::resolve(options, "main")?;
     let out = run::out_dir(&config, options.out.as_ref(), command);
     Ok((config, out))
 }

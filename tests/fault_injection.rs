@@ -189,9 +189,37 @@ fn reference() -> &'static Outcome {
             vec![(5, r.3[0].1), (12, r.3[1].1)],
             "CMF-SIM at 5 and 12"
         );
+        assert_margins_printed(&String::from_utf8_lossy(&o.stdout), &dir.join("out"), 5);
         std::fs::remove_dir_all(dir).ok();
         r
     })
+}
+
+/// The line a measurement during training prints carries the margins its `cmf_sim.json`
+/// holds: per K tried, "K<k> <worst error / threshold>".
+fn assert_margins_printed(stdout: &str, out: &Path, step: u64) {
+    let head = format!("step {step}: CMF-SIM dimension");
+    let line = stdout
+        .lines()
+        .find(|l| l.trim_start().starts_with(&head))
+        .unwrap_or_else(|| panic!("no `{head}` line in:\n{stdout}"));
+    let json = out.join(format!("cmf_sim/step_{step:06}/cmf_sim.json"));
+    let r: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(json).unwrap()).unwrap();
+    let per_k = r["per_k"].as_array().expect("per_k");
+    assert!(!per_k.is_empty(), "CMF-SIM tried no K");
+    let margins: Vec<String> = per_k
+        .iter()
+        .map(|q| {
+            let (k, ratio) = (
+                &q["n_primaries"],
+                q["converged_worst_ratio"].as_f64().unwrap(),
+            );
+            format!("K{k} {ratio:.2}")
+        })
+        .collect();
+    let want = format!("({}; ", margins.join(", "));
+    assert!(line.contains(&want), "`{line}` lacks `{want}`");
 }
 
 /// Runs with `faults` (one process each, in order), then resumes until finished, and checks

@@ -83,19 +83,15 @@ struct Cells {
 
 fn cells(run: &Run) -> Option<Cells> {
     let s = run.summary.as_ref()?;
-    let margins: Vec<String> = s
-        .converged_ratio_per_k
-        .iter()
-        .map(|(k, r)| format!("K{k} {r:.2}"))
-        .collect();
+    let margins = crate::run::margins_text(&s.converged_ratio_per_k);
     // 0 is "undefined" when measured (the verdict says why), "not measured" otherwise.
     let measured = !s.dimension_over_steps.is_empty();
     let why = s.verdict.split(':').next().unwrap_or_default();
     let dimension = match (measured, margins.is_empty(), s.dimension) {
         (false, _, _) => String::new(),
         (true, true, 0) => format!("undefined ({why})"),
-        (true, false, 0) => format!("undefined ({})", margins.join(", ")),
-        (true, _, d) => format!("{d} ({})", margins.join(", ")),
+        (true, false, 0) => format!("undefined ({margins})"),
+        (true, _, d) => format!("{d} ({margins})"),
     };
     let rec = s.invariants.as_ref().map(|i| &i.recovery);
     let c = rec.and_then(|r| r.c.as_ref());

@@ -138,6 +138,17 @@ pub fn heldout_source(config: &RunConfig, true_motion: bool) -> Result<RetinaSou
     ))
 }
 
+/// CMF-SIM's margins in short, e.g. "K1 4.54, K2 1.02, K3 0.99": per K tried, the reported
+/// set's worst error over every test wavelength in units of the threshold (above 1 fails,
+/// below 1 passes).
+pub fn margins_text(converged_ratio_per_k: &[(usize, f64)]) -> String {
+    converged_ratio_per_k
+        .iter()
+        .map(|(k, r)| format!("K{k} {r:.2}"))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
 /// The last CMF-SIM measurement, as the summary reports it.
 #[derive(Clone, Debug, Default, Serialize, Deserialize)]
 pub struct LastMeasurement {

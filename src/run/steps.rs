@@ -121,14 +121,25 @@ impl RunState<'_> {
                 r.save(staging)?;
                 Ok(())
             })?;
+            let ratios: Vec<(usize, f64)> = r
+                .per_k
+                .iter()
+                .map(|q| (q.n_primaries, q.converged_worst_ratio))
+                .collect();
+            // The margins say how far from the border the verdict is; an undefined one says why.
+            let why = if r.dimension == 0 {
+                format!("; {}", r.verdict)
+            } else {
+                String::new()
+            };
             self.bar.suspend(|| {
                 println!(
-                    "  step {k}: CMF-SIM dimension {} ({:.0} s; {} λ, {} sets/K; {})",
+                    "  step {k}: CMF-SIM dimension {} ({}; {:.0} s; {} λ, {} sets/K{why})",
                     r.dimension,
+                    super::margins_text(&ratios),
                     r.seconds,
                     settings.n_test_wavelengths,
                     settings.sets_per_k,
-                    r.verdict
                 )
             });
             self.progress.dims.push(DimensionPoint {
@@ -149,11 +160,7 @@ impl RunState<'_> {
                     .iter()
                     .map(|q| q.describe(r.test_wavelengths_nm.len()))
                     .collect(),
-                converged_ratio_per_k: r
-                    .per_k
-                    .iter()
-                    .map(|q| (q.n_primaries, q.converged_worst_ratio))
-                    .collect(),
+                converged_ratio_per_k: ratios,
             });
         }
         if let Some(row) = self.pending_row.take() {
