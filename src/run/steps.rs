@@ -127,19 +127,23 @@ impl RunState<'_> {
                 .map(|q| (q.n_primaries, q.converged_worst_ratio))
                 .collect();
             // The margins say how far from the border the verdict is; an undefined one says why.
-            let why = if r.dimension == 0 {
-                format!("; {}", r.verdict)
-            } else {
-                String::new()
-            };
+            let mut said = vec![
+                super::margins_text(&ratios),
+                format!("{:.0} s", r.seconds),
+                format!(
+                    "{} λ, {} sets/K",
+                    settings.n_test_wavelengths, settings.sets_per_k
+                ),
+            ];
+            if r.dimension == 0 {
+                said.push(r.verdict.clone());
+            }
+            said.retain(|part| !part.is_empty());
             self.bar.suspend(|| {
                 println!(
-                    "  step {k}: CMF-SIM dimension {} ({}; {:.0} s; {} λ, {} sets/K{why})",
+                    "  step {k}: CMF-SIM dimension {} ({})",
                     r.dimension,
-                    super::margins_text(&ratios),
-                    r.seconds,
-                    settings.n_test_wavelengths,
-                    settings.sets_per_k,
+                    said.join("; ")
                 )
             });
             self.progress.dims.push(DimensionPoint {
