@@ -23,10 +23,14 @@
 //! ([`RECORD_FILE`]: `scripts/record-run.sh` copies a run's small files into `results/NAME` and
 //! says which folder it was trained in).
 //!
+//! A folder that lists the paper's experiments ([`paper_rows::ROWS_FILE`], as `results/` does)
+//! gets the paper's table, row by row, above the table of runs ([`paper_rows`]).
+//!
 //! Runs whose colour-matching functions were compared with Stiles & Burch (`colorvision
 //! stiles-burch --run DIR`) get a second table below the first ([`stiles_burch`]).
 
 pub mod index;
+pub mod paper_rows;
 pub mod stiles_burch;
 pub mod table;
 
@@ -124,6 +128,12 @@ pub fn command(options: &GatherOptions) -> Result<(), RunError> {
     let first = Manifest::read(dir).map(|m| m.keys).unwrap_or_default();
     let keys = table::varying_keys(&runs, &first);
     let mut markdown = table::markdown(&runs, &keys);
+    if let Some(rows) = paper_rows::read(dir)? {
+        let path = dir.join(paper_rows::ROWS_FILE);
+        let paper = paper_rows::markdown(&rows, &runs, &path)?;
+        markdown =
+            format!("{paper}\nEvery run, with the settings that vary between runs:\n\n{markdown}");
+    }
     let cmfs = stiles_burch::markdown(&runs);
     if !cmfs.is_empty() {
         markdown = format!("{markdown}\n{cmfs}");

@@ -1,5 +1,6 @@
 //! The README's table of recorded runs is generated, not typed: it must be exactly what
-//! `colorvision gather results --markdown` prints from the run records in `results/`.
+//! `colorvision gather results --markdown` prints from the run records in `results/`, the
+//! paper's rows (`results/paper-rows.toml`) first.
 
 mod common;
 
@@ -16,9 +17,15 @@ fn the_readme_table_of_recorded_runs_is_what_gather_prints_from_results() {
         text(&out)
     );
     let table = String::from_utf8(out.stdout).expect("gather prints UTF-8");
-    // The runs' table comes first; a table of CMFs against Stiles & Burch may follow it.
+    // The paper's rows (results/paper-rows.toml) come first, then the runs' table; a table of
+    // CMFs against Stiles & Burch may follow it.
+    assert!(
+        table.starts_with("| the paper's experiment |"),
+        "results/ lists the paper's rows, but gather printed no table of them first:\n{table}"
+    );
     let rows: Vec<&str> = table
         .lines()
+        .skip_while(|l| !l.starts_with("| run |"))
         .skip(2)
         .take_while(|l| !l.is_empty())
         .collect();

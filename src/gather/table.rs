@@ -121,6 +121,12 @@ fn cells(run: &Run) -> Option<Cells> {
     })
 }
 
+/// A finished run's measured dimension with its margins (`3 (K1 9.41, K2 4.53, K3 0.70)`);
+/// empty when it has none.
+pub(super) fn dimension_cell(run: &Run) -> String {
+    cells(run).map_or(String::new(), |c| c.dimension)
+}
+
 fn status_cell(run: &Run) -> String {
     match run.status.detail() {
         d if d.is_empty() => run.status.word().to_string(),
@@ -128,7 +134,8 @@ fn status_cell(run: &Run) -> String {
     }
 }
 
-fn md_escape(s: &str) -> String {
+/// A cell's text made safe for a Markdown table row.
+pub(super) fn md_escape(s: &str) -> String {
     s.replace('|', "\\|").replace(['\n', '\r'], " ")
 }
 
@@ -143,7 +150,7 @@ pub fn dimension_column(keys: &[String]) -> usize {
 }
 
 /// The dimension the paper reports for a run's settings ([`crate::paper`]), or "—".
-fn paper_cell(run: &Run) -> String {
+pub(super) fn paper_cell(run: &Run) -> String {
     crate::paper::reported_for_settings(&run.settings).map_or("—".into(), |r| r.to_string())
 }
 

@@ -1,0 +1,279 @@
+//! The paper's table, row by row: for each experiment of Kotani & Ng (ICLR 2025), the gathered
+//! runs that measure it, each run's dimension and converged margins beside the figure the paper
+//! reports for that run's settings ([`crate::paper`]), whether they agree, and — where they do
+//! not — the runs that are evidence of why, with what they show.
+//!
+//! The rows are listed in [`ROWS_FILE`] in the gathered folder (`results/` for the README):
+//!
+//! ```toml
+//! [[row]]
+//! experiment = "LMS + human Q (545 nm), boosted, three environments"
+//! runs = ["LMS-boost-humanQ-16k", "LMS-boost-humanQ-huesphere-16k"]
+//! evidence = ["LMS-boost-humanQ-idealised-24k"]
+//! why = "trained 8 000 steps more, it stays 3-D …"
+//! ```
+//!
+//! Every figure in the table is read from the runs' `summary.json` and the paper's figure from
+//! their settings; only `experiment` and `why` are words. A row whose runs differ from the paper
+//! must say why (`why`, which may be "not shown"); a run named that was not gathered is an
+//! error naming the file, the row and the field, so the table cannot silently drop a row.
+
+use super::Run;
+use crate::config::ConfigError;
+use serde::Deserialize;
+use std::path::Path;
+
+/// The file in a gathered folder that lists the paper's rows.
+pub const ROWS_FILE: &str = "paper-rows.toml";
+
+/// [`ROWS_FILE`], read.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PaperRows {
+    /// The rows, in the order the table shows them.
+    pub row: Vec<PaperRow>,
+}
+
+/// One experiment of the paper.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PaperRow {
+    /// The experiment, as the paper names it.
+    pub experiment: String,
+    /// The gathered runs (folder names) that measure it.
+    pub runs: Vec<String>,
+    /// Runs that show why the measured figures differ from the paper's (longer, larger, oracle).
+    #[serde(default)]
+    pub evidence: Vec<String>,
+    /// What `evidence` shows, in words; required when a run differs from the paper.
+    #[serde(default)]
+    pub why: String,
+}
+
+/// The rows of `dir`'s [`ROWS_FILE`], `None` when it has none.
+pub fn read(dir: &Path) -> Result<Option<PaperRows>, ConfigError> {
+    let path = dir.join(ROWS_FILE);
+    if !path.is_file() {
+        return Ok(None);
+    }
+    let text = std::fs::read_to_string(&path).map_err(|source| ConfigError::Read {
+        path: path.clone(),
+        source,
+    })?;
+    toml::from_str(&text)
+        .map(Some)
+        .map_err(|e| ConfigError::Parse {
+            path: path.display().to_string(),
+            message: crate::config::one_line(&e.to_string()),
+        })
+}
+
+/// Whether a run's measured dimension agrees with the paper's figure for its settings: `None`
+/// when the paper has no figure or the run has no measured dimension.
+fn agrees(run: &Run) -> Option<bool> {
+    let summary = run.summary.as_ref()?;
+    if summary.dimension_over_steps.is_empty() {
+        return None;
+    }
+    let reported = crate::paper::reported_for_settings(&run.settings)?;
+    Some(match reported {
+        crate::paper::Reported::Dimension(d) => summary.dimension == d,
+        crate::paper::Reported::Undefined => summary.dimension == 0,
+    })
+}
+
+/// `NAME **d** (K1 …)`: a run and what it measured.
+fn measured(run: &Run) -> String {
+    let cell = super::table::dimension_cell(run);
+    let cell = if cell.is_empty() {
+        run.status.word().to_string()
+    } else {
+        super::table::emphasise_number(&cell, "**", "**")
+    };
+    format!("{}: {cell}", run.folder)
+}
+
+/// The Markdown table of `rows` over the gathered `runs`; `path` names the rows' file in errors.
+pub fn markdown(rows: &PaperRows, runs: &[Run], path: &Path) -> Result<String, ConfigError> {
+    let find = |row: &PaperRow, field: &str, name: &String| {
+        runs.iter()
+            .find(|r| &r.folder == name)
+            .ok_or_else(|| ConfigError::InFile {
+                path: path.display().to_string(),
+                field: format!("row `{}`: {field}", row.experiment),
+                reason: format!("`{name}` is not a run folder gathered here"),
+            })
+    };
+    let mut out = String::from(
+        "| the paper's experiment | paper | measured: run, CMF-SIM dimension (margins) | agrees | \
+         why it differs: evidence |\n|---|---|---|---|---|\n",
+    );
+    for row in &rows.row {
+        let measuring = (row.runs.iter())
+            .map(|name| find(row, "runs", name))
+            .collect::<Result<Vec<_>, _>>()?;
+        let evidence = (row.evidence.iter())
+            .map(|name| find(row, "evidence", name))
+            .collect::<Result<Vec<_>, _>>()?;
+        let verdicts: Vec<Option<bool>> = measuring.iter().map(|r| agrees(r)).collect();
+        let differ = verdicts.iter().filter(|v| **v == Some(false)).count();
+        if differ > 0 && row.why.trim().is_empty() {
+            return Err(ConfigError::InFile {
+                path: path.display().to_string(),
+                field: format!("row `{}`: why", row.experiment),
+                reason: format!(
+                    "{differ} of its runs differ from the paper: say why (or that it is not shown)"
+                ),
+            });
+        }
+        let paper: Vec<String> = (measuring.iter())
+            .map(|r| super::table::paper_cell(r))
+            .collect();
+        let agree = match (differ, verdicts.iter().any(Option::is_some)) {
+            (_, false) => "—".to_string(),
+            (0, true) => "yes".to_string(),
+            (n, true) => format!("no ({n} of {})", measuring.len()),
+        };
+        let why = match (row.why.trim(), evidence.is_empty()) {
+            ("", _) => String::new(),
+            (why, true) => why.to_string(),
+            (why, false) => {
+                let shown: Vec<String> = evidence.iter().map(|r| measured(r)).collect();
+                format!("{why} ({})", shown.join("; "))
+            }
+        };
+        let measured: Vec<String> = measuring.iter().map(|r| measured(r)).collect();
+        let cells = [
+            row.experiment.as_str(),
+            &paper.join(", "),
+            &measured.join("; "),
+            &agree,
+            &why,
+        ]
+        .map(super::table::md_escape);
+        out.push_str(&format!("| {} |\n", cells.join(" | ")));
+    }
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::gather::Status;
+    use std::path::PathBuf;
+
+    /// A finished run with these settings, measured `dimension` with these margins (the rest of
+    /// its summary is a recorded run's).
+    fn run(folder: &str, cones: &str, dimension: usize, margins: &[(usize, f64)]) -> Run {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+        let text = std::fs::read_to_string(root.join("results/L-8k/summary.json")).unwrap();
+        let mut summary: crate::run::Summary = serde_json::from_str(&text).unwrap();
+        summary.dimension = dimension;
+        summary.converged_ratio_per_k = margins.to_vec();
+        Run {
+            folder: folder.into(),
+            status: Status::Done,
+            steps: Some(summary.steps),
+            summary: Some(summary),
+            settings: [("cones".to_string(), cones.to_string())].into(),
+            stiles_burch: None,
+        }
+    }
+
+    fn rows(toml: &str) -> PaperRows {
+        toml::from_str(toml).unwrap()
+    }
+
+    fn runs() -> Vec<Run> {
+        vec![
+            run("mono", "L", 1, &[(1, 0.67)]),
+            run("tri", "LMS", 2, &[(1, 1.5), (2, 0.8)]),
+            run("longer", "LMS", 3, &[(2, 1.2), (3, 0.7)]),
+        ]
+    }
+
+    fn path() -> PathBuf {
+        PathBuf::from("results").join(ROWS_FILE)
+    }
+
+    #[test]
+    fn each_run_stands_beside_the_paper_and_disagreements_are_counted() {
+        let table = rows(
+            r#"
+            [[row]]
+            experiment = "one and three classes"
+            runs = ["mono", "tri"]
+            evidence = ["longer"]
+            why = "under-trained"
+            "#,
+        );
+        let md = markdown(&table, &runs(), &path()).unwrap();
+        let row = md.lines().nth(2).unwrap();
+        assert_eq!(
+            row,
+            "| one and three classes | 1, 3 | mono: **1** (K1 0.67); tri: **2** (K1 1.50, K2 0.80) \
+             | no (1 of 2) | under-trained (longer: **3** (K2 1.20, K3 0.70)) |"
+        );
+    }
+
+    #[test]
+    fn a_row_that_differs_from_the_paper_must_say_why() {
+        let table = rows("[[row]]\nexperiment = \"x\"\nruns = [\"tri\"]\n");
+        let err = markdown(&table, &runs(), &path()).unwrap_err().to_string();
+        assert!(
+            err.contains(ROWS_FILE) && err.contains("row `x`: why"),
+            "{err}"
+        );
+        // A row that agrees needs no words.
+        let table = rows("[[row]]\nexperiment = \"x\"\nruns = [\"mono\", \"longer\"]\n");
+        let md = markdown(&table, &runs(), &path()).unwrap();
+        assert!(
+            md.ends_with(
+                "| x | 1, 3 | mono: **1** (K1 0.67); longer: **3** (K2 1.20, K3 0.70) | yes |  |\n"
+            ),
+            "{md}"
+        );
+    }
+
+    #[test]
+    fn a_run_not_gathered_is_an_error_naming_the_row_and_field() {
+        for field in ["runs", "evidence"] {
+            let text = format!("[[row]]\nexperiment = \"x\"\nruns = []\n{field} = [\"gone\"]\n");
+            let text = text.replacen("runs = []\nruns", "runs", 1);
+            let err = markdown(&rows(&text), &runs(), &path())
+                .unwrap_err()
+                .to_string();
+            assert!(
+                err.contains(&format!("row `x`: {field}")) && err.contains("`gone`"),
+                "{err}"
+            );
+        }
+    }
+
+    #[test]
+    fn a_run_the_paper_has_no_figure_for_gets_no_verdict() {
+        let custom = run("custom", "L:560,X:600", 2, &[(1, 3.0), (2, 0.9)]);
+        let table = rows("[[row]]\nexperiment = \"beyond\"\nruns = [\"custom\"]\n");
+        let md = markdown(&table, &[custom], &path()).unwrap();
+        assert!(
+            md.ends_with("| beyond | — | custom: **2** (K1 3.00, K2 0.90) | — |  |\n"),
+            "{md}"
+        );
+    }
+
+    #[test]
+    fn the_rows_file_is_optional_and_a_wrong_field_is_named() {
+        let dir = std::env::temp_dir().join(format!("cv_paper_rows_{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        assert!(read(&dir).unwrap().is_none());
+        std::fs::write(
+            dir.join(ROWS_FILE),
+            "[[row]]\nexperiment = \"x\"\nrun = []\n",
+        )
+        .unwrap();
+        let err = read(&dir).unwrap_err().to_string();
+        assert!(err.contains(ROWS_FILE) && err.contains("run"), "{err}");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}
