@@ -134,19 +134,16 @@ pub fn markdown(rows: &PaperRows, runs: &[Run], path: &Path) -> Result<String, C
             (0, true) => "yes".to_string(),
             (n, true) => format!("no ({n} of {})", measuring.len()),
         };
-        let why = match (row.why.trim(), evidence.is_empty()) {
-            ("", _) => String::new(),
+        let shown: Vec<String> = evidence.iter().map(|r| measured(r)).collect();
+        let why = match (row.why.trim(), shown.is_empty()) {
             (why, true) => why.to_string(),
-            (why, false) => {
-                let shown: Vec<String> = evidence.iter().map(|r| measured(r)).collect();
-                format!("{why} ({})", shown.join("; "))
-            }
+            (why, false) => format!("{why} ({})", shown.join("; ")).trim().to_string(),
         };
-        let measured: Vec<String> = measuring.iter().map(|r| measured(r)).collect();
+        let results: Vec<String> = measuring.iter().map(|r| measured(r)).collect();
         let cells = [
             row.experiment.as_str(),
             &paper.join(", "),
-            &measured.join("; "),
+            &results.join("; "),
             &agree,
             &why,
         ]
@@ -223,6 +220,14 @@ mod tests {
         assert!(
             err.contains(ROWS_FILE) && err.contains("row `x`: why"),
             "{err}"
+        );
+        // Evidence is shown even without words.
+        let table =
+            rows("[[row]]\nexperiment = \"x\"\nruns = [\"mono\"]\nevidence = [\"longer\"]\n");
+        let md = markdown(&table, &runs(), &path()).unwrap();
+        assert!(
+            md.ends_with("| yes | (longer: **3** (K2 1.20, K3 0.70)) |\n"),
+            "{md}"
         );
         // A row that agrees needs no words.
         let table = rows("[[row]]\nexperiment = \"x\"\nruns = [\"mono\", \"longer\"]\n");
