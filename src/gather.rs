@@ -27,7 +27,7 @@
 //! gets the paper's table, row by row, above the table of runs ([`paper_rows`]).
 //!
 //! Runs whose colour-matching functions were compared with Stiles & Burch (`colorvision
-//! stiles-burch --run DIR`) get a second table below the first ([`stiles_burch`]).
+//! stiles-burch --run DIR`) get a table of their own below the runs' table ([`stiles_burch`]).
 
 pub mod index;
 pub mod paper_rows;
