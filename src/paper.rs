@@ -33,6 +33,16 @@ pub enum Reported {
     Undefined,
 }
 
+impl Reported {
+    /// Whether a CMF-SIM dimension (0: undefined, no colour constancy) is what the paper reports.
+    pub fn agrees_with(self, dimension: usize) -> bool {
+        match self {
+            Reported::Dimension(d) => d == dimension,
+            Reported::Undefined => dimension == 0,
+        }
+    }
+}
+
 impl std::fmt::Display for Reported {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
@@ -170,6 +180,15 @@ mod tests {
         assert_eq!(continued("LMSQ,Q:506").as_deref(), Some("4"));
         // Gene therapy continues a dichromat into a trichromat: 3, as from scratch.
         assert_eq!(continued("MS+L_replace_M").as_deref(), Some("3"));
+    }
+
+    #[test]
+    fn a_measured_dimension_agrees_with_the_same_figure_and_undefined_with_zero() {
+        assert!(Reported::Dimension(3).agrees_with(3));
+        assert!(!Reported::Dimension(3).agrees_with(2));
+        assert!(!Reported::Dimension(1).agrees_with(0));
+        assert!(Reported::Undefined.agrees_with(0));
+        assert!(!Reported::Undefined.agrees_with(1));
     }
 
     #[test]

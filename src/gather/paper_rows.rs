@@ -68,18 +68,18 @@ pub fn read(dir: &Path) -> Result<Option<PaperRows>, ConfigError> {
         })
 }
 
-/// Whether a run's measured dimension agrees with the paper's figure for its settings: `None`
-/// when the paper has no figure or the run has no measured dimension.
-fn agrees(run: &Run) -> Option<bool> {
-    let summary = run.summary.as_ref()?;
-    if summary.dimension_over_steps.is_empty() {
-        return None;
-    }
-    let reported = crate::paper::reported_for_settings(&run.settings)?;
-    Some(match reported {
-        crate::paper::Reported::Dimension(d) => summary.dimension == d,
-        crate::paper::Reported::Undefined => summary.dimension == 0,
-    })
+/// What the paper reports for a run's settings ([`crate::paper`]), and whether the run's
+/// measured dimension agrees with it (`None` when the run has no measured dimension).
+fn against_paper(run: &Run) -> (Option<crate::paper::Reported>, Option<bool>) {
+    let reported = crate::paper::reported_for_settings(&run.settings);
+    let measured = run
+        .summary
+        .as_ref()
+        .filter(|s| !s.dimension_over_steps.is_empty());
+    let agrees = reported
+        .zip(measured)
+        .map(|(p, s)| p.agrees_with(s.dimension));
+    (reported, agrees)
 }
 
 /// `NAME **d** (K1 …)`: a run and what it measured.
@@ -115,7 +115,8 @@ pub fn markdown(rows: &PaperRows, runs: &[Run], path: &Path) -> Result<String, C
         let evidence = (row.evidence.iter())
             .map(|name| find(row, "evidence", name))
             .collect::<Result<Vec<_>, _>>()?;
-        let verdicts: Vec<Option<bool>> = measuring.iter().map(|r| agrees(r)).collect();
+        let (reported, verdicts): (Vec<_>, Vec<_>) =
+            measuring.iter().map(|r| against_paper(r)).unzip();
         let differ = verdicts.iter().filter(|v| **v == Some(false)).count();
         if differ > 0 && row.why.trim().is_empty() {
             return Err(ConfigError::InFile {
@@ -126,8 +127,8 @@ pub fn markdown(rows: &PaperRows, runs: &[Run], path: &Path) -> Result<String, C
                 ),
             });
         }
-        let paper: Vec<String> = (measuring.iter())
-            .map(|r| super::table::paper_cell(r))
+        let paper: Vec<String> = (reported.iter())
+            .map(|p| p.map_or("—".into(), |p| p.to_string()))
             .collect();
         let agree = match (differ, verdicts.iter().any(Option::is_some)) {
             (_, false) => "—".to_string(),

@@ -150,7 +150,7 @@ pub fn dimension_column(keys: &[String]) -> usize {
 }
 
 /// The dimension the paper reports for a run's settings ([`crate::paper`]), or "—".
-pub(super) fn paper_cell(run: &Run) -> String {
+fn paper_cell(run: &Run) -> String {
     crate::paper::reported_for_settings(&run.settings).map_or("—".into(), |r| r.to_string())
 }
 

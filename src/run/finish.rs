@@ -214,10 +214,7 @@ pub fn in_words(out: &Path, summary: &Summary) -> Option<String> {
     let settings = crate::gather::run_settings(out, &config, &Default::default());
     let paper = match crate::paper::reported_for_settings(&settings) {
         None => "The paper has no figure for this retina.".to_string(),
-        Some(p)
-            if p == crate::paper::Reported::Dimension(d)
-                || (d == 0 && p == crate::paper::Reported::Undefined) =>
-        {
+        Some(p) if p.agrees_with(d) => {
             format!("The paper reports {p} for this retina too.")
         }
         Some(p) => format!(
