@@ -27,8 +27,11 @@
 //! gets the paper's table, row by row, above the table of runs ([`paper_rows`]).
 //!
 //! Runs whose colour-matching functions were compared with Stiles & Burch (`colorvision
-//! stiles-burch --run DIR`) get a table of their own below the runs' table ([`stiles_burch`]).
+//! stiles-burch --run DIR`) get a table of their own below the runs' table ([`stiles_burch`]);
+//! runs with two cone classes, a table of their Neural Scope's hue axis beside an ideal
+//! dichromat's ([`hue_axes`]).
 
+pub mod hue_axes;
 pub mod index;
 pub mod paper_rows;
 pub mod stiles_burch;
@@ -134,9 +137,10 @@ pub fn command(options: &GatherOptions) -> Result<(), RunError> {
         markdown =
             format!("{paper}\nEvery run, with the settings that vary between runs:\n\n{markdown}");
     }
-    let cmfs = stiles_burch::markdown(&runs);
-    if !cmfs.is_empty() {
-        markdown = format!("{markdown}\n{cmfs}");
+    for table in [stiles_burch::markdown(&runs), hue_axes::markdown(&runs)] {
+        if !table.is_empty() {
+            markdown = format!("{markdown}\n{table}");
+        }
     }
     if options.markdown {
         print!("{markdown}");

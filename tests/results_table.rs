@@ -18,7 +18,7 @@ fn the_readme_table_of_recorded_runs_is_what_gather_prints_from_results() {
     );
     let table = String::from_utf8(out.stdout).expect("gather prints UTF-8");
     // The paper's rows (results/paper-rows.toml) come first, then the runs' table; a table of
-    // CMFs against Stiles & Burch may follow it.
+    // CMFs against Stiles & Burch and one of the dichromats' hue axes may follow it.
     assert!(
         table.starts_with("| the paper's experiment |"),
         "results/ lists the paper's rows, but gather printed no table of them first:\n{table}"
