@@ -159,8 +159,13 @@ fn tetrachromats(options: &CommonOptions, out: &Path) -> Result<(), RunError> {
     Ok(())
 }
 
-/// CMF-SIM on the untrained "percept = the eye's output" observer (Φ = identity, N = 1).
+/// CMF-SIM on the untrained "percept = the eye's output" observer (Φ = identity, N = 1),
+/// written as a run folder of no steps (`config.toml` with `baseline = "identity_percept"`,
+/// `summary.json`, the CMF-SIM files) so that `gather` tables it beside the trained runs.
 fn identity_percept(config: &RunConfig, dir: &Path, name: &str) -> Result<usize, RunError> {
+    let mut config = config.clone();
+    config.steps = 0;
+    config.cortex.baseline = Baseline::IdentityPercept;
     let retina = Retina::new(config.retina.clone())?;
     let observer = EyeObserver::new(
         &retina,
@@ -168,7 +173,13 @@ fn identity_percept(config: &RunConfig, dir: &Path, name: &str) -> Result<usize,
         config.observer.clone(),
     );
     let r = run_cmf_sim(&observer, &config.cmf_sim)?;
-    save_result(dir, |d| Ok(r.save(d).map(|_| ())?))?;
+    let summary = Summary::untrained(&config, &r);
+    save_result(dir, |d| {
+        r.save(d)?;
+        crate::io::write_atomic(&d.join("config.toml"), config.to_toml().as_bytes())?;
+        crate::io::write_json(&d.join("summary.json"), &summary)?;
+        Ok(())
+    })?;
     println!("baseline {name}: dimension {} ({})", r.dimension, r.verdict);
     Ok(r.dimension)
 }
@@ -358,5 +369,35 @@ pub fn run_named(name: &str, options: &CommonOptions) -> Result<(), RunError> {
             "experiment",
             format!("`{other}` is not an experiment; `colorvision experiment list` shows them"),
         )),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The untrained baselines are run folders of no steps that `gather` reads, judged against
+    /// the paper's S-05: the ONS as percept is undefined, the cone activations one-dimensional
+    /// (whatever this small eye measures, the folder must say what the paper expects of it).
+    #[test]
+    fn an_untrained_baseline_is_a_run_folder_gather_reads_with_the_papers_figure() {
+        let root = std::env::temp_dir().join(format!("cv_baseline_{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&root);
+        let config = RunConfig::preset("tiny", "LMS").unwrap();
+        let mut cone_eye = config.clone();
+        cone_eye.retina.lateral_inhibition = None;
+        let ons = identity_percept(&config, &root.join("ons"), "ons").unwrap();
+        let cones = identity_percept(&cone_eye, &root.join("cones"), "cones").unwrap();
+        let runs = crate::gather::gather(&root).unwrap();
+        assert_eq!(runs.len(), 2);
+        for (run, dimension, paper) in [(&runs[0], cones, "1"), (&runs[1], ons, "undefined")] {
+            assert_eq!(run.status, crate::gather::Status::Done, "{}", run.folder);
+            let summary = run.summary.as_ref().unwrap();
+            assert_eq!((summary.steps, summary.dimension), (0, dimension));
+            assert_eq!(summary.dimension_over_steps.len(), 1);
+            let reported = crate::paper::reported_for_settings(&run.settings);
+            assert_eq!(reported.map(|r| r.to_string()).as_deref(), Some(paper));
+        }
+        std::fs::remove_dir_all(&root).unwrap();
     }
 }

@@ -13,6 +13,7 @@
 //! | LMS + Q at the human 545 nm, a trained cortex continued on it (boosting 3-D → 4-D) | 4 | Fig. 6.2 (caption: Q between M and L) |
 //! | no demosaicker (D = identity), any retina | 1 | S-05, Fig. 4.3 |
 //! | Φ = identity (the percept is the ONS) | undefined: no colour constancy | S-05 |
+//! | Φ = identity on cone activations (no lateral inhibition, no foveation) | 1 | S-05 |
 //!
 //! Anything else — custom peaks, a fourth class at another wavelength, a cortex trained on cone
 //! activations (a control of this project, not the paper's) — has no figure in the paper, and
@@ -52,18 +53,23 @@ impl std::fmt::Display for Reported {
     }
 }
 
-/// The dimension the paper reports for a retina `cones`, trained in `environment` (`None`:
-/// natural scenes) with the cortex `baseline`, from a fresh cortex or `continued` from a trained
-/// one (table in the module docs); `None` when the paper has no such experiment.
+/// The dimension the paper reports for a retina `cones`, with or without `lateral_inhibition`,
+/// trained in `environment` (`None`: natural scenes) with the cortex `baseline`, from a fresh
+/// cortex or `continued` from a trained one (table in the module docs); `None` when the paper
+/// has no such experiment.
 pub fn reported_dimension(
     cones: &MosaicSpec,
+    lateral_inhibition: bool,
     environment: Option<TetraEnvironment>,
     baseline: Baseline,
     continued: bool,
 ) -> Option<Reported> {
     match baseline {
         Baseline::None => {}
-        Baseline::IdentityPercept => return Some(Reported::Undefined),
+        // The ONS itself has no colour constancy; the cone activations, with no lateral
+        // inhibition to undo, are one-dimensional (S-05).
+        Baseline::IdentityPercept if lateral_inhibition => return Some(Reported::Undefined),
+        Baseline::IdentityPercept => return Some(Reported::Dimension(1)),
         Baseline::NoDemosaicker => return Some(Reported::Dimension(1)),
         Baseline::ConeActivationsAsOns => return None,
     }
@@ -105,7 +111,9 @@ pub fn reported_for_settings(settings: &BTreeMap<String, String>) -> Option<Repo
         Some(b) => parse_enum(b)?,
     };
     let continued = settings.contains_key(crate::gather::CONTINUED_FROM_KEY);
-    reported_dimension(&cones, environment, baseline, continued)
+    // `[retina.lateral_inhibition]` is absent from a config without it.
+    let lateral_inhibition = (settings.keys()).any(|k| k.starts_with("retina.lateral_inhibition."));
+    reported_dimension(&cones, lateral_inhibition, environment, baseline, continued)
 }
 
 /// A unit enum variant from its name as the run's `config.toml` writes it.
@@ -121,6 +129,10 @@ mod tests {
         let mut s = BTreeMap::from([
             ("cones".to_string(), cones.to_string()),
             ("cortex.baseline".to_string(), baseline.to_string()),
+            (
+                "retina.lateral_inhibition.sigma_centre_cells".into(),
+                "0.15".into(),
+            ),
         ]);
         if let Some(e) = environment {
             s.insert("retina.scenes.tetra.environment".into(), e.into());
@@ -202,6 +214,18 @@ mod tests {
             Some("undefined")
         );
         assert_eq!(reported("LMS", None, "cone_activations_as_ons"), None);
+        // Φ = identity on the cone activations themselves (an eye without lateral inhibition).
+        let cones_as_percept = BTreeMap::from([
+            ("cones".to_string(), "LMS".to_string()),
+            (
+                "cortex.baseline".to_string(),
+                "identity_percept".to_string(),
+            ),
+        ]);
+        assert_eq!(
+            reported_for_settings(&cones_as_percept).map(|r| r.to_string()),
+            Some("1".into())
+        );
         // A fourth class at another peak, or five classes: no figure in the paper.
         assert_eq!(reported("LMSQ,Q:600", None, "none"), None);
         assert_eq!(reported("L:560,S:419,X:600", None, "none"), None);

@@ -164,6 +164,58 @@ pub struct LastMeasurement {
     pub converged_ratio_per_k: Vec<(usize, f64)>,
 }
 
+impl LastMeasurement {
+    /// What the CMF-SIM result `r`, measured at `step`, reports.
+    pub fn of(step: u64, r: &CmfSimResult) -> Self {
+        LastMeasurement {
+            step,
+            dimension: r.dimension,
+            verdict: r.verdict.clone(),
+            cmf_sim_per_k: (r.per_k.iter())
+                .map(|q| q.describe(r.test_wavelengths_nm.len()))
+                .collect(),
+            converged_ratio_per_k: (r.per_k.iter())
+                .map(|q| (q.n_primaries, q.converged_worst_ratio))
+                .collect(),
+        }
+    }
+}
+
+impl Summary {
+    /// The summary of an observer measured without training (S-05's Φ = identity baselines):
+    /// no step done, one CMF-SIM measurement `r` with `config.cmf_sim`, no learned invariants.
+    pub fn untrained(config: &RunConfig, r: &CmfSimResult) -> Summary {
+        let measured = LastMeasurement::of(0, r);
+        Summary {
+            dimension: r.dimension,
+            steps: 0,
+            resumed_at_steps: Vec::new(),
+            wall_seconds: r.seconds,
+            mean_step_ms: 0.0,
+            oracle_motion: config.oracle_motion,
+            dimension_over_steps: vec![DimensionPoint {
+                step: 0,
+                dimension: r.dimension,
+                seconds: r.seconds,
+                wall_seconds: r.seconds,
+                sets_per_k: config.cmf_sim.sets_per_k,
+                test_wavelengths: config.cmf_sim.n_test_wavelengths,
+            }],
+            first_step_at_dimension: match r.dimension {
+                0 => Vec::new(),
+                d => vec![(d, 0, r.seconds)],
+            },
+            heldout_prediction: None,
+            heldout_motion_error_px: None,
+            verdict: measured.verdict,
+            cmf_sim_per_k: measured.cmf_sim_per_k,
+            converged_ratio_per_k: measured.converged_ratio_per_k,
+            invariants: None,
+            config: config.clone(),
+        }
+    }
+}
+
 /// The run's own state at a checkpoint (stored in its `meta.json` as `run_state`), restored
 /// on resume so the continued run is the uninterrupted one.
 #[derive(Clone, Debug, Default, Serialize, Deserialize)]

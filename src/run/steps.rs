@@ -121,14 +121,10 @@ impl RunState<'_> {
                 r.save(staging)?;
                 Ok(())
             })?;
-            let ratios: Vec<(usize, f64)> = r
-                .per_k
-                .iter()
-                .map(|q| (q.n_primaries, q.converged_worst_ratio))
-                .collect();
+            let measured = LastMeasurement::of(k, &r);
             // The margins say how far from the border the verdict is; an undefined one says why.
             let mut said = vec![
-                super::margins_text(&ratios),
+                super::margins_text(&measured.converged_ratio_per_k),
                 format!("{:.0} s", r.seconds),
                 format!(
                     "{} λ, {} sets/K",
@@ -155,17 +151,7 @@ impl RunState<'_> {
                 test_wavelengths: settings.n_test_wavelengths,
             });
             dimension_column = r.dimension.to_string();
-            self.progress.last_cmf = Some(LastMeasurement {
-                step: k,
-                dimension: r.dimension,
-                verdict: r.verdict.clone(),
-                cmf_sim_per_k: r
-                    .per_k
-                    .iter()
-                    .map(|q| q.describe(r.test_wavelengths_nm.len()))
-                    .collect(),
-                converged_ratio_per_k: ratios,
-            });
+            self.progress.last_cmf = Some(measured);
         }
         if let Some(row) = self.pending_row.take() {
             let _ = writeln!(self.metrics, "{row},{dimension_column}");
