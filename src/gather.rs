@@ -404,3 +404,26 @@ pub fn flatten(value: &toml::Value) -> BTreeMap<String, String> {
     walk(value, "", &mut out);
     out
 }
+
+/// A finished run named `folder` whose summary is the recorded run `results/RECORD`'s, passed
+/// through `edit`, with the setting `cones` (for the tables' tests).
+#[cfg(test)]
+pub(crate) fn recorded_run(
+    folder: &str,
+    cones: &str,
+    record: &str,
+    edit: impl FnOnce(&mut Summary),
+) -> Run {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let path = root.join("results").join(record).join("summary.json");
+    let mut summary = read_summary(&path).unwrap();
+    edit(&mut summary);
+    Run {
+        folder: folder.into(),
+        status: Status::Done,
+        steps: Some(summary.steps),
+        summary: Some(summary),
+        settings: [("cones".to_string(), cones.to_string())].into(),
+        stiles_burch: None,
+    }
+}

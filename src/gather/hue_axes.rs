@@ -112,7 +112,6 @@ pub fn markdown(runs: &[Run]) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::gather::Status;
 
     fn axis(angle_deg: f64) -> HueAxis {
         HueAxis {
@@ -125,20 +124,11 @@ mod tests {
     /// A finished run of `cones` whose Neural Scope found `learned` and its ideal `ideal` (the
     /// rest of its summary is a recorded dichromat's).
     fn run(folder: &str, cones: &str, learned: Option<f64>, ideal: f64) -> Run {
-        let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
-        let text = std::fs::read_to_string(root.join("results/LS-24k/summary.json")).unwrap();
-        let mut summary: crate::run::Summary = serde_json::from_str(&text).unwrap();
-        let invariants = summary.invariants.as_mut().unwrap();
-        invariants.scope_hue_axis = learned.map(axis);
-        invariants.ideal_hue_axis = Some(axis(ideal));
-        Run {
-            folder: folder.into(),
-            status: Status::Done,
-            steps: Some(summary.steps),
-            summary: Some(summary),
-            settings: [("cones".to_string(), cones.to_string())].into(),
-            stiles_burch: None,
-        }
+        crate::gather::recorded_run(folder, cones, "LS-24k", |summary| {
+            let invariants = summary.invariants.as_mut().unwrap();
+            invariants.scope_hue_axis = learned.map(axis);
+            invariants.ideal_hue_axis = Some(axis(ideal));
+        })
     }
 
     #[test]

@@ -157,25 +157,15 @@ pub fn markdown(rows: &PaperRows, runs: &[Run], path: &Path) -> Result<String, C
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::gather::Status;
     use std::path::PathBuf;
 
     /// A finished run with these settings, measured `dimension` with these margins (the rest of
     /// its summary is a recorded run's).
     fn run(folder: &str, cones: &str, dimension: usize, margins: &[(usize, f64)]) -> Run {
-        let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-        let text = std::fs::read_to_string(root.join("results/L-8k/summary.json")).unwrap();
-        let mut summary: crate::run::Summary = serde_json::from_str(&text).unwrap();
-        summary.dimension = dimension;
-        summary.converged_ratio_per_k = margins.to_vec();
-        Run {
-            folder: folder.into(),
-            status: Status::Done,
-            steps: Some(summary.steps),
-            summary: Some(summary),
-            settings: [("cones".to_string(), cones.to_string())].into(),
-            stiles_burch: None,
-        }
+        crate::gather::recorded_run(folder, cones, "L-8k", |summary| {
+            summary.dimension = dimension;
+            summary.converged_ratio_per_k = margins.to_vec();
+        })
     }
 
     fn rows(toml: &str) -> PaperRows {
