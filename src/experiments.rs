@@ -164,7 +164,7 @@ fn tetrachromats(options: &CommonOptions, out: &Path) -> Result<(), RunError> {
 /// `summary.json`, the CMF-SIM files) so that `gather` tables it beside the trained runs.
 fn identity_percept(config: &RunConfig, dir: &Path, name: &str) -> Result<usize, RunError> {
     let mut config = config.clone();
-    config.steps = 0;
+    (config.steps, config.cortex.train.steps) = (0, 0);
     config.cortex.baseline = Baseline::IdentityPercept;
     let retina = Retina::new(config.retina.clone())?;
     let observer = EyeObserver::new(
@@ -395,6 +395,8 @@ mod tests {
             let summary = run.summary.as_ref().unwrap();
             assert_eq!((summary.steps, summary.dimension), (0, dimension));
             assert_eq!(summary.dimension_over_steps.len(), 1);
+            let train_steps = run.settings.get("cortex.train.steps").map(String::as_str);
+            assert_eq!(train_steps, Some("0"), "{}: one step count", run.folder);
             let reported = crate::paper::reported_for_settings(&run.settings);
             assert_eq!(reported.map(|r| r.to_string()).as_deref(), Some(paper));
         }

@@ -164,3 +164,32 @@ fn resume_with_more_steps_extends_a_finished_run_like_a_longer_one() {
     );
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+#[test]
+fn an_extended_run_keeps_the_measurement_of_its_old_last_step() {
+    let dir = std::env::temp_dir().join(format!("cv_extend_cmf_{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    for args in [
+        &["run", "--preset", "tiny", "--steps", "3", "--out", "run"][..],
+        &["resume", "run", "--steps", "5"],
+    ] {
+        let o = colorvision(&dir, args);
+        assert!(o.status.success(), "{args:?}: {}", text(&o));
+    }
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("run/summary.json")).unwrap())
+            .unwrap();
+    let steps: Vec<u64> = summary["dimension_over_steps"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|d| d["step"].as_u64().unwrap())
+        .collect();
+    assert_eq!(steps.last(), Some(&5), "{steps:?}");
+    assert!(
+        steps.contains(&3),
+        "the old last step's measurement is gone: {steps:?}"
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}

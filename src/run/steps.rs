@@ -9,10 +9,10 @@ impl RunState<'_> {
         let steps = self.config.steps;
         let mut k = self.run_step();
         if self.pending_row.is_some() && self.measure(k)? {
-            return self.finish();
+            return self.end(k);
         }
         if self.progress.measured && self.reached_stop_dimension() {
-            return self.finish();
+            return self.end(k);
         }
         while k < steps {
             k += 1;
@@ -28,6 +28,17 @@ impl RunState<'_> {
             if stop_early {
                 break;
             }
+        }
+        self.end(k)
+    }
+
+    /// The end of the run at step `k`: its checkpoint, written before the step's measurements,
+    /// is written again with them, so that a run extended later (`resume --steps`) keeps the
+    /// measurement of this step in its record; then [`Self::finish`].
+    fn end(mut self, k: u64) -> Result<Summary, RunError> {
+        let saved_measured = matches!(&self.saved, Some((s, true, _)) if *s == k);
+        if self.progress.measured && !saved_measured {
+            self.save(k, true)?;
         }
         self.finish()
     }
