@@ -10,6 +10,9 @@
 //! | LMS + Q at the pigeon's 506 nm, any environment | 4 | S-07 (Fig. 10), Fig. 6.2 |
 //! | LMS + Q at the human 545 nm: natural scenes, hue-sphere colours | 3 | S-07 (Fig. 10) |
 //! | LMS + Q at the human 545 nm: idealised tetrachromatic colours | 4 | S-07 (Fig. 10) |
+//! | no demosaicker (D = identity), any retina | 1 | S-05, Fig. 4.3 |
+//! | Φ = identity (the percept is the ONS) | undefined: no colour constancy | S-05 |
+//! | Φ = identity on cone activations (no lateral inhibition, no foveation) | 1 | S-05 |
 //!
 //! The same figures hold for a fresh cortex and for a trained trichromat's cortex continued on
 //! the four-class eye (boosting 3-D → 4-D): Fig. 10's caption calls S-07's runs boosting "by
@@ -18,9 +21,6 @@
 //! §6 text — the pigeon's, 4 in Fig. 10 too — and "between M and L" in its caption; only the
 //! caption's reading would make a boosted human Q 4-D in natural scenes, against Fig. 10, so the
 //! text's is taken.
-//! | no demosaicker (D = identity), any retina | 1 | S-05, Fig. 4.3 |
-//! | Φ = identity (the percept is the ONS) | undefined: no colour constancy | S-05 |
-//! | Φ = identity on cone activations (no lateral inhibition, no foveation) | 1 | S-05 |
 //!
 //! Anything else — custom peaks, a fourth class at another wavelength, a cortex trained on cone
 //! activations (a control of this project, not the paper's) — has no figure in the paper, and
