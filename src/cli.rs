@@ -252,6 +252,10 @@ pub struct ConvergenceOptions {
     /// With `--cmf`: only at these steps (comma-separated), e.g. `--cmf-steps 4000,16000`.
     #[arg(long, value_delimiter = ',')]
     pub cmf_steps: Vec<u64>,
+    /// Only the checkpoints at these steps (comma-separated), e.g. `--steps 24000,40000`;
+    /// every checkpoint without it.
+    #[arg(long, value_delimiter = ',')]
+    pub steps: Vec<u64>,
 }
 
 /// Options of `average`.

@@ -241,7 +241,7 @@ pub fn convergence(options: &ConvergenceOptions) -> Result<(), RunError> {
             dir.display(),
             if options.cmf { " (with CMF-SIM)" } else { "" }
         );
-        let rows = crate::convergence::study(dir, &cmf)?;
+        let rows = crate::convergence::study(dir, &cmf, &options.steps)?;
         println!(
             "{} checkpoints; wrote {}/convergence/convergence.md, .json and convergence_*.svg",
             rows.len(),

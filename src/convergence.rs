@@ -70,9 +70,10 @@ impl CmfAt {
     }
 }
 
-/// Measures every checkpoint of the run folder `dir` (CMF-SIM where `cmf` says), writes the
-/// table and plots, and returns the rows in step order.
-pub fn study(dir: &Path, cmf: &CmfAt) -> Result<Vec<StudyRow>, RunError> {
+/// Measures every checkpoint of the run folder `dir` (only those at the steps in `only` where
+/// it is not empty; CMF-SIM where `cmf` says), writes the table and plots, and returns the rows
+/// in step order.
+pub fn study(dir: &Path, cmf: &CmfAt, only: &[u64]) -> Result<Vec<StudyRow>, RunError> {
     let config = crate::run_folder::read_valid_config(dir)?;
     let gains = heldout_gains(&dir.join("metrics.csv"));
     let out = dir.join("convergence");
@@ -84,6 +85,11 @@ pub fn study(dir: &Path, cmf: &CmfAt) -> Result<Vec<StudyRow>, RunError> {
     checkpoints.reverse();
     let mut rows = Vec::new();
     for path in checkpoints {
+        let wanted = only.is_empty()
+            || cortex::checkpoint::read_meta(&path).is_ok_and(|m| only.contains(&m.step));
+        if !wanted {
+            continue;
+        }
         match measure_checkpoint(&path, &config, &gains, &out, cmf) {
             Ok(row) => rows.push(row),
             Err(e) => println!("  {}: skipped ({e})", path.display()),
@@ -108,18 +114,23 @@ fn measure_checkpoint(
     let meta = cortex::checkpoint::read_meta(path)?;
     let with_cmf = cmf.at(meta.step);
     let cached = row_path(out, meta.step);
-    if let Ok(text) = std::fs::read_to_string(&cached) {
-        if let Ok(row) = serde_json::from_str::<StudyRow>(&text) {
-            if row.cmf.is_some() || !with_cmf {
-                return Ok(row);
-            }
+    // A kept row is reused when it holds every measure asked for; one written before the
+    // colour directions were measured gets them, keeping its CMF-SIM.
+    let kept = std::fs::read_to_string(&cached)
+        .ok()
+        .and_then(|text| serde_json::from_str::<StudyRow>(&text).ok());
+    if let Some(row) = &kept {
+        if row.recovery.directions.is_some() && (row.cmf.is_some() || !with_cmf) {
+            return Ok(row.clone());
         }
     }
     let trainer = Trainer::continue_from(path, Some(config.cortex.clone()))?;
     // The same held-out scenes at every checkpoint.
     let mut scenes = crate::run::heldout_source(config, true)?;
     let recovery = invariants::measure_with_scenes(&trainer.cortex, &mut scenes);
-    let cmf = if with_cmf {
+    let cmf = if let Some(kept) = kept.and_then(|row| row.cmf) {
+        Some(kept)
+    } else if with_cmf {
         let r = crate::ladder::measure_observer(config, ObserverKind::Cortex, Some(&trainer))?;
         let (base, energy): (f64, f64) = (r.base_error.iter().sum(), r.energy.iter().sum());
         Some(CmfPoint {
@@ -212,7 +223,9 @@ pub fn table(config: &RunConfig, rows: &[StudyRow]) -> String {
          nearest class centre). W: surround r against the DoG and DC gain (true {}). P: position \
          error after the affine gauge, cone spacings RMS. Hidden: per class, the held-out R² of \
          its own signal (what the other classes do not tell) read from the percept at the other \
-         classes' cones (1: demosaicked; 0: not carried).\n\n",
+         classes' cones (1: demosaicked; 0: not carried). Directions: per principal direction of the \
+         cone excitations, strongest (luminance-like) first, the held-out R² of its projection \
+         read from the percept (1: carried; 0: not).\n\n",
         config.preset,
         config.cones,
         config.seed,
@@ -220,8 +233,8 @@ pub fn table(config: &RunConfig, rows: &[StudyRow]) -> String {
             .find_map(|r| r.recovery.w.as_ref())
             .map_or("-".into(), |w| format!("{:.3}", w.true_dc_gain)),
     );
-    md.push_str("| step | wall s | gain | CMF-SIM | C recall k-means | C recall centre | C d′ | W surround r | W DC | P error | P spacing r | hidden R² |\n");
-    md.push_str("|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+    md.push_str("| step | wall s | gain | CMF-SIM | C recall k-means | C recall centre | C d′ | W surround r | W DC | P error | P spacing r | hidden R² | directions R² |\n");
+    md.push_str("|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
     for r in rows {
         let cmf = r.cmf.as_ref().map_or("-".into(), |c| {
             let ks: Vec<String> = c
@@ -250,9 +263,14 @@ pub fn table(config: &RunConfig, rows: &[StudyRow]) -> String {
             .hidden
             .as_ref()
             .map_or("-".into(), |h| invariants::per_class(&h.unique_r2, 2));
+        let directions = r
+            .recovery
+            .directions
+            .as_ref()
+            .map_or("-".into(), |d| invariants::per_class(&d.r2, 2));
         let _ = writeln!(
             md,
-            "| {} | {} | {} | {cmf} | {ck} | {cc} | {cd} | {ws} | {wd} | {:.2} | {:.2} | {hidden} |",
+            "| {} | {} | {} | {cmf} | {ck} | {cc} | {cd} | {ws} | {wd} | {:.2} | {:.2} | {hidden} | {directions} |",
             r.step,
             r.wall_seconds.map_or("-".into(), |w| format!("{w:.0}")),
             r.heldout_gain.map_or("-".into(), |g| format!("{g:.1}")),
@@ -364,7 +382,7 @@ mod tests {
             progress: false,
         };
         run(&config, &dir, mode).unwrap();
-        let rows = study(&dir, &CmfAt::Never).unwrap();
+        let rows = study(&dir, &CmfAt::Never, &[]).unwrap();
         assert_eq!(
             rows.iter().map(|r| r.step).collect::<Vec<_>>(),
             vec![10, 20]
@@ -382,12 +400,30 @@ mod tests {
         // A second call reads the kept measurements instead of measuring again.
         let kept = dir.join("convergence/step_00000010.json");
         let before = std::fs::metadata(&kept).unwrap().modified().unwrap();
-        let again = study(&dir, &CmfAt::Never).unwrap();
+        let again = study(&dir, &CmfAt::Never, &[]).unwrap();
         assert_eq!(
             std::fs::metadata(&kept).unwrap().modified().unwrap(),
             before
         );
         assert_eq!(again.len(), 2);
+        assert!(again.iter().all(|r| r.recovery.directions.is_some()));
+        // Only the steps asked for; a kept row written before the colour directions existed
+        // gets them and keeps its CMF-SIM.
+        let mut old = again[1].clone();
+        old.recovery.directions = None;
+        old.cmf = Some(CmfPoint {
+            dimension: 2,
+            base_over_energy: 0.5,
+            per_k: vec![[1.0, 0.0, 3.0], [2.0, 1.0, 0.5]],
+            seconds: 1.0,
+        });
+        let text = serde_json::to_string(&old).unwrap();
+        write_atomic(&dir.join("convergence/step_00000020.json"), text.as_bytes()).unwrap();
+        let only = study(&dir, &CmfAt::Never, &[20]).unwrap();
+        assert_eq!(only.len(), 1, "{only:?}");
+        assert_eq!(only[0].step, 20);
+        assert!(only[0].recovery.directions.is_some());
+        assert_eq!(only[0].cmf.as_ref().map(|c| c.dimension), Some(2));
         // Two runs side by side: a line per run in each plot, every row of each in runs.md.
         let side = dir.join("side");
         let runs = [("a".to_string(), rows.clone()), ("b".to_string(), again)];

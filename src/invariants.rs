@@ -22,21 +22,26 @@
 //! - **What the eye hides** ([`hidden`]): how much of each class's own signal the percept
 //!   carries at the other classes' cones on held-out scenes — the demosaicking the colour
 //!   dimensions rest on (the S figure is the third dimension's carrier).
+//! - **Which colour directions the percept carries** ([`directions`]): the held-out recovery of
+//!   each principal direction of the cone excitations (luminance first, the weakest opponent
+//!   contrast last), on the same held-out scenes.
 
+pub mod directions;
 pub mod hidden;
 
 use crate::source::RetinaSource;
 use crate::stats;
 use cortex::Cortex;
+use directions::{measure_directions, DirectionRecovery};
 use hidden::{HiddenRecovery, HiddenSamples};
 use retina::Retina;
 use serde::{Deserialize, Serialize};
 
-/// Held-out batches (of [`HIDDEN_BATCH_SIZE`] samples) behind [`measure_hidden`]; half fit, half
+/// Held-out batches (of [`HIDDEN_BATCH_SIZE`] samples) behind [`measure_held_out`]; half fit, half
 /// score. Over disjoint scene draws one checkpoint's S figure moved by ±0.1 with 4 batches, by
 /// ±0.03 with 8 (quick LMS at 40 000 steps: 0.47, 0.41, 0.44, 0.44).
 pub const HIDDEN_BATCHES: usize = 8;
-/// Samples per held-out batch of [`measure_hidden`].
+/// Samples per held-out batch of [`measure_held_out`].
 pub const HIDDEN_BATCH_SIZE: usize = 4;
 
 /// Restarts of the k-means behind [`CRecovery`] (deterministic seeds).
@@ -229,6 +234,10 @@ pub struct Recovery {
     /// What the eye hides, recovered on held-out scenes (`None` where no scenes were drawn).
     #[serde(default)]
     pub hidden: Option<HiddenRecovery>,
+    /// Which colour directions the percept carries, on the same scenes (`None` where no
+    /// scenes were drawn, or in a summary written before the measure existed).
+    #[serde(default)]
+    pub directions: Option<DirectionRecovery>,
 }
 
 /// Measures every learned invariant of `cortex` against `retina`.
@@ -259,20 +268,27 @@ pub fn measure(cortex: &Cortex, retina: &Retina) -> Recovery {
         w,
         p: measure_p(&learned, &true_positions(retina), n),
         hidden: None,
+        directions: None,
     }
 }
 
-/// [`measure`] and, on `source`'s held-out scenes, what the eye hides ([`measure_hidden`]).
+/// [`measure`] and, on `source`'s held-out scenes, what the eye hides and which colour
+/// directions the percept carries ([`measure_held_out`]).
 pub fn measure_with_scenes(cortex: &Cortex, source: &mut RetinaSource) -> Recovery {
     let mut recovery = measure(cortex, &source.retina);
-    recovery.hidden = Some(measure_hidden(cortex, source));
+    let (hidden, directions) = measure_held_out(cortex, source);
+    recovery.hidden = Some(hidden);
+    recovery.directions = Some(directions);
     recovery
 }
 
 /// How much of each class's own signal the percept carries at the other classes' cones
-/// ([`hidden`]), on the next [`HIDDEN_BATCHES`] batches of `source` (frame 0), inside the loss
-/// border.
-pub fn measure_hidden(cortex: &Cortex, source: &mut RetinaSource) -> HiddenRecovery {
+/// ([`hidden`]) and which colour directions it carries ([`directions`]), on the next
+/// [`HIDDEN_BATCHES`] batches of `source` (frame 0), inside the loss border.
+pub fn measure_held_out(
+    cortex: &Cortex,
+    source: &mut RetinaSource,
+) -> (HiddenRecovery, DirectionRecovery) {
     let batches: Vec<_> = (0..HIDDEN_BATCHES)
         .map(|_| source.next_eye_batch(HIDDEN_BATCH_SIZE).clone())
         .collect();
@@ -287,14 +303,14 @@ pub fn measure_hidden(cortex: &Cortex, source: &mut RetinaSource) -> HiddenRecov
 }
 
 /// [`HiddenSamples`] of the percepts (`dim` channels) `decode(frames, count)` gives for frame 0
-/// of `batches` of `retina`, inside `border`.
+/// of `batches` of `retina`, inside `border`, measured both ways.
 fn hidden_of(
     retina: &Retina,
     batches: &[retina::EyeBatch],
     dim: usize,
     border: usize,
     mut decode: impl FnMut(&[f32], usize) -> Vec<f32>,
-) -> HiddenRecovery {
+) -> (HiddenRecovery, DirectionRecovery) {
     let n = retina.n();
     let classes = retina.mosaic.n_classes();
     let dominant = retina.mosaic.dominant_class();
@@ -317,7 +333,10 @@ fn hidden_of(
         .iter()
         .map(|c| c.name.clone())
         .collect();
-    samples.measure(&names)
+    (
+        samples.measure(&names),
+        measure_directions(&samples, &names),
+    )
 }
 
 /// Per-class figures as `a/b/c` with `digits` decimals; one that is not finite (no recall for
@@ -363,6 +382,15 @@ impl Recovery {
                 h.classes.join("/"),
                 list(&h.unique_r2),
                 per_class(&h.unique_share, 3)
+            ));
+        }
+        if let Some(d) = &self.directions {
+            lines.push(format!(
+                "colour directions carried (principal directions of the {} excitations, strongest first: {}): held-out R² {} (each one's share of the variance {})",
+                d.classes.join("/"),
+                d.describe_weights().join("; "),
+                list(&d.r2),
+                per_class(&d.share, 4)
             ));
         }
         lines

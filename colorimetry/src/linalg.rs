@@ -89,6 +89,35 @@ pub fn lstsq(a: &[f64], rows: usize, cols: usize, b: &[f64], m: usize, rcond: f6
     }
 }
 
+/// Eigen-decomposition of a symmetric `(n × n)` row-major matrix: the eigenvalues, largest
+/// first, and the eigenvectors as the columns of a row-major `(n × n)` matrix in the same order
+/// (unit length). Only the lower triangle is read.
+///
+/// # Panics
+/// If `a` does not hold `n²` values, or the decomposition does not converge.
+pub fn symmetric_eigen(a: &[f64], n: usize) -> (Vec<f64>, Vec<f64>) {
+    assert_eq!(
+        a.len(),
+        n * n,
+        "symmetric_eigen: {} values for shape {n}×{n}",
+        a.len()
+    );
+    let am = Mat::from_fn(n, n, |i, j| a[i * n + j]);
+    let evd = am
+        .self_adjoint_eigen(faer::Side::Lower)
+        .expect("symmetric eigen-decomposition converged");
+    let (u, s) = (evd.U(), evd.S().column_vector());
+    // faer sorts ascending; reverse to largest first.
+    let values = (0..n).rev().map(|k| s[k]).collect();
+    let mut vectors = vec![0.0; n * n];
+    for (d, k) in (0..n).rev().enumerate() {
+        for r in 0..n {
+            vectors[r * n + d] = u[(r, k)];
+        }
+    }
+    (values, vectors)
+}
+
 /// `A·v` for a 3×3 matrix.
 pub fn mat3_vec(a: &[[f64; 3]; 3], v: [f64; 3]) -> [f64; 3] {
     [
@@ -164,6 +193,36 @@ pub fn random_orthonormal_columns(rows: usize, cols: usize, rng: &mut dyn RngCor
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn symmetric_eigen_reconstructs_the_matrix_largest_first() {
+        // A = V·diag(5, 2, 0.5)·Vᵀ for an orthogonal V: the decomposition returns those values
+        // in that order and vectors that rebuild A.
+        let mut rng = <rand::rngs::StdRng as rand::SeedableRng>::seed_from_u64(7);
+        let v = random_orthonormal_columns(3, 3, &mut rng);
+        let lambda = [0.5, 5.0, 2.0];
+        let a: Vec<f64> = (0..9)
+            .map(|ij| {
+                (0..3)
+                    .map(|k| v[(ij / 3) * 3 + k] * lambda[k] * v[(ij % 3) * 3 + k])
+                    .sum()
+            })
+            .collect();
+        let (values, vectors) = symmetric_eigen(&a, 3);
+        for (got, want) in values.iter().zip([5.0, 2.0, 0.5]) {
+            assert!((got - want).abs() < 1e-12, "eigenvalues {values:?}");
+        }
+        for ij in 0..9 {
+            let rebuilt: f64 = (0..3)
+                .map(|k| vectors[(ij / 3) * 3 + k] * values[k] * vectors[(ij % 3) * 3 + k])
+                .sum();
+            assert!(
+                (rebuilt - a[ij]).abs() < 1e-12,
+                "A[{ij}] {} vs {rebuilt}",
+                a[ij]
+            );
+        }
+    }
 
     #[test]
     fn lstsq_solves_square_and_overdetermined_systems() {

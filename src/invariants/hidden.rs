@@ -100,6 +100,34 @@ impl HiddenSamples {
         self.class.push(c);
     }
 
+    /// Percept channels per site.
+    pub fn dim(&self) -> usize {
+        self.dim
+    }
+
+    /// Cone classes per site.
+    pub fn classes(&self) -> usize {
+        self.classes
+    }
+
+    /// Samples added.
+    pub fn len(&self) -> usize {
+        self.percept.len()
+    }
+
+    /// Whether no sample was added.
+    pub fn is_empty(&self) -> bool {
+        self.percept.is_empty()
+    }
+
+    /// Every site of `samples`, hidden or not: the percepts, row-major `(sites, dim)`, and the
+    /// true excitations, `(sites, classes)`.
+    pub fn all_sites(&self, samples: std::ops::Range<usize>) -> (Vec<f64>, Vec<f64>) {
+        let percept = self.percept[samples.clone()].concat();
+        let excitation = self.excitation[samples].concat();
+        (percept, excitation)
+    }
+
     /// The unique recovery of every class (module docs), fitted on the first half of the
     /// samples and scored on the rest.
     pub fn measure(&self, names: &[String]) -> HiddenRecovery {
@@ -230,28 +258,42 @@ fn unique_r2_of(fit: &Rows, score: &Rows, dim: usize, others: usize) -> (f64, f6
         others,
     );
     let (u_fit, u_score) = unique.split_at(fit.rows());
-    let residual = affine_residuals((&fit.percept, u_fit), (&score.percept, u_score), dim);
-    let variance = |v: &[f64]| {
-        let mean = v.iter().sum::<f64>() / v.len() as f64;
-        v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / v.len() as f64
-    };
-    let total = variance(u_score);
+    let r2 = held_out_r2((&fit.percept, u_fit), (&score.percept, u_score), dim);
+    (r2, ratio(variance(&unique), variance(&all_target)))
+}
+
+/// Held-out R² of an affine least-squares map from `dim`-column rows to a target: fitted on
+/// `fit = (x, y)`, scored on `score`, as 1 − residual variance / the target's variance there
+/// (NaN for a constant target).
+pub fn held_out_r2(fit: (&[f64], &[f64]), score: (&[f64], &[f64]), dim: usize) -> f64 {
+    let residual = affine_residuals(fit, score, dim);
     let left = residual.iter().map(|r| r * r).sum::<f64>() / residual.len() as f64;
-    let of_target = variance(&all_target);
-    let ratio = |a: f64, b: f64| if b > 0.0 { a / b } else { f64::NAN };
-    (
-        1.0 - ratio(left, total),
-        ratio(variance(&unique), of_target),
-    )
+    1.0 - ratio(left, variance(score.1))
+}
+
+/// The population variance of `v`.
+fn variance(v: &[f64]) -> f64 {
+    let mean = v.iter().sum::<f64>() / v.len() as f64;
+    v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / v.len() as f64
+}
+
+/// `a / b`, NaN where `b` is not positive.
+fn ratio(a: f64, b: f64) -> f64 {
+    if b > 0.0 {
+        a / b
+    } else {
+        f64::NAN
+    }
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::*;
     use rand::rngs::SmallRng;
     use rand::{Rng, SeedableRng};
 
-    const N: usize = 24;
+    /// Cones per side of the synthetic scenes.
+    pub(in crate::invariants) const N: usize = 24;
 
     /// A smooth 3-class scene: a shared luminance field and independent chromatic fields, so
     /// each class has a unique part; classes on a random mosaic (S one cone in ten).
@@ -285,15 +327,24 @@ mod tests {
         ["L", "M", "S"].iter().map(|s| s.to_string()).collect()
     }
 
-    /// Measures a percept built from each scene by `percept(excitation, class) -> (dim, n, n)`.
-    fn measure_with(dim: usize, percept: impl Fn(&[f32], &[usize]) -> Vec<f32>) -> HiddenRecovery {
+    /// Samples of a percept built from each of 10 synthetic scenes by `percept(excitation,
+    /// class) -> (dim, n, n)`.
+    pub(in crate::invariants) fn measure_samples(
+        dim: usize,
+        percept: impl Fn(&[f32], &[usize]) -> Vec<f32>,
+    ) -> HiddenSamples {
         let mut rng = SmallRng::seed_from_u64(5);
         let mut samples = HiddenSamples::new(dim, 3);
         for _ in 0..10 {
             let (ex, class) = scene(&mut rng);
             samples.add(&percept(&ex, &class), &ex, &class, N, 2);
         }
-        samples.measure(&names())
+        samples
+    }
+
+    /// Measures a percept built from each scene by `percept(excitation, class) -> (dim, n, n)`.
+    fn measure_with(dim: usize, percept: impl Fn(&[f32], &[usize]) -> Vec<f32>) -> HiddenRecovery {
+        measure_samples(dim, percept).measure(&names())
     }
 
     #[test]

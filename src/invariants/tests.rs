@@ -145,6 +145,7 @@ fn one_class_has_no_dprime_and_its_record_reads_back() {
             position_error_median_cones: 0.2,
         },
         hidden: None,
+        directions: None,
     }
     .describe();
     assert!(
