@@ -71,8 +71,8 @@ impl CmfAt {
 }
 
 /// Measures every checkpoint of the run folder `dir` (only those at the steps in `only` where
-/// it is not empty; CMF-SIM where `cmf` says), writes the table and plots, and returns the rows
-/// in step order.
+/// it is not empty; CMF-SIM where `cmf` says), writes the table and plots of every checkpoint
+/// measured so far (this call's and the kept ones), and returns those rows in step order.
 pub fn study(dir: &Path, cmf: &CmfAt, only: &[u64]) -> Result<Vec<StudyRow>, RunError> {
     let config = crate::run_folder::read_valid_config(dir)?;
     let gains = heldout_gains(&dir.join("metrics.csv"));
@@ -85,9 +85,10 @@ pub fn study(dir: &Path, cmf: &CmfAt, only: &[u64]) -> Result<Vec<StudyRow>, Run
     checkpoints.reverse();
     let mut rows = Vec::new();
     for path in checkpoints {
-        let wanted = only.is_empty()
-            || cortex::checkpoint::read_meta(&path).is_ok_and(|m| only.contains(&m.step));
-        if !wanted {
+        // A checkpoint whose metadata does not read goes on to be skipped with its error.
+        let step = cortex::checkpoint::read_meta(&path).map(|m| m.step).ok();
+        if let Some(step) = step.filter(|s| !only.is_empty() && !only.contains(s)) {
+            rows.extend(kept_row(&out, step));
             continue;
         }
         match measure_checkpoint(&path, &config, &gains, &out, cmf) {
@@ -103,6 +104,12 @@ fn row_path(out: &Path, step: u64) -> PathBuf {
     out.join(format!("step_{step:08}.json"))
 }
 
+/// The measurement of the checkpoint at `step` kept in `out`, if any.
+fn kept_row(out: &Path, step: u64) -> Option<StudyRow> {
+    let text = std::fs::read_to_string(row_path(out, step)).ok()?;
+    serde_json::from_str(&text).ok()
+}
+
 fn measure_checkpoint(
     path: &Path,
     config: &RunConfig,
@@ -116,9 +123,7 @@ fn measure_checkpoint(
     let cached = row_path(out, meta.step);
     // A kept row is reused when it holds every measure asked for; one written before the
     // colour directions were measured gets them, keeping its CMF-SIM.
-    let kept = std::fs::read_to_string(&cached)
-        .ok()
-        .and_then(|text| serde_json::from_str::<StudyRow>(&text).ok());
+    let kept = kept_row(out, meta.step);
     if let Some(row) = &kept {
         if row.recovery.directions.is_some() && (row.cmf.is_some() || !with_cmf) {
             return Ok(row.clone());
@@ -419,11 +424,19 @@ mod tests {
         });
         let text = serde_json::to_string(&old).unwrap();
         write_atomic(&dir.join("convergence/step_00000020.json"), text.as_bytes()).unwrap();
+        let before = std::fs::metadata(&kept).unwrap().modified().unwrap();
         let only = study(&dir, &CmfAt::Never, &[20]).unwrap();
-        assert_eq!(only.len(), 1, "{only:?}");
-        assert_eq!(only[0].step, 20);
-        assert!(only[0].recovery.directions.is_some());
-        assert_eq!(only[0].cmf.as_ref().map(|c| c.dimension), Some(2));
+        assert_eq!(
+            only.iter().map(|r| r.step).collect::<Vec<_>>(),
+            vec![10, 20]
+        );
+        assert!(only[1].recovery.directions.is_some());
+        assert_eq!(only[1].cmf.as_ref().map(|c| c.dimension), Some(2));
+        // Step 10 was not asked for: listed from its kept row, not measured again.
+        assert_eq!(
+            std::fs::metadata(&kept).unwrap().modified().unwrap(),
+            before
+        );
         // Two runs side by side: a line per run in each plot, every row of each in runs.md.
         let side = dir.join("side");
         let runs = [("a".to_string(), rows.clone()), ("b".to_string(), again)];

@@ -90,10 +90,10 @@ pub fn measure_directions(samples: &HiddenSamples, names: &[String]) -> Directio
     let mut r2 = Vec::with_capacity(k);
     for d in 0..k {
         let mut w: Vec<f64> = (0..k).map(|c| vectors[c * k + d]).collect();
-        let largest =
-            w.iter()
-                .copied()
-                .fold(0.0, |a: f64, b| if b.abs() > a.abs() { b } else { a });
+        let largest = w
+            .iter()
+            .copied()
+            .fold(0.0, |a: f64, b| if b.abs() > a.abs() { b } else { a });
         if largest < 0.0 {
             w.iter_mut().for_each(|v| *v = -*v);
         }
