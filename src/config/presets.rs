@@ -27,9 +27,9 @@ pub const MAIN_STEPS: u64 = 12_000;
 /// Share of the `main` run's scene tiles that hold surfaces of the most saturated colour the
 /// eye's cone classes see in each hue (its hue sphere; paper S-07's second environment).
 /// Natural scenes hold few short-wavelength colours, and without them the quick eye is still on
-/// the 2-D/3-D border at 40 000 steps (the `long` preset: 3, 3, 2 for seeds 0–2); with this
-/// share the blue test lights are as steady as the greens by 6 000 steps and every seed
-/// measured is 3-D at 12 000 (docs/measurements.md).
+/// the 2-D/3-D border at 40 000 steps (the `long` preset: 3, 3, 2 for seeds 0–2; seed 2 3-D
+/// from 80 000); with this share the blue test lights are as steady as the greens by 6 000
+/// steps and every seed measured is 3-D at 12 000 (docs/measurements.md).
 pub const MAIN_HUE_SPHERE_FRACTION: f64 = 0.1;
 
 /// The scenes of the `main` preset: natural, with [`MAIN_HUE_SPHERE_FRACTION`] of the tiles
