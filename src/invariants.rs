@@ -293,7 +293,7 @@ pub fn measure_held_out(
         .map(|_| source.next_eye_batch(HIDDEN_BATCH_SIZE).clone())
         .collect();
     let border = cortex.config.loss.border_px;
-    hidden_of(
+    held_out_of(
         &source.retina,
         &batches,
         cortex.percept_dim(),
@@ -304,7 +304,7 @@ pub fn measure_held_out(
 
 /// [`HiddenSamples`] of the percepts (`dim` channels) `decode(frames, count)` gives for frame 0
 /// of `batches` of `retina`, inside `border`, measured both ways.
-fn hidden_of(
+fn held_out_of(
     retina: &Retina,
     batches: &[retina::EyeBatch],
     dim: usize,

@@ -23,7 +23,7 @@
 //! a trichromat's percept that keeps the red–green contrast has the third R² high, one that has
 //! lost it low whatever its per-class figures say.
 
-use super::hidden::HiddenSamples;
+use super::hidden::{column_standardisation, held_out_r2, ratio, HiddenSamples};
 use colorimetry::linalg::symmetric_eigen;
 use serde::{Deserialize, Serialize};
 
@@ -83,7 +83,7 @@ pub fn measure_directions(samples: &HiddenSamples, names: &[String]) -> Directio
         .chain(&score_excitation)
         .copied()
         .collect();
-    let (mean, scale) = standardisation(&all, k);
+    let (mean, scale) = column_standardisation(&all, k);
     let (values, vectors) = symmetric_eigen(&correlation(&all, k, &mean, &scale), k);
     let total: f64 = values.iter().map(|v| v.max(0.0)).sum();
     let mut weights = Vec::with_capacity(k);
@@ -102,7 +102,7 @@ pub fn measure_directions(samples: &HiddenSamples, names: &[String]) -> Directio
                 .map(|row| (0..k).map(|c| (row[c] - mean[c]) * scale[c] * w[c]).sum())
                 .collect()
         };
-        r2.push(super::hidden::held_out_r2(
+        r2.push(held_out_r2(
             (&fit_percept, &project(&fit_excitation)),
             (&score_percept, &project(&score_excitation)),
             dim,
@@ -112,44 +112,9 @@ pub fn measure_directions(samples: &HiddenSamples, names: &[String]) -> Directio
     DirectionRecovery {
         classes: names.to_vec(),
         weights,
-        share: values
-            .iter()
-            .map(|v| {
-                if total > 0.0 {
-                    v.max(0.0) / total
-                } else {
-                    f64::NAN
-                }
-            })
-            .collect(),
+        share: values.iter().map(|v| ratio(v.max(0.0), total)).collect(),
         r2,
     }
-}
-
-/// Per column of row-major `(rows, k)` values: the mean and the inverse standard deviation (0
-/// for a constant column, which then carries no weight).
-fn standardisation(values: &[f64], k: usize) -> (Vec<f64>, Vec<f64>) {
-    let rows = (values.len() / k).max(1) as f64;
-    let mean: Vec<f64> = (0..k)
-        .map(|c| values.iter().skip(c).step_by(k).sum::<f64>() / rows)
-        .collect();
-    let scale = (0..k)
-        .map(|c| {
-            let var = values
-                .iter()
-                .skip(c)
-                .step_by(k)
-                .map(|v| (v - mean[c]).powi(2))
-                .sum::<f64>()
-                / rows;
-            if var > 0.0 {
-                1.0 / var.sqrt()
-            } else {
-                0.0
-            }
-        })
-        .collect();
-    (mean, scale)
 }
 
 /// The `k×k` covariance (row-major) of the standardised columns: their correlation matrix.

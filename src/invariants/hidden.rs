@@ -215,20 +215,7 @@ fn affine_residuals(fit: (&[f64], &[f64]), apply: (&[f64], &[f64]), cols: usize)
     let (xf, yf) = fit;
     let (xa, ya) = apply;
     let rows = yf.len();
-    let column = |c: usize| xf.iter().skip(c).step_by(cols);
-    let mean: Vec<f64> = (0..cols)
-        .map(|c| column(c).sum::<f64>() / rows as f64)
-        .collect();
-    let scale: Vec<f64> = (0..cols)
-        .map(|c| {
-            let var = column(c).map(|x| (x - mean[c]).powi(2)).sum::<f64>() / rows as f64;
-            if var > 0.0 {
-                1.0 / var.sqrt()
-            } else {
-                0.0
-            }
-        })
-        .collect();
+    let (mean, scale) = column_standardisation(xf, cols);
     let design = |x: &[f64]| -> Vec<f64> {
         let mut out = Vec::with_capacity(x.len() / cols.max(1) * (cols + 1));
         for r in x.chunks_exact(cols) {
@@ -271,6 +258,25 @@ pub fn held_out_r2(fit: (&[f64], &[f64]), score: (&[f64], &[f64]), dim: usize) -
     1.0 - ratio(left, variance(score.1))
 }
 
+/// Per column of row-major `(rows, cols)` values: the mean and the inverse standard deviation
+/// (0 for a constant column, which then carries no weight).
+pub(super) fn column_standardisation(values: &[f64], cols: usize) -> (Vec<f64>, Vec<f64>) {
+    let rows = (values.len() / cols.max(1)).max(1) as f64;
+    let column = |c: usize| values.iter().skip(c).step_by(cols);
+    let mean: Vec<f64> = (0..cols).map(|c| column(c).sum::<f64>() / rows).collect();
+    let scale = (0..cols)
+        .map(|c| {
+            let var = column(c).map(|x| (x - mean[c]).powi(2)).sum::<f64>() / rows;
+            if var > 0.0 {
+                1.0 / var.sqrt()
+            } else {
+                0.0
+            }
+        })
+        .collect();
+    (mean, scale)
+}
+
 /// The population variance of `v`.
 fn variance(v: &[f64]) -> f64 {
     let mean = v.iter().sum::<f64>() / v.len() as f64;
@@ -278,7 +284,7 @@ fn variance(v: &[f64]) -> f64 {
 }
 
 /// `a / b`, NaN where `b` is not positive.
-fn ratio(a: f64, b: f64) -> f64 {
+pub(super) fn ratio(a: f64, b: f64) -> f64 {
     if b > 0.0 {
         a / b
     } else {
