@@ -113,7 +113,8 @@ pub struct CommonOptions {
     /// Named set of settings: tiny (tests, seconds), quick (64×64 cones, natural scenes, 6 000
     /// steps), main (the default of run and train: the quick eye with a tenth of its scene tiles
     /// from its hue sphere, 12 000 steps), long (the quick eye trained 40 000 steps, until
-    /// prediction and invariants plateau; the experiments' default), sandbox
+    /// prediction and invariants plateau; the experiments' default), large (128×128 cones,
+    /// the quick cortex, 40 000 steps: for a dimension too narrow for the quick eye), sandbox
     /// (official sandbox: no foveation, no lateral inhibition, oracle motion), paper (256×256
     /// cones).
     #[arg(long)]

@@ -1,6 +1,8 @@
 //! The presets: named sets of every setting of a run, one table. `quick` is the CPU eye
 //! (64×64 foveated cones) and cortex in natural scenes; `main` (the default of `run`) and `long`
-//! are the same eye and cortex trained longer, `main` with hue-sphere tiles among its scenes.
+//! are the same eye and cortex trained longer, `main` with hue-sphere tiles among its scenes;
+//! `large` is the quick cortex on an eye of 128×128 cones, trained as long as `long`, for the
+//! questions the quick eye's cones are too few to carry (a narrow fourth dimension).
 
 use super::{ConfigError, RunConfig, Schedule};
 use crate::observer::ObserverSettings;
@@ -9,7 +11,7 @@ use cortex::CortexConfig;
 use retina::RetinaConfig;
 
 /// The named sets of settings, in the order the help lists them.
-pub const PRESETS: [&str; 6] = ["tiny", "quick", "main", "long", "sandbox", "paper"];
+pub const PRESETS: [&str; 7] = ["tiny", "quick", "main", "long", "large", "sandbox", "paper"];
 
 /// Steps of the `long` preset: the quick eye trained until the convergence study of
 /// docs/measurements.md (three seeds) finds its held-out prediction gain flat (10–11 from
@@ -69,10 +71,10 @@ impl RunConfig {
             retina.scenes.tetra = main_scene_mix(cones);
         }
         let mut cortex = CortexConfig::preset(eye).map_err(|e| invalid(e.to_string()))?;
-        if name == "long" {
+        if matches!(name, "long" | "large") {
             cortex.train.checkpoint_every_steps = 2000;
         }
-        if eye == "quick" {
+        if matches!(eye, "quick" | "large") {
             // The quick run uses the oracle eye motion (announced in its output), which keeps
             // it inside its time budget: the learned estimator (`[cortex.m] mode = "learned"`,
             // `oracle_motion = false` in a config file) trains stably since the gauge term
@@ -114,8 +116,9 @@ fn measurement_plan(name: &str, eye: &str) -> (u64, CmfSimSettings, Schedule) {
         "sandbox" => (3000, 1000, 20, 50, 4),
         "paper" => (100_000, 10_000, 100, 100, 8),
         // long: the quick eye trained as long as the convergence study says (see
-        // LONG_STEPS), with the small budget every 8 000 steps.
-        "long" => (LONG_STEPS, 8000, 100, 100, 8),
+        // LONG_STEPS), with the small budget every 8 000 steps; large: the quick cortex on 4×
+        // the cones, trained and measured the same way.
+        "long" | "large" => (LONG_STEPS, 8000, 100, 100, 8),
         "main" => (MAIN_STEPS, 0, 100, 100, 8),
         // quick: CMF-SIM at the end with a paper-like budget (100 wavelengths, 8 location
         // pairs as the authors' code, docs/references.md#cmf-sim-defaults; 100 sets per K,
@@ -128,14 +131,14 @@ fn measurement_plan(name: &str, eye: &str) -> (u64, CmfSimSettings, Schedule) {
     let extra_steps = match name {
         "quick" => vec![50, 100, 250, 500],
         "main" => vec![50, 100, 250, 500, 1000, 2000, 4000, 8000],
-        "long" => vec![50, 100, 250, 500, 1000, 2000, 4000],
+        "long" | "large" => vec![50, 100, 250, 500, 1000, 2000, 4000],
         _ => Vec::new(),
     };
     // The budget during training: each measurement should stay near a minute. 30 sets per
     // K: with 5, a quick MS dichromat's K = 2 failed by chance (its 10th set passed): too
     // few sets overstate the dimension.
     let (checkpoint_sets, checkpoint_wavelengths, checkpoint_pairs) = match eye {
-        "quick" => (30, 50, 4),
+        "quick" | "large" => (30, 50, 4),
         _ => (0, 0, 0),
     };
     let cmf_sim = CmfSimSettings {
@@ -231,6 +234,52 @@ mod tests {
             );
             c.validate().unwrap();
         }
+    }
+
+    #[test]
+    fn large_is_the_long_training_of_the_quick_cortex_on_four_times_the_cones() {
+        let long = RunConfig::preset("long", "LMSQ").unwrap();
+        let large = RunConfig::preset("large", "LMSQ").unwrap();
+        let (l, q) = (&large.retina, &long.retina);
+        assert_eq!(
+            (l.cones_per_side, l.field_px),
+            (2 * q.cones_per_side, 2 * q.field_px)
+        );
+        assert_eq!(
+            l.layout, q.layout,
+            "the same foveation over the same visual field"
+        );
+        let shift_cones = |r: &RetinaConfig| {
+            r.eye_motion.max_shift_px as f64 * r.cones_per_side as f64 / r.field_px as f64
+        };
+        assert_eq!(
+            shift_cones(l),
+            shift_cones(q),
+            "eye motion in cone spacings"
+        );
+        assert!(l.scenes.tile_px >= l.field_px + 2 * l.eye_motion.max_shift_px as usize);
+        assert_eq!(large.cortex, {
+            let mut c = cortex::CortexConfig::large();
+            c.train.steps = LONG_STEPS;
+            c.train.checkpoint_every_steps = long.cortex.train.checkpoint_every_steps;
+            c.m.mode = long.cortex.m.mode;
+            c
+        });
+        assert_eq!(
+            (
+                large.steps,
+                &large.cmf_sim,
+                &large.observer,
+                large.oracle_motion
+            ),
+            (
+                long.steps,
+                &long.cmf_sim,
+                &long.observer,
+                long.oracle_motion
+            )
+        );
+        assert_eq!(large.schedule, long.schedule);
     }
 
     #[test]

@@ -85,11 +85,14 @@ pub struct Resources {
 /// 40 ms for the retina); tiny's 6 ms and its 1 s measurement are from `colorvision run
 /// --preset tiny`. CMF-SIM: quick's full budget takes 156 s (README), the smaller budget
 /// during training about a minute (`config.rs`). Memory: paper's step peaks at 1.25 GiB.
+/// `large` (4× quick's cones) is taken as 4× quick in step and measurement time: one thread
+/// beside another run, its steps took 0.39 s against quick's 0.10 s; it holds 0.9 GiB.
 fn preset_costs(preset: &str) -> (f64, f64, u64) {
     match preset {
         "tiny" => (6.0, 5.0, 1024),
         "sandbox" => (31.8, 60.0, 2048),
         "paper" => (940.0, 600.0, 4096),
+        "large" => (4.0 * 48.4, 4.0 * 160.0, 2048),
         _ => (48.4, 160.0, 2048),
     }
 }

@@ -1,4 +1,4 @@
-//! Every number of the cortex as a config value, and the four presets.
+//! Every number of the cortex as a config value, and the five presets.
 //!
 //! A [`CortexConfig`] is plain data (serde, TOML-friendly: tables per bucket). Physical or
 //! pixel-valued numbers carry their unit in the name (`ons_size_px`, `blur_sigma_px`); each
@@ -9,6 +9,8 @@
 //! - `tiny`: tests in seconds. 32×32 ONS, U-Net 8/16, N = 8, batch 4, oracle motion (block
 //!   matching, when switched on, starts at 8×8: a 4×4 level of a 32² ONS carries no signal).
 //! - `quick`: the default CPU run. 64×64 ONS, U-Net 16/32/64, learned W and P, block matching.
+//! - `large`: the quick cortex on a 128×128 ONS (the `large` eye's 128² cones): U-Net 16/32/64,
+//!   so its receptive fields span the same number of cone spacings as `quick`'s.
 //! - `sandbox`: the official sandbox (authors' code, docs/references.md#sandbox): 64×64, W identity, P identity with
 //!   integer shifts, oracle motion, U-Net 16/32/64.
 //! - `paper`: official everything (authors' code, docs/references.md#cortex-pipeline): 256×256, U-Net 16/32/64/128, block matching.
@@ -277,7 +279,7 @@ pub const MAX_WIDTH: usize = 4096;
 pub const MAX_BATCH_ONS_VALUES: usize = 1 << 26;
 
 /// Names accepted by [`CortexConfig::preset`].
-pub const PRESETS: &[&str] = &["tiny", "quick", "sandbox", "paper"];
+pub const PRESETS: &[&str] = &["tiny", "quick", "large", "sandbox", "paper"];
 
 impl CortexConfig {
     /// Channels of the percept: N, or 1 for the Φ = identity baseline.
@@ -321,6 +323,16 @@ mod tests {
             (WMode::Identity, PMode::IdentityIntegerShift, MMode::Oracle)
         );
         assert_eq!(s.d.widths, vec![16, 32, 64]);
+        let (q, l) = (CortexConfig::quick(), CortexConfig::large());
+        assert_eq!(
+            (l.ons_size_px, l.d.widths.clone()),
+            (128, q.d.widths.clone())
+        );
+        assert_eq!(
+            l.p.motion_ons_px_per_unit / l.ons_size_px as f64,
+            q.p.motion_ons_px_per_unit / q.ons_size_px as f64,
+            "one unit of eye motion is the same fraction of the field"
+        );
     }
 
     #[test]

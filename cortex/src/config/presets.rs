@@ -1,4 +1,4 @@
-//! The four presets of [`CortexConfig`] (`tiny`, `quick`, `sandbox`, `paper`; see the parent
+//! The five presets of [`CortexConfig`] (`tiny`, `quick`, `large`, `sandbox`, `paper`; see the parent
 //! module's docs), each default citing its source.
 
 use super::*;
@@ -68,6 +68,16 @@ impl CortexConfig {
         c
     }
 
+    /// The quick cortex on the `large` eye's 128×128 ONS: the same U-Net (16/32/64), so each
+    /// receptive field spans as many cone spacings as in `quick`; the motion unit scales with
+    /// the field (64 px, as `quick`'s 32 px of 64 and `paper`'s 128 of 256).
+    pub fn large() -> Self {
+        let mut c = Self::quick();
+        c.ons_size_px = 128;
+        c.p.motion_ons_px_per_unit = 64.0;
+        c
+    }
+
     /// The official sandbox (authors' code, docs/references.md#sandbox): W identity, P identity with integer shifts,
     /// oracle motion, 2-level U-Net.
     pub fn sandbox() -> Self {
@@ -97,6 +107,7 @@ impl CortexConfig {
         match name {
             "tiny" => Ok(Self::tiny()),
             "quick" => Ok(Self::quick()),
+            "large" => Ok(Self::large()),
             "sandbox" => Ok(Self::sandbox()),
             "paper" => Ok(Self::paper()),
             other => Err(crate::CortexError::UnknownPreset(other.to_string())),
