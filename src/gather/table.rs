@@ -7,7 +7,9 @@
 //! against the eye's truth: C recall by nearest class centre and d′ per class, W's surround
 //! correlation and DC gain, P's position error after the affine gauge (cone spacings RMS), and
 //! what the eye hides recovered (per class, the held-out R² of its own signal at the other
-//! classes' cones, [`crate::invariants::hidden`]).
+//! classes' cones, [`crate::invariants::hidden`]) and which colour directions the percept
+//! carries (per principal direction of the cone excitations, strongest first, the held-out R²
+//! of its projection, [`crate::invariants::directions`]; empty for runs measured before it).
 //! The Markdown cells are formatted as the README's tables; the CSV keeps full precision.
 
 use super::Run;
@@ -78,6 +80,7 @@ struct Cells {
     w_dc: String,
     p_error: String,
     hidden: String,
+    directions: String,
     wall: String,
 }
 
@@ -117,6 +120,9 @@ fn cells(run: &Run) -> Option<Cells> {
             .map_or(String::new(), |h| {
                 crate::invariants::per_class(&h.unique_r2, 2)
             }),
+        directions: rec
+            .and_then(|r| r.directions.as_ref())
+            .map_or(String::new(), |d| crate::invariants::per_class(&d.r2, 2)),
         wall: format!("{:.0}", s.wall_seconds),
     })
 }
@@ -172,6 +178,7 @@ pub fn display(runs: &[Run], keys: &[String]) -> (Vec<String>, Vec<Vec<String>>)
             "W DC",
             "P error",
             "hidden R²",
+            "directions R²",
         ]
         .map(String::from),
     );
@@ -198,11 +205,12 @@ pub fn display(runs: &[Run], keys: &[String]) -> (Vec<String>, Vec<Vec<String>>)
                     c.w_dc,
                     c.p_error,
                     c.hidden,
+                    c.directions,
                 ]),
                 None => {
                     row.push(String::new());
                     row.push(paper);
-                    row.extend(std::iter::repeat_n(String::new(), 8));
+                    row.extend(std::iter::repeat_n(String::new(), 9));
                 }
             }
             row
@@ -275,6 +283,7 @@ pub fn csv(runs: &[Run], keys: &[String]) -> String {
             "w_dc_gain",
             "p_error_rms_cones",
             "hidden_r2",
+            "directions_r2",
         ]
         .map(String::from),
     );
@@ -318,6 +327,10 @@ pub fn csv(runs: &[Run], keys: &[String]) -> String {
                 .map_or(String::new(), |h| {
                     crate::invariants::per_class(&h.unique_r2, 4)
                 }),
+        );
+        row.push(
+            rec.and_then(|r| r.directions.as_ref())
+                .map_or(String::new(), |d| crate::invariants::per_class(&d.r2, 4)),
         );
         let row: Vec<String> = row.iter().map(|c| csv_field(c)).collect();
         out.push_str(&(row.join(",") + "\n"));
@@ -409,7 +422,7 @@ mod tests {
             csv.contains(",\"bad | value, \"\"quoted\"\"\nsecond line\","),
             "{csv}"
         );
-        assert_eq!(md.lines().next().unwrap().matches('|').count(), 14);
+        assert_eq!(md.lines().next().unwrap().matches('|').count(), 15);
     }
 
     #[test]
@@ -432,6 +445,52 @@ mod tests {
             csv.lines().nth(1).unwrap().starts_with("natural,,"),
             "{csv}"
         );
+    }
+
+    #[test]
+    fn the_directions_column_reads_each_direction_s_r2_and_is_empty_when_not_measured() {
+        let path = concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/results/LMS-quick-6k/summary.json"
+        );
+        let text = std::fs::read_to_string(path).expect("the quick run's record reads");
+        let mut summary: crate::run::Summary = serde_json::from_str(&text).unwrap();
+        let recovery = &mut summary.invariants.as_mut().unwrap().recovery;
+        recovery.directions = Some(crate::invariants::directions::DirectionRecovery {
+            classes: vec!["L".into(), "M".into(), "S".into()],
+            weights: vec![vec![1.0, 0.0, 0.0]; 3],
+            share: vec![0.6, 0.3, 0.1],
+            r2: vec![0.934, 0.5, f64::NAN],
+        });
+        let measured = Run {
+            summary: Some(summary.clone()),
+            ..run("measured", &[], Status::Done)
+        };
+        summary.invariants.as_mut().unwrap().recovery.directions = None;
+        let before = Run {
+            summary: Some(summary),
+            ..run("before", &[], Status::Done)
+        };
+        let runs = [measured, before];
+        let (head, rows) = display(&runs, &[]);
+        let column = head.iter().position(|h| h == "directions R²").unwrap();
+        assert_eq!(
+            (rows[0][column].as_str(), rows[1][column].as_str()),
+            ("0.93/0.50/—", "")
+        );
+        let csv = csv(&runs, &[]);
+        let column = csv
+            .lines()
+            .next()
+            .unwrap()
+            .split(',')
+            .position(|h| h == "directions_r2");
+        let cells: Vec<&str> = csv
+            .lines()
+            .skip(1)
+            .map(|l| l.split(',').nth(column.unwrap()).unwrap())
+            .collect();
+        assert_eq!(cells, ["0.9340/0.5000/—", ""], "{csv}");
     }
 
     #[test]
