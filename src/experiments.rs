@@ -17,7 +17,8 @@
 //! | `cmf-ladder` | CMF-SIM's known-answer observers through the real eye ([`crate::ladder`]) | S-04, S-05 |
 //!
 //! Every training experiment uses the `long` preset ([`EXPERIMENT_PRESET`]) unless `--preset`
-//! names another.
+//! names another: `--preset large` runs it on an eye of 128×128 cones, where a dimension too
+//! narrow for the quick eye's cones clears CMF-SIM's threshold (human Q's fourth, S-07).
 
 use crate::cli::CommonOptions;
 use crate::config::RunConfig;

@@ -1,5 +1,5 @@
-//! The five presets of [`CortexConfig`] (`tiny`, `quick`, `large`, `sandbox`, `paper`; see the parent
-//! module's docs), each default citing its source.
+//! The five presets of [`CortexConfig`] (`tiny`, `quick`, `large`, `sandbox`, `paper`; see the
+//! parent module's docs), each default citing its source.
 
 use super::*;
 
