@@ -16,7 +16,8 @@
 //! Resume is exact: a checkpoint holds, besides the cortex's own state, the run's state
 //! ([`Progress`]: the held-out stream, the measurements so far), and `metrics.csv` is written
 //! before each checkpoint, so a resumed run ends with the same parameters, metrics and
-//! CMF-SIM schedule as one that never stopped (same seed, same thread count).
+//! CMF-SIM schedule as one that never stopped (same seed, same thread count; the checkpoint
+//! records the count, and a resume with another one says so before its first step).
 
 use crate::config::RunConfig;
 use crate::interrupt;
@@ -238,6 +239,10 @@ pub struct Progress {
     pub wall_seconds: f64,
     /// Steps the run was resumed at before.
     pub resumed_at_steps: Vec<u64>,
+    /// Worker threads (`RAYON_NUM_THREADS`) when the checkpoint was written; `None` in
+    /// checkpoints written before the count was recorded.
+    #[serde(default)]
+    pub threads: Option<usize>,
 }
 
 /// `run.json`: what the run does besides training and where its cortex came from, so

@@ -135,6 +135,10 @@ impl<'a> RunState<'a> {
                     .last_checkpoint()
                     .map_or_else(String::new, |p| p.display().to_string())
             );
+            let now = rayon::current_num_threads();
+            if let Some(warning) = thread_count_change(self.progress.threads, now) {
+                println!("  warning: {warning}");
+            }
         }
         if c.oracle_motion {
             println!("  note: the cortex receives the ORACLE eye motion (true shift) besides the optic nerve signal");
@@ -246,4 +250,40 @@ fn meta_path(trainer: &Trainer) -> PathBuf {
     trainer
         .last_checkpoint()
         .map_or_else(PathBuf::new, |p| p.join("meta.json"))
+}
+
+/// The warning for a run resumed with another thread count than its checkpoint was written
+/// with: rayon splits sums by thread, so its steps from here differ in the last bits from an
+/// unbroken run's. `None` when the counts agree or the checkpoint did not record one.
+fn thread_count_change(recorded: Option<usize>, now: usize) -> Option<String> {
+    let recorded = recorded?;
+    (recorded != now).then(|| {
+        format!(
+            "the checkpoint was written with {recorded} worker thread(s), the run goes on \
+             with {now}: it continues the same training, not bit for bit the unbroken run \
+             (RAYON_NUM_THREADS={recorded} gives that)"
+        )
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::thread_count_change;
+
+    #[test]
+    fn a_resume_with_another_thread_count_warns_and_names_both_counts() {
+        let warning = thread_count_change(Some(1), 2).expect("1 → 2 threads is a change");
+        assert!(
+            warning.contains("written with 1 worker thread(s)"),
+            "{warning}"
+        );
+        assert!(warning.contains("goes on with 2"), "{warning}");
+        assert!(warning.contains("RAYON_NUM_THREADS=1"), "{warning}");
+        assert_eq!(thread_count_change(Some(2), 2), None);
+        assert_eq!(
+            thread_count_change(None, 2),
+            None,
+            "older checkpoints record no count"
+        );
+    }
 }
