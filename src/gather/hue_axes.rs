@@ -80,11 +80,16 @@ pub fn markdown(runs: &[Run]) -> String {
         }
     }
     let mut out = String::from(
+        // Printed lines of at most 100 columns (each ends in `\n`): the README holds them as printed.
         "Each dichromat's percepts along one hue axis (Neural Scope on held-out scenes, paper \
-         Fig. 5.2: blue–yellow for LS and MS, teal–pink for LM), beside the known answer: the axis \
-         of an ideal dichromat with the same cone classes. CIELAB hue directions in degrees \
-         (90 = yellow–blue, b\\*; 0 = red–green, a\\*); minor/major 0 is one line, 1 no axis. \
-         The nearest ideal axis must be the eye's own.\n\n\
+         Fig. 5.2:\n\
+         blue–yellow for LS and MS, teal–pink for LM), beside the known answer: the axis of an \
+         ideal\n\
+         dichromat with the same cone classes. CIELAB hue directions in degrees (90 = yellow–blue, \
+         b\\*;\n\
+         0 = red–green, a\\*); minor/major 0 is one line, 1 no axis. The nearest ideal axis must \
+         be\n\
+         the eye's own.\n\n\
          | run | cones | learned axis | minor/major | ideal dichromat's axis | minor/major | \
          learned − ideal | nearest ideal axis |\n|---|---|---|---|---|---|---|---|\n",
     );

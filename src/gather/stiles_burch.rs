@@ -61,10 +61,12 @@ pub fn markdown(runs: &[Run]) -> String {
     if out.is_empty() {
         return out;
     }
+    // Printed lines of at most 100 columns (each ends in `\n`): the README holds them as printed.
     let caption = "Colour-matching functions with the primaries of Stiles & Burch (1955), \
-                   645.2 / 526.3 / 444.4 nm, against theirs (`colorvision stiles-burch --run \
-                   DIR`): Pearson r of r̄ / ḡ / b̄, beside the ceiling any cortex on this eye's \
-                   cones can reach.\n\n";
+                   645.2 / 526.3 / 444.4 nm,\n\
+                   against theirs (`colorvision stiles-burch --run DIR`): Pearson r of \
+                   r̄ / ḡ / b̄, beside the ceiling\n\
+                   any cortex on this eye's cones can reach.\n\n";
     let head = "| run | steps done | CMF-SIM | r̄ / ḡ / b̄ r | ceiling (own fundamentals) | \
                 of the ceiling |\n|---|---|---|---|---|---|\n";
     format!("{caption}{head}{out}")
