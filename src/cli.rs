@@ -177,8 +177,9 @@ pub struct CmfSimOptions {
     /// whose answer is known, through the eye of `--preset`/`--cones`: `identity` (the percept
     /// is the optic nerve signal: no colour constancy), `cones` (the cone activations: 1),
     /// `oracle` (each kind of cone interpolated across the mosaic: as many dimensions as
-    /// independent kinds), `oracle-mosaic` (the oracle without interpolation), `analytic` (the
-    /// cone excitations of an ideal eye, no mosaic).
+    /// independent kinds; cones mixing opsins at random ratios solved by least squares over the
+    /// mixtures), `oracle-mosaic` (the oracle without interpolation), `analytic` (the cone
+    /// excitations of an ideal eye, no mosaic).
     #[arg(long, value_enum)]
     pub observer: Option<ObserverKind>,
     /// How the patch percept is read: `resolved` (point by point, the default) or
@@ -209,7 +210,7 @@ pub enum ObserverKind {
     Identity,
     /// The cone activations are the percept (lateral inhibition omitted).
     Cones,
-    /// Oracle decoder with per-kind interpolation.
+    /// Oracle decoder with per-kind interpolation (least squares over mixed cones).
     Oracle,
     /// Oracle decoder, each cell keeping only its own kind.
     OracleMosaic,

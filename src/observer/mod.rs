@@ -22,6 +22,7 @@
 //! location many times. With noise every show is rendered and decoded. The cortex decodes in
 //! rayon jobs of at most `decode_batch` shows, split evenly over the threads.
 
+mod mixed_opsins;
 pub mod oracle;
 pub mod readout;
 mod render;
@@ -80,6 +81,10 @@ impl Decoder<'_> {
             Decoder::Cortex(_) => "learned cortex".into(),
             Decoder::Ons => "identity (percept = ONS)".into(),
             Decoder::Cones => "cone activations (no lateral inhibition)".into(),
+            Decoder::Oracle(o) if o.solves_mixtures() => format!(
+                "oracle, {} opsin planes solved by least squares over cones of mixed opsins",
+                o.kinds()
+            ),
             Decoder::Oracle(o) => format!(
                 "oracle, {} kinds of cone{}",
                 o.kinds(),

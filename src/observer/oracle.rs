@@ -21,6 +21,11 @@
 //! A K-kind oracle with interpolation is a K-dimensional colour observer when the kinds'
 //! sensitivities are linearly independent (Grassmann); a kind inside the span of the others
 //! adds nothing.
+//!
+//! A mosaic of more kinds than [`MAX_KINDS`] — cones mixing two opsins each at its own ratio —
+//! is demosaicked instead by weighted least squares over the mixtures
+//! ([`super::mixed_opsins`]): its planes are the excitations of the opsins, as many as the rank
+//! of the weight rows.
 
 use rand::rngs::StdRng;
 use rand::SeedableRng;
@@ -49,6 +54,9 @@ pub struct OracleDecoder {
     taps: Option<Vec<Vec<(u32, f32)>>>,
     /// `(N × K)` with orthonormal columns.
     embedding: Vec<f32>,
+    /// Whether the planes are least-squares estimates over mixed cones (`kinds` then counts
+    /// planes: the rank of the mosaic's weight rows).
+    mixtures: bool,
 }
 
 /// Why an oracle cannot be built.
@@ -59,15 +67,28 @@ pub struct TooManyKinds(pub usize);
 impl OracleDecoder {
     /// The oracle of `retina`'s true mosaic, with or without per-kind interpolation; `seed`
     /// draws the embedding.
+    /// A mosaic of more than [`MAX_KINDS`] kinds (cones mixing opsins at random ratios) is
+    /// demosaicked by least squares over its mixtures ([`super::mixed_opsins`]) when
+    /// interpolating, and refused without interpolation.
     pub fn new(retina: &Retina, interpolate: bool, seed: u64) -> Result<Self, TooManyKinds> {
-        let (kind_of, kinds) = kinds_of(retina)?;
-        let nn = kind_of.len();
-        let taps = interpolate.then(|| interpolation_taps(retina, &kind_of, kinds));
+        let nn = retina.n() * retina.n();
+        let (kind_of, kinds, taps, mixtures) = match kinds_of(retina) {
+            Ok((kind_of, kinds)) => {
+                let taps = interpolate.then(|| interpolation_taps(retina, &kind_of, kinds));
+                (kind_of, kinds, taps, false)
+            }
+            Err(_) if interpolate => {
+                let (taps, planes) = super::mixed_opsins::least_squares_taps(retina);
+                (Vec::new(), planes, Some(taps), true)
+            }
+            Err(too_many) => return Err(too_many),
+        };
         Ok(OracleDecoder {
             nn,
             kinds,
             kind_of,
             taps,
+            mixtures,
             embedding: colorimetry::linalg::random_orthonormal_columns(
                 ORACLE_PERCEPT_DIM,
                 kinds,
@@ -87,6 +108,12 @@ impl OracleDecoder {
     /// Whether it interpolates each kind across the mosaic.
     pub fn interpolates(&self) -> bool {
         self.taps.is_some()
+    }
+
+    /// Whether it demosaicks cones of mixed opsins by least squares (more than [`MAX_KINDS`]
+    /// kinds), its planes then the block excitations rather than kinds.
+    pub fn solves_mixtures(&self) -> bool {
+        self.mixtures
     }
 
     /// The activations behind `ons (n, n)`: `exact_activations` when the frame is noise-free
@@ -144,7 +171,7 @@ impl OracleDecoder {
 }
 
 /// The kind of every cell (distinct weight rows, in order of first appearance).
-fn kinds_of(retina: &Retina) -> Result<(Vec<usize>, usize), TooManyKinds> {
+pub(super) fn kinds_of(retina: &Retina) -> Result<(Vec<usize>, usize), TooManyKinds> {
     let k = retina.mosaic.n_classes();
     let key = |row: &[f32]| -> Vec<i64> { row.iter().map(|w| (w * 1e4).round() as i64).collect() };
     let mut rows: Vec<Vec<i64>> = Vec::new();
@@ -170,47 +197,22 @@ fn kinds_of(retina: &Retina) -> Result<(Vec<usize>, usize), TooManyKinds> {
 }
 
 /// Per kind and cell, the normalised Gaussian taps over the cones of that kind.
-fn interpolation_taps(retina: &Retina, kind_of: &[usize], kinds: usize) -> Vec<Vec<(u32, f32)>> {
-    let pos = &retina.layout.positions_px;
-    let d2 = |a: usize, b: usize| {
-        let (p, q) = (pos[a], pos[b]);
-        ((p[0] - q[0]) as f64).powi(2) + ((p[1] - q[1]) as f64).powi(2)
-    };
+pub(super) fn interpolation_taps(
+    retina: &Retina,
+    kind_of: &[usize],
+    kinds: usize,
+) -> Vec<Vec<(u32, f32)>> {
     let mut taps = Vec::with_capacity(kinds * kind_of.len());
     for q in 0..kinds {
         let members: Vec<usize> = (0..kind_of.len()).filter(|&i| kind_of[i] == q).collect();
-        // Mean distance from each member to its nearest other member.
-        let spacing = if members.len() < 2 {
-            retina.layout.field_px as f64
-        } else {
-            members
-                .iter()
-                .map(|&a| {
-                    members
-                        .iter()
-                        .filter(|&&b| b != a)
-                        .map(|&b| d2(a, b))
-                        .fold(f64::INFINITY, f64::min)
-                        .sqrt()
-                })
-                .sum::<f64>()
-                / members.len() as f64
-        };
-        let sigma = INTERPOLATION_SIGMA_SPACINGS * spacing;
-        let reach2 = (INTERPOLATION_REACH_SIGMAS * sigma).powi(2);
+        let sigma = INTERPOLATION_SIGMA_SPACINGS * mean_spacing_px(retina, &members);
         for j in 0..kind_of.len() {
-            let mut cell: Vec<(u32, f32)> = members
-                .iter()
-                .filter(|&&i| d2(i, j) <= reach2)
-                .map(|&i| (i as u32, (-d2(i, j) / (2.0 * sigma * sigma)).exp() as f32))
+            let mut cell: Vec<(u32, f32)> = gaussian_neighbours(retina, &members, j, sigma)
+                .into_iter()
+                .map(|(m, g)| (members[m] as u32, g as f32))
                 .collect();
             if cell.is_empty() {
-                let nearest = members
-                    .iter()
-                    .copied()
-                    .min_by(|&a, &b| d2(a, j).total_cmp(&d2(b, j)))
-                    .expect("every kind has a cone");
-                cell.push((nearest as u32, 1.0));
+                cell.push((members[nearest(retina, &members, j)] as u32, 1.0));
             }
             let total: f32 = cell.iter().map(|t| t.1).sum();
             cell.iter_mut().for_each(|t| t.1 /= total);
@@ -218,6 +220,59 @@ fn interpolation_taps(retina: &Retina, kind_of: &[usize], kinds: usize) -> Vec<V
         }
     }
     taps
+}
+
+/// Squared distance between the cones of cells `a` and `b`, px².
+fn distance2_px(retina: &Retina, a: usize, b: usize) -> f64 {
+    let (p, q) = (retina.layout.positions_px[a], retina.layout.positions_px[b]);
+    ((p[0] - q[0]) as f64).powi(2) + ((p[1] - q[1]) as f64).powi(2)
+}
+
+/// Mean distance from each of `members` (cells) to its nearest other member, px; the field's
+/// side when there are fewer than two.
+pub(super) fn mean_spacing_px(retina: &Retina, members: &[usize]) -> f64 {
+    if members.len() < 2 {
+        return retina.layout.field_px as f64;
+    }
+    members
+        .iter()
+        .map(|&a| {
+            members
+                .iter()
+                .filter(|&&b| b != a)
+                .map(|&b| distance2_px(retina, a, b))
+                .fold(f64::INFINITY, f64::min)
+                .sqrt()
+        })
+        .sum::<f64>()
+        / members.len() as f64
+}
+
+/// The members within [`INTERPOLATION_REACH_SIGMAS`] σ of cell `j`, as (index into
+/// `members`, Gaussian weight `exp(−d² / 2σ²)`), unnormalised.
+pub(super) fn gaussian_neighbours(
+    retina: &Retina,
+    members: &[usize],
+    j: usize,
+    sigma_px: f64,
+) -> Vec<(usize, f64)> {
+    let reach2 = (INTERPOLATION_REACH_SIGMAS * sigma_px).powi(2);
+    members
+        .iter()
+        .enumerate()
+        .map(|(m, &i)| (m, distance2_px(retina, i, j)))
+        .filter(|&(_, d2)| d2 <= reach2)
+        .map(|(m, d2)| (m, (-d2 / (2.0 * sigma_px * sigma_px)).exp()))
+        .collect()
+}
+
+/// The index into `members` of the member nearest cell `j`.
+pub(super) fn nearest(retina: &Retina, members: &[usize], j: usize) -> usize {
+    (0..members.len())
+        .min_by(|&a, &b| {
+            distance2_px(retina, members[a], j).total_cmp(&distance2_px(retina, members[b], j))
+        })
+        .expect("a kind or block has a cone")
 }
 
 #[cfg(test)]
@@ -240,8 +295,17 @@ mod tests {
         assert_eq!(o("LMS"), 3);
         // ½L + ½M co-expressing cones are a fourth kind.
         assert_eq!(o("LMS+L_coexpress_M"), 4);
-        let random_ratios = OracleDecoder::new(&eye("MS+L_ratio_M"), true, 0);
-        assert!(matches!(random_ratios, Err(TooManyKinds(k)) if k > MAX_KINDS));
+        // Random ratios: too many kinds; interpolated by least squares instead, else refused.
+        let random_ratios = eye("MS+L_ratio_M");
+        assert!(matches!(kinds_of(&random_ratios), Err(TooManyKinds(k)) if k > MAX_KINDS));
+        assert!(!OracleDecoder::new(&eye("LMS"), true, 0)
+            .unwrap()
+            .solves_mixtures());
+        assert!(OracleDecoder::new(&random_ratios, true, 0)
+            .unwrap()
+            .solves_mixtures());
+        let bare = OracleDecoder::new(&random_ratios, false, 0);
+        assert!(matches!(bare, Err(TooManyKinds(k)) if k > MAX_KINDS));
     }
 
     #[test]
