@@ -12,6 +12,7 @@
 //! | oracle LMS | the same | 3 |
 //! | oracle LMS + pigeon Q (506 nm), + human Q (545 nm) | the same | 4 |
 //! | oracle LMS + ½L½M | a fourth kind inside the span of L and M | 3 |
+//! | oracle MS + L:M at random | half the M cones r·L + (1−r)·M, r ~ U(0, 1): L and M solved by least squares over the mixtures | 3 |
 //! | oracle-mosaic LMS | each cell keeps its own kind (no demosaicking, S-05 baseline 3) | reported (the paper's cortex without D: 1) |
 //!
 //! Each rung runs over several seeds of CMF-SIM's location draws; the table gives the verdicts
@@ -133,6 +134,12 @@ pub const LADDER: &[Rung] = &[
     rung(
         "oracle LMS+½L½M",
         "LMS+L_coexpress_M",
+        ObserverKind::Oracle,
+        Expected::Dimension(3),
+    ),
+    rung(
+        "oracle MS+L:M at random",
+        "MS+L_ratio_M",
         ObserverKind::Oracle,
         Expected::Dimension(3),
     ),
