@@ -303,4 +303,55 @@ mod tests {
             );
         }
     }
+
+    #[test]
+    fn cells_among_one_mixture_widen_until_the_mixtures_determine_l_and_m() {
+        // Left half: every L- or M-expressing cone ½L + ½M; right half: mixtures at the eye's
+        // own random ratios. A left cell's first neighbourhood cannot tell L from M, so its σ
+        // widens until it reaches the right half; a uniform field still comes back exactly.
+        let mut retina = eye("MS+L_ratio_M");
+        let k = retina.mosaic.n_classes();
+        let half_px = retina.layout.field_px as f32 / 2.0;
+        let positions = retina.layout.positions_px.clone();
+        for (row, p) in retina.mosaic.weights.chunks_exact_mut(k).zip(&positions) {
+            if p[0] < half_px && (row[0] > 0.0 || row[1] > 0.0) {
+                row.copy_from_slice(&[0.5, 0.5, 0.0]);
+            }
+        }
+        let (taps, planes) = least_squares_taps(&retina);
+        assert_eq!(planes, 3, "the right half's mixtures still span L and M");
+        let nn = retina.n() * retina.n();
+        let values = [0.7f32, 0.4, 0.9];
+        let act = uniform(&retina, &values);
+        let norm2: f32 = values.iter().map(|v| v * v).sum();
+        let (mut far, mut widened) = (0, 0);
+        for j in 0..nn {
+            let v2: f32 = (0..planes)
+                .map(|p| {
+                    let v: f32 = taps[p * nn + j]
+                        .iter()
+                        .map(|&(i, w)| w * act[i as usize])
+                        .sum();
+                    v * v
+                })
+                .sum();
+            assert!(
+                (v2 - norm2).abs() < 1e-3,
+                "cell {j}: |planes|² {v2} vs {norm2}"
+            );
+            if positions[j][0] < half_px / 2.0 {
+                // Far from the right half: its L/M taps must reach across.
+                let reach = taps[j]
+                    .iter()
+                    .any(|&(i, _)| positions[i as usize][0] >= half_px);
+                far += 1;
+                widened += usize::from(reach);
+            }
+        }
+        assert!(far > 0);
+        assert_eq!(
+            widened, far,
+            "every far-left cell's L/M taps reach the mixtures"
+        );
+    }
 }
