@@ -67,6 +67,7 @@ pub struct TooManyKinds(pub usize);
 impl OracleDecoder {
     /// The oracle of `retina`'s true mosaic, with or without per-kind interpolation; `seed`
     /// draws the embedding.
+    ///
     /// A mosaic of more than [`MAX_KINDS`] kinds (cones mixing opsins at random ratios) is
     /// demosaicked by least squares over its mixtures ([`super::mixed_opsins`]) when
     /// interpolating, and refused without interpolation.
