@@ -118,6 +118,20 @@ pub fn symmetric_eigen(a: &[f64], n: usize) -> (Vec<f64>, Vec<f64>) {
     (values, vectors)
 }
 
+/// Column `d` of [`symmetric_eigen`]'s `(n × n)` eigenvectors, signed so that its entry of
+/// largest magnitude is positive (an eigenvector's sign is arbitrary; this fixes one).
+pub fn signed_eigenvector(vectors: &[f64], n: usize, d: usize) -> Vec<f64> {
+    let mut v: Vec<f64> = (0..n).map(|r| vectors[r * n + d]).collect();
+    let largest = v
+        .iter()
+        .copied()
+        .fold(0.0, |a: f64, b| if b.abs() > a.abs() { b } else { a });
+    if largest < 0.0 {
+        v.iter_mut().for_each(|x| *x = -*x);
+    }
+    v
+}
+
 /// `A·v` for a 3×3 matrix.
 pub fn mat3_vec(a: &[[f64; 3]; 3], v: [f64; 3]) -> [f64; 3] {
     [

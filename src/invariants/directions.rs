@@ -24,7 +24,7 @@
 //! lost it low whatever its per-class figures say.
 
 use super::hidden::{column_standardisation, held_out_r2, ratio, HiddenSamples};
-use colorimetry::linalg::symmetric_eigen;
+use colorimetry::linalg::{signed_eigenvector, symmetric_eigen};
 use serde::{Deserialize, Serialize};
 
 /// The principal directions of the cone excitations and how well the percept carries each.
@@ -89,14 +89,7 @@ pub fn measure_directions(samples: &HiddenSamples, names: &[String]) -> Directio
     let mut weights = Vec::with_capacity(k);
     let mut r2 = Vec::with_capacity(k);
     for d in 0..k {
-        let mut w: Vec<f64> = (0..k).map(|c| vectors[c * k + d]).collect();
-        let largest = w
-            .iter()
-            .copied()
-            .fold(0.0, |a: f64, b| if b.abs() > a.abs() { b } else { a });
-        if largest < 0.0 {
-            w.iter_mut().for_each(|v| *v = -*v);
-        }
+        let w = signed_eigenvector(&vectors, k, d);
         let project = |e: &[f64]| -> Vec<f64> {
             e.chunks_exact(k)
                 .map(|row| (0..k).map(|c| (row[c] - mean[c]) * scale[c] * w[c]).sum())

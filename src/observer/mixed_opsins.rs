@@ -21,7 +21,7 @@
 //! Gaussian mean of the kind-by-kind oracle, tap for tap (a test pins it).
 
 use super::oracle::{gaussian_neighbours, mean_spacing_px, nearest, INTERPOLATION_SIGMA_SPACINGS};
-use colorimetry::linalg::symmetric_eigen;
+use colorimetry::linalg::{signed_eigenvector, symmetric_eigen};
 use retina::Retina;
 
 /// Eigenvalues of a block's `Σ w wᵀ` below this fraction of the largest count as zero.
@@ -119,17 +119,7 @@ fn row_space(rows: &[&[f32]], members: &[usize], classes: &[usize]) -> Vec<Vec<f
     let (values, vectors) = symmetric_eigen(&gram, m);
     (0..m)
         .filter(|&d| values[d] > ROW_SPACE_CUTOFF * values[0])
-        .map(|d| {
-            let mut u: Vec<f64> = (0..m).map(|a| vectors[a * m + d]).collect();
-            let largest = u
-                .iter()
-                .copied()
-                .fold(0.0, |x: f64, v| if v.abs() > x.abs() { v } else { x });
-            if largest < 0.0 {
-                u.iter_mut().for_each(|v| *v = -*v);
-            }
-            u
-        })
+        .map(|d| signed_eigenvector(&vectors, m, d))
         .collect()
 }
 
@@ -186,28 +176,10 @@ fn cell_taps(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::observer::oracle::tests::{assert_percept_norms, eye, uniform};
     use crate::observer::oracle::{
         interpolation_taps, kinds_of, OracleDecoder, ORACLE_PERCEPT_DIM,
     };
-    use retina::RetinaConfig;
-
-    fn eye(cones: &str) -> Retina {
-        let mut c = RetinaConfig::tiny();
-        c.cones = cones.into();
-        c.scenes.tiles = 1;
-        Retina::new(c).unwrap()
-    }
-
-    /// Activations of a uniform field with class excitations `values`.
-    fn uniform(retina: &Retina, values: &[f32]) -> Vec<f32> {
-        let k = retina.mosaic.n_classes();
-        retina
-            .mosaic
-            .weights
-            .chunks_exact(k)
-            .map(|w| w.iter().zip(values).map(|(a, b)| a * b).sum())
-            .collect()
-    }
 
     #[test]
     fn on_a_pure_mosaic_the_least_squares_taps_are_the_kind_means() {
@@ -251,19 +223,9 @@ mod tests {
         // A uniform field comes back exactly: |percept|² = |e|² (orthonormal U and embedding).
         let values = [0.7f32, 0.4, 0.9];
         let act = uniform(&retina, &values);
-        let nn = act.len();
-        let mut out = vec![0f32; ORACLE_PERCEPT_DIM * nn];
+        let mut out = vec![0f32; ORACLE_PERCEPT_DIM * act.len()];
         oracle.decode(&act, &mut out);
-        let norm2: f32 = values.iter().map(|v| v * v).sum();
-        for j in 0..nn {
-            let v2: f32 = (0..ORACLE_PERCEPT_DIM)
-                .map(|d| out[d * nn + j].powi(2))
-                .sum();
-            assert!(
-                (v2 - norm2).abs() < 1e-3,
-                "cell {j}: |percept|² {v2} vs {norm2}"
-            );
-        }
+        assert_percept_norms(&out, values.iter().map(|v| v * v).sum(), 1e-3);
         // Without interpolation there is no kind to keep per cell: still refused.
         assert!(OracleDecoder::new(&retina, false, 0).is_err());
     }

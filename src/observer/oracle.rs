@@ -277,15 +277,42 @@ pub(super) fn nearest(retina: &Retina, members: &[usize], j: usize) -> usize {
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::*;
     use retina::RetinaConfig;
 
-    fn eye(cones: &str) -> Retina {
+    /// The `tiny` eye with cones `cones` (one scene tile).
+    pub(in crate::observer) fn eye(cones: &str) -> Retina {
         let mut c = RetinaConfig::tiny();
         c.cones = cones.into();
         c.scenes.tiles = 1;
         Retina::new(c).unwrap()
+    }
+
+    /// Activations of a uniform field with class excitations `values`.
+    pub(in crate::observer) fn uniform(retina: &Retina, values: &[f32]) -> Vec<f32> {
+        let k = retina.mosaic.n_classes();
+        retina
+            .mosaic
+            .weights
+            .chunks_exact(k)
+            .map(|w| w.iter().zip(values).map(|(a, b)| a * b).sum())
+            .collect()
+    }
+
+    /// Asserts that every cell of the percept `out (N, nn)` has squared norm `norm2` (within
+    /// `tolerance`): a uniform field decoded exactly, through the orthonormal embedding.
+    pub(in crate::observer) fn assert_percept_norms(out: &[f32], norm2: f32, tolerance: f32) {
+        let nn = out.len() / ORACLE_PERCEPT_DIM;
+        for j in 0..nn {
+            let v2: f32 = (0..ORACLE_PERCEPT_DIM)
+                .map(|d| out[d * nn + j].powi(2))
+                .sum();
+            assert!(
+                (v2 - norm2).abs() < tolerance,
+                "cell {j}: |percept|² {v2} vs {norm2}"
+            );
+        }
     }
 
     #[test]
@@ -315,26 +342,11 @@ mod tests {
         let o = OracleDecoder::new(&retina, true, 3).unwrap();
         let nn = retina.n() * retina.n();
         let values = [0.7f32, 0.4, 0.9];
-        let k = retina.mosaic.n_classes();
-        let act: Vec<f32> = retina
-            .mosaic
-            .weights
-            .chunks_exact(k)
-            .map(|w| w.iter().zip(&values).map(|(a, b)| a * b).sum())
-            .collect();
+        let act = uniform(&retina, &values);
         let mut out = vec![0f32; ORACLE_PERCEPT_DIM * nn];
         o.decode(&act, &mut out);
         // Every cell: the embedded vector of the three class values, whose norm is theirs.
-        let norm2: f32 = values.iter().map(|v| v * v).sum();
-        for j in 0..nn {
-            let v2: f32 = (0..ORACLE_PERCEPT_DIM)
-                .map(|d| out[d * nn + j].powi(2))
-                .sum();
-            assert!(
-                (v2 - norm2).abs() < 1e-4,
-                "cell {j}: |percept|² {v2} vs {norm2}"
-            );
-        }
+        assert_percept_norms(&out, values.iter().map(|v| v * v).sum(), 1e-4);
         // Without interpolation the percept norm is the cell's own activation.
         let bare = OracleDecoder::new(&retina, false, 3).unwrap();
         bare.decode(&act, &mut out);
