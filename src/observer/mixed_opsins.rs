@@ -151,17 +151,20 @@ fn cell_taps(
         let conditioned = values[0] > 0.0 && values[r - 1] >= MIN_CONDITIONING * values[0];
         if conditioned || widening == MAX_WIDENINGS {
             // A⁻¹ = V diag(1/λ) Vᵀ, pseudo-inverse on the last try.
-            let inverse = |a: usize, b: usize| -> f64 {
-                (0..r)
-                    .filter(|&d| values[d] > ROW_SPACE_CUTOFF * values[0])
-                    .map(|d| vectors[a * r + d] * vectors[b * r + d] / values[d])
-                    .sum()
-            };
+            let inverse: Vec<f64> = (0..r * r)
+                .map(|ab| {
+                    let (a, b) = (ab / r, ab % r);
+                    (0..r)
+                        .filter(|&d| values[d] > ROW_SPACE_CUTOFF * values[0])
+                        .map(|d| vectors[a * r + d] * vectors[b * r + d] / values[d])
+                        .sum()
+                })
+                .collect();
             return (0..r)
                 .map(|p| {
                     near.iter()
                         .map(|&(m, g)| {
-                            let w: f64 = (0..r).map(|b| inverse(p, b) * coords[m][b]).sum();
+                            let w: f64 = (0..r).map(|b| inverse[p * r + b] * coords[m][b]).sum();
                             (members[m] as u32, (g * w) as f32)
                         })
                         .collect()
