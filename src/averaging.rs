@@ -131,7 +131,11 @@ pub fn command(options: &AverageOptions) -> Result<(), RunError> {
         checkpoint.display()
     );
     let mut scenes = crate::run::heldout_source(&config, true)?;
-    let recovery = crate::invariants::measure_with_scenes(&last.cortex, &mut scenes);
+    let recovery = crate::invariants::measure_with_scenes(
+        &last.cortex,
+        &mut scenes,
+        crate::invariants::HELD_OUT_SCENES,
+    );
     for line in recovery.describe() {
         println!("  {line}");
     }

@@ -258,6 +258,11 @@ pub struct ConvergenceOptions {
     /// every checkpoint without it.
     #[arg(long, value_delimiter = ',')]
     pub steps: Vec<u64>,
+    /// Held-out scenes behind the hidden and direction R² (a multiple of 4, at least 8), half
+    /// fitting and half scoring; more for an environment whose rare scenes matter (one tile in
+    /// ten idealised). A kept checkpoint measured on another count is measured again.
+    #[arg(long, default_value_t = crate::invariants::HELD_OUT_SCENES)]
+    pub held_out_scenes: usize,
 }
 
 /// Options of `average`.

@@ -219,6 +219,17 @@ pub fn gamut(options: &CommonOptions) -> Result<(), RunError> {
 
 /// `colorvision convergence`: every checkpoint of a run folder measured the same way.
 pub fn convergence(options: &ConvergenceOptions) -> Result<(), RunError> {
+    let scenes = options.held_out_scenes;
+    let batch = crate::invariants::HIDDEN_BATCH_SIZE;
+    if scenes < 2 * batch || !scenes.is_multiple_of(batch) {
+        return Err(RunError::invalid(
+            "--held-out-scenes",
+            format!(
+                "{scenes}: needs a multiple of {batch}, at least {}",
+                2 * batch
+            ),
+        ));
+    }
     let cmf = match (options.cmf, options.cmf_steps.is_empty()) {
         (false, _) => crate::convergence::CmfAt::Never,
         (true, true) => crate::convergence::CmfAt::Every,
@@ -241,7 +252,7 @@ pub fn convergence(options: &ConvergenceOptions) -> Result<(), RunError> {
             dir.display(),
             if options.cmf { " (with CMF-SIM)" } else { "" }
         );
-        let rows = crate::convergence::study(dir, &cmf, &options.steps)?;
+        let rows = crate::convergence::study(dir, &cmf, &options.steps, scenes)?;
         println!(
             "{} checkpoints; wrote {}/convergence/convergence.md, .json and convergence_*.svg",
             rows.len(),

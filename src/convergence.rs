@@ -45,8 +45,16 @@ pub struct StudyRow {
     pub wall_seconds: Option<f64>,
     /// The learned invariants.
     pub recovery: Recovery,
+    /// Held-out scenes behind the hidden and direction R² (rows kept from before the count was
+    /// recorded used [`invariants::HELD_OUT_SCENES`]).
+    #[serde(default = "default_held_out_scenes")]
+    pub held_out_scenes: usize,
     /// The calibrated CMF-SIM (with `--cmf`).
     pub cmf: Option<CmfPoint>,
+}
+
+fn default_held_out_scenes() -> usize {
+    invariants::HELD_OUT_SCENES
 }
 
 /// At which checkpoints CMF-SIM measures.
@@ -71,9 +79,15 @@ impl CmfAt {
 }
 
 /// Measures every checkpoint of the run folder `dir` (only those at the steps in `only` where
-/// it is not empty; CMF-SIM where `cmf` says), writes the table and plots of every checkpoint
-/// measured so far (this call's and the kept ones), and returns those rows in step order.
-pub fn study(dir: &Path, cmf: &CmfAt, only: &[u64]) -> Result<Vec<StudyRow>, RunError> {
+/// it is not empty; CMF-SIM where `cmf` says; the hidden and direction R² on `held_out_scenes`
+/// held-out scenes), writes the table and plots of every checkpoint measured so far (this
+/// call's and the kept ones), and returns those rows in step order.
+pub fn study(
+    dir: &Path,
+    cmf: &CmfAt,
+    only: &[u64],
+    held_out_scenes: usize,
+) -> Result<Vec<StudyRow>, RunError> {
     let config = crate::run_folder::read_valid_config(dir)?;
     let gains = heldout_gains(&dir.join("metrics.csv"));
     let out = dir.join("convergence");
@@ -91,7 +105,7 @@ pub fn study(dir: &Path, cmf: &CmfAt, only: &[u64]) -> Result<Vec<StudyRow>, Run
             rows.extend(kept_row(&out, step));
             continue;
         }
-        match measure_checkpoint(&path, &config, &gains, &out, cmf) {
+        match measure_checkpoint(&path, &config, &gains, &out, cmf, held_out_scenes) {
             Ok(row) => rows.push(row),
             Err(e) => println!("  {}: skipped ({e})", path.display()),
         }
@@ -116,23 +130,28 @@ fn measure_checkpoint(
     gains: &[(u64, f64)],
     out: &Path,
     cmf: &CmfAt,
+    held_out_scenes: usize,
 ) -> Result<StudyRow, RunError> {
     // The metadata alone names the step; loading the trainer below verifies every checksum.
     let meta = cortex::checkpoint::read_meta(path)?;
     let with_cmf = cmf.at(meta.step);
     let cached = row_path(out, meta.step);
-    // A kept row is reused when it holds every measure asked for; one written before the
-    // colour directions were measured gets them, keeping its CMF-SIM.
+    // A kept row is reused when it holds every measure asked for on as many held-out scenes;
+    // one written before the colour directions were measured, or on other scenes, is measured
+    // again, keeping its CMF-SIM.
     let kept = kept_row(out, meta.step);
     if let Some(row) = &kept {
-        if row.recovery.directions.is_some() && (row.cmf.is_some() || !with_cmf) {
+        if row.recovery.directions.is_some()
+            && row.held_out_scenes == held_out_scenes
+            && (row.cmf.is_some() || !with_cmf)
+        {
             return Ok(row.clone());
         }
     }
     let trainer = Trainer::continue_from(path, Some(config.cortex.clone()))?;
     // The same held-out scenes at every checkpoint.
     let mut scenes = crate::run::heldout_source(config, true)?;
-    let recovery = invariants::measure_with_scenes(&trainer.cortex, &mut scenes);
+    let recovery = invariants::measure_with_scenes(&trainer.cortex, &mut scenes, held_out_scenes);
     let cmf = if let Some(kept) = kept.and_then(|row| row.cmf) {
         Some(kept)
     } else if with_cmf {
@@ -171,12 +190,31 @@ fn measure_checkpoint(
             .map(|&(_, g)| g),
         wall_seconds,
         recovery,
+        held_out_scenes,
         cmf,
     };
     let text = serde_json::to_string_pretty(&row).expect("plain data");
     write_atomic(&cached, text.as_bytes())?;
     println!("  step {}: {}", row.step, describe_row(&row));
     Ok(row)
+}
+
+/// The held-out scenes of `rows` in words: "on 32 held-out scenes, the first half fitting, the
+/// second scoring", or the count per step where rows differ.
+fn held_out_scenes_in_words(rows: &[StudyRow]) -> String {
+    let counts: Vec<usize> = rows.iter().map(|r| r.held_out_scenes).collect();
+    let scenes = match counts.first() {
+        Some(&n) if counts.iter().all(|&c| c == n) => format!("{n}"),
+        Some(_) => {
+            let per_step: Vec<String> = rows
+                .iter()
+                .map(|r| format!("{} at step {}", r.held_out_scenes, r.step))
+                .collect();
+            per_step.join(", ")
+        }
+        None => format!("{}", invariants::HELD_OUT_SCENES),
+    };
+    format!("on {scenes} held-out scenes, the first half fitting, the second scoring")
 }
 
 /// `(step, improvement)` of every evaluated row of a run's metrics.csv (empty if unreadable).
@@ -230,13 +268,14 @@ pub fn table(config: &RunConfig, rows: &[StudyRow]) -> String {
          its own signal (what the other classes do not tell) read from the percept at the other \
          classes' cones (1: demosaicked; 0: not carried). Directions: per principal direction of the \
          cone excitations, strongest (luminance-like) first, the held-out R² of its projection \
-         read from the percept (1: carried; 0: not).\n\n",
+         read from the percept (1: carried; 0: not). Both {}.\n\n",
         config.preset,
         config.cones,
         config.seed,
         rows.iter()
             .find_map(|r| r.recovery.w.as_ref())
             .map_or("-".into(), |w| format!("{:.3}", w.true_dc_gain)),
+        held_out_scenes_in_words(rows),
     );
     md.push_str("| step | wall s | gain | CMF-SIM | C recall k-means | C recall centre | C d′ | W surround r | W DC | P error | P spacing r | hidden R² | directions R² |\n");
     md.push_str("|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
@@ -387,7 +426,7 @@ mod tests {
             progress: false,
         };
         run(&config, &dir, mode).unwrap();
-        let rows = study(&dir, &CmfAt::Never, &[]).unwrap();
+        let rows = study(&dir, &CmfAt::Never, &[], invariants::HELD_OUT_SCENES).unwrap();
         assert_eq!(
             rows.iter().map(|r| r.step).collect::<Vec<_>>(),
             vec![10, 20]
@@ -405,7 +444,7 @@ mod tests {
         // A second call reads the kept measurements instead of measuring again.
         let kept = dir.join("convergence/step_00000010.json");
         let before = std::fs::metadata(&kept).unwrap().modified().unwrap();
-        let again = study(&dir, &CmfAt::Never, &[]).unwrap();
+        let again = study(&dir, &CmfAt::Never, &[], invariants::HELD_OUT_SCENES).unwrap();
         assert_eq!(
             std::fs::metadata(&kept).unwrap().modified().unwrap(),
             before
@@ -425,7 +464,7 @@ mod tests {
         let text = serde_json::to_string(&old).unwrap();
         write_atomic(&dir.join("convergence/step_00000020.json"), text.as_bytes()).unwrap();
         let before = std::fs::metadata(&kept).unwrap().modified().unwrap();
-        let only = study(&dir, &CmfAt::Never, &[20]).unwrap();
+        let only = study(&dir, &CmfAt::Never, &[20], invariants::HELD_OUT_SCENES).unwrap();
         assert_eq!(
             only.iter().map(|r| r.step).collect::<Vec<_>>(),
             vec![10, 20]
@@ -436,6 +475,19 @@ mod tests {
         assert_eq!(
             std::fs::metadata(&kept).unwrap().modified().unwrap(),
             before
+        );
+        // On other held-out scenes the kept row is measured again (keeping its CMF-SIM), and
+        // the table says which count each step used.
+        let fewer = study(&dir, &CmfAt::Never, &[20], 8).unwrap();
+        assert_eq!(
+            fewer.iter().map(|r| r.held_out_scenes).collect::<Vec<_>>(),
+            vec![invariants::HELD_OUT_SCENES, 8]
+        );
+        assert_eq!(fewer[1].cmf.as_ref().map(|c| c.dimension), Some(2));
+        let md = std::fs::read_to_string(dir.join("convergence/convergence.md")).unwrap();
+        assert!(
+            md.contains("on 32 at step 10, 8 at step 20 held-out scenes"),
+            "{md}"
         );
         // Two runs side by side: a line per run in each plot, every row of each in runs.md.
         let side = dir.join("side");

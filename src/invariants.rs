@@ -43,6 +43,11 @@ use serde::{Deserialize, Serialize};
 pub const HIDDEN_BATCHES: usize = 8;
 /// Samples per held-out batch of [`measure_held_out`].
 pub const HIDDEN_BATCH_SIZE: usize = 4;
+/// Held-out scenes of [`measure_held_out`] in a run's summary, its pictures and, by default,
+/// `colorvision convergence`. An environment whose rare scenes matter (one in ten tiles
+/// idealised) needs more: its few such scenes may all fall in one half, and the figures then
+/// move from checkpoint to checkpoint (`convergence --held-out-scenes`).
+pub const HELD_OUT_SCENES: usize = HIDDEN_BATCHES * HIDDEN_BATCH_SIZE;
 
 /// Restarts of the k-means behind [`CRecovery`] (deterministic seeds).
 const KMEANS_RESTARTS: usize = 10;
@@ -272,24 +277,30 @@ pub fn measure(cortex: &Cortex, retina: &Retina) -> Recovery {
     }
 }
 
-/// [`measure`] and, on `source`'s held-out scenes, what the eye hides and which colour
-/// directions the percept carries ([`measure_held_out`]).
-pub fn measure_with_scenes(cortex: &Cortex, source: &mut RetinaSource) -> Recovery {
+/// [`measure`] and, on `scenes` of `source`'s held-out scenes, what the eye hides and which
+/// colour directions the percept carries ([`measure_held_out`]).
+pub fn measure_with_scenes(cortex: &Cortex, source: &mut RetinaSource, scenes: usize) -> Recovery {
     let mut recovery = measure(cortex, &source.retina);
-    let (hidden, directions) = measure_held_out(cortex, source);
+    let (hidden, directions) = measure_held_out(cortex, source, scenes);
     recovery.hidden = Some(hidden);
     recovery.directions = Some(directions);
     recovery
 }
 
 /// How much of each class's own signal the percept carries at the other classes' cones
-/// ([`hidden`]) and which colour directions it carries ([`directions`]), on the next
-/// [`HIDDEN_BATCHES`] batches of `source` (frame 0), inside the loss border.
+/// ([`hidden`]) and which colour directions it carries ([`directions`]), on the next `scenes`
+/// scenes of `source` (frame 0; batches of [`HIDDEN_BATCH_SIZE`], the count rounded up to
+/// whole batches), inside the loss border: the first half fits, the second half scores.
+///
+/// # Panics
+/// If `scenes` is 0.
 pub fn measure_held_out(
     cortex: &Cortex,
     source: &mut RetinaSource,
+    scenes: usize,
 ) -> (HiddenRecovery, DirectionRecovery) {
-    let batches: Vec<_> = (0..HIDDEN_BATCHES)
+    assert!(scenes > 0, "measure_held_out: needs at least one scene");
+    let batches: Vec<_> = (0..scenes.div_ceil(HIDDEN_BATCH_SIZE))
         .map(|_| source.next_eye_batch(HIDDEN_BATCH_SIZE).clone())
         .collect();
     let border = cortex.config.loss.border_px;

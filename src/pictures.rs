@@ -83,7 +83,11 @@ pub fn write_all(
     // What the eye hides on the run's fixed held-out scenes (a fresh held-out stream, as
     // `convergence` measures every checkpoint), not on wherever `source` has got to.
     let mut scenes = crate::run::heldout_source(config, true)?;
-    let recovery = crate::invariants::measure_with_scenes(cortex, &mut scenes);
+    let recovery = crate::invariants::measure_with_scenes(
+        cortex,
+        &mut scenes,
+        crate::invariants::HELD_OUT_SCENES,
+    );
     Ok(Invariants {
         recovery,
         scope_rmse: scope.rmse,

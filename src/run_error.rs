@@ -33,8 +33,9 @@ pub enum RunError {
     /// SIGINT/SIGTERM stopped the run after a step; a checkpoint was written.
     #[error(
         "stopped by {signal} after step {step} of {steps}; checkpoint {checkpoint}. Continue \
-         with the same command and --resume (same --out)",
-        checkpoint = .checkpoint.display()
+         with `colorvision resume {run}` (or the same command with --resume)",
+        checkpoint = .checkpoint.display(),
+        run = .run.display()
     )]
     Interrupted {
         /// What stopped it.
@@ -45,6 +46,8 @@ pub enum RunError {
         steps: u64,
         /// The checkpoint written.
         checkpoint: PathBuf,
+        /// The run folder it belongs to.
+        run: PathBuf,
     },
 }
 

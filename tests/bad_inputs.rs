@@ -516,6 +516,24 @@ fn every_bad_input_gets_a_one_line_error_naming_file_and_field_and_writes_nothin
         let _ = std::fs::remove_file(&out);
         let _ = std::fs::remove_dir_all(&out);
     }
+    // A held-out scene count that does not split into whole batches, halves of them.
+    for scenes in ["4", "10"] {
+        let args: Vec<String> = ["convergence", "--run", "out", "--held-out-scenes", scenes]
+            .iter()
+            .map(|s| s.to_string())
+            .collect();
+        let name = format!("convergence --held-out-scenes {scenes}");
+        try_input(
+            &dir,
+            &name,
+            &args,
+            &["--held-out-scenes", scenes],
+            &mut totals,
+        );
+        if dir.join("out").exists() {
+            totals.wrote.push(name);
+        }
+    }
     println!(
         "bad inputs: {} tried, {} clear errors, {} unclear, {} panics, {} aborts, {} silent \
          (exit 0), {} wrote files",

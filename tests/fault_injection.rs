@@ -340,7 +340,9 @@ fn sigint_finishes_the_step_writes_a_checkpoint_and_resume_continues_from_it() {
     let log = text(&o);
     assert_eq!(exit_code(&o), Some(STOPPED), "{log}");
     assert!(
-        log.contains("SIGINT received") && log.contains("stopped by SIGINT after step"),
+        log.contains("SIGINT received")
+            && log.contains("stopped by SIGINT after step")
+            && log.contains("colorvision resume out"),
         "{log}"
     );
     assert_files_parse(&dir.join("out"), false);

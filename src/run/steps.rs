@@ -233,6 +233,7 @@ impl RunState<'_> {
             step: k,
             steps: self.config.steps,
             checkpoint,
+            run: self.out.to_path_buf(),
         })
     }
 }
