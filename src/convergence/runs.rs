@@ -7,7 +7,8 @@
 //! RMS) and CMF-SIM's dimension where it was measured — and `runs.md`, every measured step of
 //! every run in one table.
 
-use super::{min_of, StudyRow};
+use super::report::min_of;
+use super::StudyRow;
 use crate::io::write_atomic;
 use crate::run_error::RunError;
 use colorimetry::plot::{LinePlot, Series};
