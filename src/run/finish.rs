@@ -221,7 +221,7 @@ pub fn in_words(out: &Path, summary: &Summary) -> Option<String> {
             "The paper reports {p} for this retina, for a cortex trained about 100 000 steps \
              on an eye of 256×256 cones; this one trained {} steps on an eye of {n}×{n} cones \
              (docs/measurements.md: how the dimension changes with training and eye size).",
-            summary.steps,
+            grouped(summary.steps),
             n = summary.config.retina.cones_per_side
         ),
     };
@@ -240,11 +240,25 @@ pub fn in_words(out: &Path, summary: &Summary) -> Option<String> {
 /// Line width of the printed plain-words verdict, characters.
 const WORDS_WIDTH: usize = 96;
 
-/// `text` broken at spaces into lines of at most `width` characters (a longer word stands on
-/// its own line).
+/// `n` with its digits in groups of three, joined by no-break spaces so that [`wrap`] keeps
+/// the number on one line: `80 000`, as the docs write step counts.
+fn grouped(n: u64) -> String {
+    let digits = n.to_string();
+    let mut out = String::new();
+    for (i, c) in digits.chars().enumerate() {
+        if i > 0 && (digits.len() - i).is_multiple_of(3) {
+            out.push('\u{a0}');
+        }
+        out.push(c);
+    }
+    out
+}
+
+/// `text` broken at spaces (U+0020; a no-break space holds) into lines of at most `width`
+/// characters (a longer word stands on its own line).
 fn wrap(text: &str, width: usize) -> Vec<String> {
     let mut lines: Vec<String> = Vec::new();
-    for word in text.split_whitespace() {
+    for word in text.split([' ', '\n']).filter(|w| !w.is_empty()) {
         match lines.last_mut() {
             Some(line) if line.chars().count() + 1 + word.chars().count() <= width => {
                 line.push(' ');
@@ -273,5 +287,14 @@ mod tests {
         assert_eq!(lines.join(" "), text);
         assert_eq!(wrap("a verylongword b", 4), ["a", "verylongword", "b"]);
         assert!(wrap("", 10).is_empty());
+    }
+
+    #[test]
+    fn step_counts_are_grouped_by_three_and_kept_on_one_line() {
+        assert_eq!(grouped(999), "999");
+        assert_eq!(grouped(6000), "6\u{a0}000");
+        assert_eq!(grouped(1_234_567), "1\u{a0}234\u{a0}567");
+        let text = format!("trained {} steps", grouped(80_000));
+        assert_eq!(wrap(&text, 10), ["trained", "80\u{a0}000", "steps"]);
     }
 }
