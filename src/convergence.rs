@@ -9,8 +9,10 @@
 
 mod report;
 pub mod runs;
+mod verdict;
 
 pub use report::table;
+pub use verdict::VerdictOverCheckpoints;
 
 use crate::cli::ObserverKind;
 use crate::config::RunConfig;
@@ -112,6 +114,9 @@ pub fn study(
         }
     }
     report::write_outputs(&out, &config, &rows)?;
+    if let Some(verdict) = VerdictOverCheckpoints::of(&rows) {
+        println!("  {}", verdict.describe());
+    }
     Ok(rows)
 }
 

@@ -98,6 +98,9 @@ pub fn table(config: &RunConfig, rows: &[StudyRow]) -> String {
             r.recovery.p.spacing_r,
         );
     }
+    if let Some(verdict) = super::verdict::VerdictOverCheckpoints::of(rows) {
+        let _ = write!(md, "\n{}\n", verdict.describe());
+    }
     md
 }
 
