@@ -34,13 +34,18 @@
 pub mod hue_axes;
 pub mod index;
 pub mod paper_rows;
+pub mod settings;
 pub mod stiles_burch;
 pub mod table;
+
+pub(crate) use settings::run_settings;
+pub use settings::{flatten, CONTINUED_FROM_KEY, RECORD_FILE};
 
 use crate::run::Summary;
 use crate::run_error::RunError;
 use crate::sweep::task::{Failure, Manifest, FAILED_FILE};
 use clap::Args;
+use settings::{comparable, recorded_from};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
@@ -280,72 +285,6 @@ fn read_run(dir: &Path, folder: String, rows: &BTreeMap<PathBuf, String>) -> Run
     }
 }
 
-/// The file of a run record naming the folder the run was trained in: `{"trained_in": PATH}`.
-pub const RECORD_FILE: &str = "record.json";
-
-#[derive(serde::Deserialize)]
-struct Record {
-    trained_in: PathBuf,
-}
-
-/// The folder the run recorded in `dir` was trained in, when `dir` holds a readable
-/// [`RECORD_FILE`].
-fn recorded_from(dir: &Path) -> Option<PathBuf> {
-    let text = std::fs::read_to_string(dir.join(RECORD_FILE)).ok()?;
-    Some(serde_json::from_str::<Record>(&text).ok()?.trained_in)
-}
-
-/// `path` canonical when it exists here, else as written (a record's training folder may be
-/// on another machine).
-fn comparable(path: &Path) -> PathBuf {
-    path.canonicalize().unwrap_or_else(|_| path.to_path_buf())
-}
-
-/// The setting naming the run a continued run's cortex came from.
-pub const CONTINUED_FROM_KEY: &str = "continued_from";
-
-/// The settings of the run in `dir` whose resolved config is `config`, flattened to dotted keys
-/// ([`flatten`]), with [`CONTINUED_FROM_KEY`] when its cortex came from another run (named by
-/// its row in `rows` when it is there, [`continued_from`]). What `gather` shows and what the
-/// paper's figure for the run is looked up by ([`crate::paper::reported_for_settings`]: the
-/// paper's figures for a continued run are those of a fresh one).
-pub(crate) fn run_settings(
-    dir: &Path,
-    config: &toml::Value,
-    rows: &BTreeMap<PathBuf, String>,
-) -> BTreeMap<String, String> {
-    let mut settings = flatten(config);
-    if let Some(from) = continued_from(dir, rows) {
-        settings.insert(CONTINUED_FROM_KEY.into(), from);
-    }
-    settings
-}
-
-/// `RUN @ STEP` for a run continued from `…/RUN/checkpoints/step_<STEP>`, RUN being that
-/// run's row when it is among `rows` (canonical folder, or a record's training folder, → row
-/// name), else its folder name; the checkpoint's path as given when it is not laid out so.
-/// `None` for a fresh cortex or no `run.json`.
-fn continued_from(dir: &Path, rows: &BTreeMap<PathBuf, String>) -> Option<String> {
-    let text = std::fs::read_to_string(dir.join("run.json")).ok()?;
-    let marker: crate::run::RunMarker = serde_json::from_str(&text).ok()?;
-    let checkpoint = marker.continued_from?;
-    let step = checkpoint
-        .file_name()
-        .and_then(|n| n.to_str()?.strip_prefix("step_")?.parse::<u64>().ok());
-    let run = checkpoint
-        .parent()
-        .filter(|p| p.file_name().is_some_and(|n| n == "checkpoints"))
-        .and_then(|p| p.parent());
-    let name = run.and_then(|r| {
-        let row = rows.get(&comparable(r)).cloned();
-        row.or_else(|| Some(r.file_name()?.to_string_lossy().into_owned()))
-    });
-    Some(match (name, step) {
-        (Some(name), Some(step)) => format!("{name} @ {step}"),
-        _ => checkpoint.display().to_string(),
-    })
-}
-
 fn read_summary(path: &Path) -> Result<Summary, String> {
     let text = std::fs::read_to_string(path).map_err(|e| e.to_string())?;
     serde_json::from_str(&text).map_err(|e| e.to_string())
@@ -377,33 +316,6 @@ fn newest_checkpoint(dir: &Path) -> Option<u64> {
                 .ok()
         })
         .max()
-}
-
-/// `{a = {b = 1}}` as `a.b → "1"` (strings unquoted, arrays as TOML text).
-pub fn flatten(value: &toml::Value) -> BTreeMap<String, String> {
-    fn walk(v: &toml::Value, prefix: &str, out: &mut BTreeMap<String, String>) {
-        match v {
-            toml::Value::Table(t) => {
-                for (k, v) in t {
-                    let key = if prefix.is_empty() {
-                        k.clone()
-                    } else {
-                        format!("{prefix}.{k}")
-                    };
-                    walk(v, &key, out);
-                }
-            }
-            toml::Value::String(s) => {
-                out.insert(prefix.to_string(), s.clone());
-            }
-            other => {
-                out.insert(prefix.to_string(), other.to_string());
-            }
-        }
-    }
-    let mut out = BTreeMap::new();
-    walk(value, "", &mut out);
-    out
 }
 
 /// A finished run named `folder` whose summary is the recorded run `results/RECORD`'s, passed

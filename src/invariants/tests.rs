@@ -88,7 +88,7 @@ fn positions_equal_up_to_an_affine_map_are_recovered_and_jittered_ones_are_not()
     assert!(good.position_error_rms_cones < 1e-9, "{good:?}");
     assert!((good.spacing_r - 1.0).abs() < 0.05, "{good:?}");
     // Jitter of σ = 0.5 local spacing per axis: RMS error ≈ 0.5·√2 ≈ 0.71 spacings.
-    let spacing = super::local_spacing(&truth, n);
+    let spacing = super::positions::local_spacing(&truth, n);
     let mut rng = CortexRng::seed_from(5);
     let jittered: Vec<[f64; 2]> = truth
         .iter()
