@@ -111,10 +111,16 @@ impl VerdictOverCheckpoints {
             .per_k
             .iter()
             .map(|k| {
-                format!(
-                    "K{} {} of {} ({:.2}–{:.2})",
-                    k.k, k.passed, k.tried, k.margin_min, k.margin_max
-                )
+                let (low, high) = (
+                    format!("{:.2}", k.margin_min),
+                    format!("{:.2}", k.margin_max),
+                );
+                let range = if low == high {
+                    low
+                } else {
+                    format!("{low}–{high}")
+                };
+                format!("K{} {} of {} ({range})", k.k, k.passed, k.tried)
             })
             .collect();
         let _ = write!(
@@ -223,6 +229,7 @@ mod tests {
             "{words}"
         );
         assert!(words.contains("K3 2 of 3 (0.96–1.02)"), "{words}");
+        assert!(words.contains("K4 1 of 1 (0.40)."), "{words}");
     }
 
     #[test]
