@@ -219,7 +219,7 @@ impl Geometry {
         }
     }
 
-    /// Rows `r0..r1` of `dy` (masked like [`Geometry::pad_dy_cl`]) as a padded-width tile
+    /// Rows `r0..r1` of `dy` (masked like [`Geometry::pad_dy`]) as a padded-width tile
     /// `Co × (r1−r0)·Wp` with zeros in the junk columns.
     pub fn expand<T: Float>(
         &self,
