@@ -2,10 +2,11 @@
 //! and per K how many of the checkpoints that tried K passed it and the range of its margin
 //! (converged worst error / threshold of the best set; pass < 1).
 //!
-//! One checkpoint's dimension can flip between neighbours when a margin sits near 1; the
-//! verdict is *settled* only when every checkpoint measured gives the same dimension, and
-//! *on the border* between d and d + 1 otherwise (d the lowest dimension seen). Checkpoints
-//! near the end of training are the ones to ask (`convergence --cmf-steps`).
+//! One checkpoint's dimension can flip between neighbours when a margin sits near 1. Read in
+//! step order, the dimensions are *settled* when every checkpoint gives the same one, *rising*
+//! (or *falling*) when they only go one way — still learning at these steps — and *on the
+//! border* when they go up and down. Checkpoints near the end of training are the ones to ask
+//! (`convergence --cmf --cmf-steps`).
 
 use super::StudyRow;
 use std::collections::BTreeMap;
@@ -26,13 +27,27 @@ pub struct KOverCheckpoints {
     pub margin_max: f64,
 }
 
+/// How the dimension moved over the checkpoints, in step order.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Reading {
+    /// The same dimension at every checkpoint.
+    Settled(usize),
+    /// Never lower than at the checkpoint before, higher at the last than at the first: still
+    /// gaining dimensions at these steps (later checkpoints say whether it stays).
+    Rising,
+    /// Never higher than at the checkpoint before, lower at the last than at the first.
+    Falling,
+    /// Up and down between these dimensions: a margin near 1 that falls on either side.
+    Border { lowest: usize, highest: usize },
+}
+
 /// The verdict over the checkpoints that carry CMF-SIM.
 #[derive(Clone, Debug, PartialEq)]
 pub struct VerdictOverCheckpoints {
     /// Steps of those checkpoints, ascending.
     pub steps: Vec<u64>,
-    /// Dimension → how many checkpoints gave it (0: undefined).
-    pub dimensions: BTreeMap<usize, usize>,
+    /// The dimension at each of `steps` (0: undefined).
+    pub dimensions: Vec<usize>,
     /// Per K tried, in K order.
     pub per_k: Vec<KOverCheckpoints>,
 }
@@ -40,19 +55,16 @@ pub struct VerdictOverCheckpoints {
 impl VerdictOverCheckpoints {
     /// The verdict over `rows`; `None` when fewer than two carry CMF-SIM.
     pub fn of(rows: &[StudyRow]) -> Option<Self> {
-        let measured: Vec<(u64, &super::CmfPoint)> = rows
+        let mut measured: Vec<(u64, &super::CmfPoint)> = rows
             .iter()
             .filter_map(|r| r.cmf.as_ref().map(|c| (r.step, c)))
             .collect();
         if measured.len() < 2 {
             return None;
         }
-        let mut steps: Vec<u64> = measured.iter().map(|(s, _)| *s).collect();
-        steps.sort_unstable();
-        let mut dimensions = BTreeMap::new();
+        measured.sort_by_key(|(step, _)| *step);
         let mut per_k: BTreeMap<usize, KOverCheckpoints> = BTreeMap::new();
         for (_, cmf) in &measured {
-            *dimensions.entry(cmf.dimension).or_insert(0) += 1;
             for &[k, passed, margin] in &cmf.per_k {
                 let k = k as usize;
                 let e = per_k.entry(k).or_insert(KOverCheckpoints {
@@ -69,44 +81,52 @@ impl VerdictOverCheckpoints {
             }
         }
         Some(Self {
-            steps,
-            dimensions,
+            steps: measured.iter().map(|(step, _)| *step).collect(),
+            dimensions: measured.iter().map(|(_, c)| c.dimension).collect(),
             per_k: per_k.into_values().collect(),
         })
     }
 
-    /// Every checkpoint gave the same dimension.
-    pub fn settled(&self) -> bool {
-        self.dimensions.len() == 1
+    /// How the dimension moved over the checkpoints.
+    pub fn reading(&self) -> Reading {
+        let d = &self.dimensions;
+        let (lowest, highest) = (
+            *d.iter().min().expect("two or more"),
+            *d.iter().max().expect("two or more"),
+        );
+        if lowest == highest {
+            Reading::Settled(lowest)
+        } else if d.windows(2).all(|w| w[0] <= w[1]) {
+            Reading::Rising
+        } else if d.windows(2).all(|w| w[0] >= w[1]) {
+            Reading::Falling
+        } else {
+            Reading::Border { lowest, highest }
+        }
     }
 
-    /// In words, e.g. "CMF-SIM at 4 checkpoints (steps 34000–40000): 3-D at 3, 4-D at 1 — on
-    /// the border between 3 and 4, not settled. Per K, passed at how many of the checkpoints
-    /// that tried it (margin range): K1 0 of 4 (9.1–10.4), …".
+    /// In words, e.g. "CMF-SIM at 4 checkpoints (steps 34000–40000): 3-D, 3-D, 4-D, 3-D — on
+    /// the border between 3-D and 4-D, not settled. Per K, passed at how many of the
+    /// checkpoints that tried it (margin range): K1 0 of 4 (9.40–16.43), …".
     pub fn describe(&self) -> String {
         let n = self.steps.len();
+        let in_order: Vec<String> = self.dimensions.iter().map(|&d| dimension_name(d)).collect();
         let mut s = format!(
-            "CMF-SIM at {n} checkpoints (steps {}–{}): ",
+            "CMF-SIM at {n} checkpoints (steps {}–{}): {} — ",
             self.steps[0],
-            self.steps[n - 1]
+            self.steps[n - 1],
+            in_order.join(", ")
         );
-        let counts: Vec<String> = self
-            .dimensions
-            .iter()
-            .map(|(d, c)| format!("{} at {c}", dimension_name(*d)))
-            .collect();
-        if self.settled() {
-            let d = *self.dimensions.keys().next().expect("one dimension");
-            let _ = write!(s, "{} at all {n} — settled. ", dimension_name(d));
-        } else {
-            let lowest = *self.dimensions.keys().next().expect("dimensions");
-            let _ = write!(
-                s,
-                "{} — on the border between {lowest} and {}, not settled. ",
-                counts.join(", "),
-                lowest + 1
-            );
-        }
+        s += &match self.reading() {
+            Reading::Settled(d) => format!("{} at all {n}, settled. ", dimension_name(d)),
+            Reading::Rising => "rising, not settled: later checkpoints say where it stays. ".into(),
+            Reading::Falling => "falling, not settled. ".into(),
+            Reading::Border { lowest, highest } => format!(
+                "on the border between {} and {}, not settled. ",
+                dimension_name(lowest),
+                dimension_name(highest)
+            ),
+        };
         let ks: Vec<String> = self
             .per_k
             .iter()
@@ -203,6 +223,7 @@ mod tests {
             &mut rows,
             vec![
                 Some(cmf(3, &[(1, false, 9.0), (2, false, 1.3), (3, true, 0.96)])),
+                Some(cmf(3, &[(1, false, 9.5), (2, false, 1.4), (3, true, 0.99)])),
                 Some(cmf(
                     4,
                     &[
@@ -212,24 +233,46 @@ mod tests {
                         (4, true, 0.4),
                     ],
                 )),
-                Some(cmf(3, &[(1, false, 9.5), (2, false, 1.4), (3, true, 0.99)])),
             ],
         );
         let v = VerdictOverCheckpoints::of(&rows).expect("three measured");
         assert_eq!(v.steps, vec![34000, 36000, 40000]);
-        assert!(!v.settled());
-        assert_eq!(v.dimensions, BTreeMap::from([(3, 2), (4, 1)]));
+        assert_eq!(v.dimensions, vec![3, 4, 3]);
+        assert_eq!(
+            v.reading(),
+            Reading::Border {
+                lowest: 3,
+                highest: 4
+            }
+        );
         let k3 = &v.per_k[2];
         assert_eq!((k3.k, k3.tried, k3.passed), (3, 3, 2));
         assert_eq!((k3.margin_min, k3.margin_max), (0.96, 1.02));
         assert_eq!((v.per_k[3].tried, v.per_k[3].passed), (1, 1));
         let words = v.describe();
         assert!(
-            words.contains("3-D at 2, 4-D at 1 — on the border between 3 and 4, not settled"),
+            words.contains("3-D, 4-D, 3-D — on the border between 3-D and 4-D, not settled"),
             "{words}"
         );
         assert!(words.contains("K3 2 of 3 (0.96–1.02)"), "{words}");
         assert!(words.contains("K4 1 of 1 (0.40)."), "{words}");
+    }
+
+    #[test]
+    fn one_way_is_rising_or_falling_not_a_border() {
+        let mut rows = rows_at(&[1000, 2000, 3000]);
+        let at = |d: usize| Some(cmf(d, &[(d, true, 0.5)]));
+        with_cmf(&mut rows, vec![at(2), at(3), at(3)]);
+        let v = VerdictOverCheckpoints::of(&rows).expect("three measured");
+        assert_eq!(v.reading(), Reading::Rising);
+        assert!(
+            v.describe().contains("2-D, 3-D, 3-D — rising"),
+            "{}",
+            v.describe()
+        );
+        with_cmf(&mut rows, vec![at(3), at(3), at(2)]);
+        let v = VerdictOverCheckpoints::of(&rows).expect("three measured");
+        assert_eq!(v.reading(), Reading::Falling);
     }
 
     #[test]
@@ -238,9 +281,9 @@ mod tests {
         let three = || Some(cmf(3, &[(2, false, 1.5), (3, true, 0.6)]));
         with_cmf(&mut rows, vec![three(), three()]);
         let v = VerdictOverCheckpoints::of(&rows).expect("two measured");
-        assert!(v.settled());
+        assert_eq!(v.reading(), Reading::Settled(3));
         assert!(
-            v.describe().contains("3-D at all 2 — settled"),
+            v.describe().contains("3-D, 3-D — 3-D at all 2, settled"),
             "{}",
             v.describe()
         );
