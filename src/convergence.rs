@@ -9,10 +9,10 @@
 
 mod report;
 pub mod runs;
-mod verdict;
+pub mod verdict;
 
 pub use report::table;
-pub use verdict::VerdictOverCheckpoints;
+pub use verdict::{CheckpointCmf, Reading, VerdictOverCheckpoints, CMF_FILE};
 
 use crate::cli::ObserverKind;
 use crate::config::RunConfig;

@@ -24,7 +24,10 @@
 //! says which folder it was trained in).
 //!
 //! A folder that lists the paper's experiments ([`paper_rows::ROWS_FILE`], as `results/` does)
-//! gets the paper's table, row by row, above the table of runs ([`paper_rows`]).
+//! gets the paper's table, row by row, above the table of runs ([`paper_rows`]). A run whose
+//! checkpoints CMF-SIM measured (`colorvision convergence --cmf`, [`OVER_CHECKPOINTS_FILE`])
+//! shows there, beside its final figure, the dimensions at those checkpoints and its own end,
+//! and how they read: settled, rising, falling or on the border ([`crate::convergence::verdict`]).
 //!
 //! Runs whose colour-matching functions were compared with Stiles & Burch (`colorvision
 //! stiles-burch --run DIR`) get a table of their own below the runs' table ([`stiles_burch`]);
@@ -41,6 +44,7 @@ pub mod table;
 pub(crate) use settings::run_settings;
 pub use settings::{flatten, CONTINUED_FROM_KEY, RECORD_FILE};
 
+use crate::convergence::{CheckpointCmf, VerdictOverCheckpoints};
 use crate::run::Summary;
 use crate::run_error::RunError;
 use crate::sweep::task::{Failure, Manifest, FAILED_FILE};
@@ -115,6 +119,9 @@ pub struct Run {
     /// Its colour-matching functions against Stiles & Burch, when measured
     /// ([`stiles_burch::TABLE_FILE`]).
     pub stiles_burch: Option<Vec<crate::stiles_burch::Row>>,
+    /// CMF-SIM's verdict over its checkpoints, when `colorvision convergence --cmf` measured
+    /// some ([`over_checkpoints`]).
+    pub over_checkpoints: Option<VerdictOverCheckpoints>,
 }
 
 /// `colorvision gather`.
@@ -275,6 +282,7 @@ fn read_run(dir: &Path, folder: String, rows: &BTreeMap<PathBuf, String>) -> Run
         })
         .ok()
     });
+    let over_checkpoints = over_checkpoints(dir, summary.as_ref());
     Run {
         folder,
         status,
@@ -282,7 +290,29 @@ fn read_run(dir: &Path, folder: String, rows: &BTreeMap<PathBuf, String>) -> Run
         summary,
         settings,
         stiles_burch,
+        over_checkpoints,
     }
+}
+
+/// Where a run folder (and its record) keeps the CMF-SIM of the checkpoints `colorvision
+/// convergence --cmf` measured.
+pub const OVER_CHECKPOINTS_FILE: &str = "convergence/cmf_over_checkpoints.json";
+
+/// CMF-SIM's verdict over the checkpoints measured in `dir` ([`OVER_CHECKPOINTS_FILE`], those
+/// up to the run's steps) and the run's own final measurement; `None` without two such
+/// measurements. A file that does not read is reported on stderr and passed over.
+fn over_checkpoints(dir: &Path, summary: Option<&Summary>) -> Option<VerdictOverCheckpoints> {
+    let path = dir.join(OVER_CHECKPOINTS_FILE);
+    let text = std::fs::read_to_string(&path).ok()?;
+    let mut points: Vec<CheckpointCmf> = serde_json::from_str(&text)
+        .map_err(|e| eprintln!("colorvision gather: {}: {e}", path.display()))
+        .ok()?;
+    if let Some(s) = summary.filter(|s| !s.dimension_over_steps.is_empty()) {
+        points.retain(|p| p.step <= s.steps);
+        let last = CheckpointCmf::from_final(s.steps, s.dimension, &s.converged_ratio_per_k);
+        points.insert(0, last);
+    }
+    VerdictOverCheckpoints::from_points(points)
 }
 
 fn read_summary(path: &Path) -> Result<Summary, String> {
@@ -338,5 +368,40 @@ pub(crate) fn recorded_run(
         summary: Some(summary),
         settings: [("cones".to_string(), cones.to_string())].into(),
         stiles_burch: None,
+        over_checkpoints: None,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The checkpoints measured on the way and the run's own final figure make one verdict;
+    /// a checkpoint past the run's steps (a later continuation measured in the same folder)
+    /// is not the run's, and a file that does not read is passed over.
+    #[test]
+    fn the_verdict_over_checkpoints_joins_the_final_figure() {
+        let dir = std::env::temp_dir().join(format!("cv_gather_over_{}", std::process::id()));
+        std::fs::create_dir_all(dir.join("convergence")).unwrap();
+        let summary = recorded_run("x", "LMS", "LMSQ-humanQ-idealised-40k", |_| {})
+            .summary
+            .unwrap();
+        assert_eq!((summary.steps, summary.dimension), (40_000, 3));
+        let at = |step, dimension, margin| CheckpointCmf {
+            step,
+            dimension,
+            per_k: vec![[dimension as f64, 1.0, margin]],
+        };
+        let points = [at(36_000, 3, 0.84), at(38_000, 4, 0.80), at(44_000, 4, 0.7)];
+        let path = dir.join(OVER_CHECKPOINTS_FILE);
+        std::fs::write(&path, serde_json::to_string(&points).unwrap()).unwrap();
+        let verdict = over_checkpoints(&dir, Some(&summary)).unwrap();
+        assert_eq!(verdict.steps, vec![36_000, 38_000, 40_000]);
+        assert_eq!(verdict.dimensions, vec![3, 4, 3]);
+        let k3 = verdict.per_k.iter().find(|k| k.k == 3).unwrap();
+        assert_eq!((k3.tried, k3.passed), (2, 2), "{verdict:?}");
+        std::fs::write(&path, "[{").unwrap();
+        assert_eq!(over_checkpoints(&dir, Some(&summary)), None);
+        std::fs::remove_dir_all(&dir).ok();
     }
 }

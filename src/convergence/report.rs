@@ -128,6 +128,9 @@ pub(super) fn write_outputs(
 ) -> Result<(), RunError> {
     let json = serde_json::to_string_pretty(rows).expect("plain data");
     write_atomic(&out.join("convergence.json"), json.as_bytes())?;
+    let points = super::VerdictOverCheckpoints::points_of(rows);
+    let json = serde_json::to_string_pretty(&points).expect("plain data");
+    write_atomic(&out.join(super::verdict::CMF_FILE), json.as_bytes())?;
     write_atomic(&out.join("convergence.md"), table(config, rows).as_bytes())?;
     let x: Vec<f64> = rows.iter().map(|r| r.step.max(1) as f64).collect();
     let series = |name: &str, f: &dyn Fn(&StudyRow) -> Option<f64>| {

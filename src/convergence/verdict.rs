@@ -9,8 +9,40 @@
 //! (`convergence --cmf --cmf-steps`).
 
 use super::StudyRow;
+use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
+
+/// The file in a convergence folder (and in a run's record) holding the CMF-SIM of every
+/// checkpoint measured, a JSON list of [`CheckpointCmf`].
+pub const CMF_FILE: &str = "cmf_over_checkpoints.json";
+
+/// CMF-SIM at one checkpoint, as the verdict reads it.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct CheckpointCmf {
+    /// Training step of the checkpoint.
+    pub step: u64,
+    /// Colour dimensionality (0: undefined).
+    pub dimension: usize,
+    /// Per K tried: `[K, passed (0/1), converged worst error/threshold of its best set]`.
+    pub per_k: Vec<[f64; 3]>,
+}
+
+impl CheckpointCmf {
+    /// A run's own final measurement: `dimension` at `step`, per K `(K, margin)` as
+    /// `summary.json` keeps them; the K equal to the dimension is the one that passed.
+    pub fn from_final(step: u64, dimension: usize, per_k: &[(usize, f64)]) -> Self {
+        let per_k = per_k
+            .iter()
+            .map(|&(k, margin)| [k as f64, f64::from(u8::from(k == dimension)), margin])
+            .collect();
+        Self {
+            step,
+            dimension,
+            per_k,
+        }
+    }
+}
 
 /// Per K: checkpoints that tried it, how many passed, lowest and highest margin.
 #[derive(Clone, Debug, PartialEq)]
@@ -55,17 +87,33 @@ pub struct VerdictOverCheckpoints {
 impl VerdictOverCheckpoints {
     /// The verdict over `rows`; `None` when fewer than two carry CMF-SIM.
     pub fn of(rows: &[StudyRow]) -> Option<Self> {
-        let mut measured: Vec<(u64, &super::CmfPoint)> = rows
-            .iter()
-            .filter_map(|r| r.cmf.as_ref().map(|c| (r.step, c)))
-            .collect();
-        if measured.len() < 2 {
+        Self::from_points(Self::points_of(rows))
+    }
+
+    /// The CMF-SIM of `rows` as points, in their order.
+    pub fn points_of(rows: &[StudyRow]) -> Vec<CheckpointCmf> {
+        rows.iter()
+            .filter_map(|r| {
+                r.cmf.as_ref().map(|c| CheckpointCmf {
+                    step: r.step,
+                    dimension: c.dimension,
+                    per_k: c.per_k.clone(),
+                })
+            })
+            .collect()
+    }
+
+    /// The verdict over `points` (any order; a step given twice counts once, its first);
+    /// `None` when fewer than two steps.
+    pub fn from_points(mut points: Vec<CheckpointCmf>) -> Option<Self> {
+        points.sort_by_key(|p| p.step);
+        points.dedup_by_key(|p| p.step);
+        if points.len() < 2 {
             return None;
         }
-        measured.sort_by_key(|(step, _)| *step);
         let mut per_k: BTreeMap<usize, KOverCheckpoints> = BTreeMap::new();
-        for (_, cmf) in &measured {
-            for &[k, passed, margin] in &cmf.per_k {
+        for point in &points {
+            for &[k, passed, margin] in &point.per_k {
                 let k = k as usize;
                 let e = per_k.entry(k).or_insert(KOverCheckpoints {
                     k,
@@ -81,8 +129,8 @@ impl VerdictOverCheckpoints {
             }
         }
         Some(Self {
-            steps: measured.iter().map(|(step, _)| *step).collect(),
-            dimensions: measured.iter().map(|(_, c)| c.dimension).collect(),
+            steps: points.iter().map(|p| p.step).collect(),
+            dimensions: points.iter().map(|p| p.dimension).collect(),
             per_k: per_k.into_values().collect(),
         })
     }
@@ -103,6 +151,25 @@ impl VerdictOverCheckpoints {
         } else {
             Reading::Border { lowest, highest }
         }
+    }
+
+    /// The reading in a few words for a table cell, e.g. "3, 3, 4, 3 at 34 000–40 000 steps:
+    /// on the border".
+    pub fn brief(&self) -> String {
+        let dims: Vec<String> = self.dimensions.iter().map(|d| d.to_string()).collect();
+        let reading = match self.reading() {
+            Reading::Settled(_) => "settled",
+            Reading::Rising => "rising",
+            Reading::Falling => "falling",
+            Reading::Border { .. } => "on the border",
+        };
+        let group = |n: u64| crate::run::digits_grouped(n, ' ');
+        format!(
+            "{} at {}–{} steps: {reading}",
+            dims.join(", "),
+            group(self.steps[0]),
+            group(self.steps[self.steps.len() - 1])
+        )
     }
 
     /// In words, e.g. "CMF-SIM at 4 checkpoints (steps 34000–40000): 3-D, 3-D, 4-D, 3-D — on

@@ -82,7 +82,9 @@ fn against_paper(run: &Run) -> (Option<crate::paper::Reported>, Option<bool>) {
     (reported, agrees)
 }
 
-/// `NAME **d** (K1 …)`: a run and what it measured.
+/// `NAME: **d** (K1 …)`: a run and what it measured, and, where CMF-SIM measured several of
+/// its checkpoints, their dimensions and how they read (`… — 3, 3, 4, 3 at 34 000–40 000
+/// steps: on the border`).
 fn measured(run: &Run) -> String {
     let cell = super::table::dimension_cell(run);
     let cell = if cell.is_empty() {
@@ -90,7 +92,10 @@ fn measured(run: &Run) -> String {
     } else {
         super::table::emphasise_number(&cell, "**", "**")
     };
-    format!("{}: {cell}", run.folder)
+    match &run.over_checkpoints {
+        Some(verdict) => format!("{}: {cell} — {}", run.folder, verdict.brief()),
+        None => format!("{}: {cell}", run.folder),
+    }
 }
 
 /// The Markdown table of `rows` over the gathered `runs`; `path` names the rows' file in errors.
@@ -157,6 +162,7 @@ pub fn markdown(rows: &PaperRows, runs: &[Run], path: &Path) -> Result<String, C
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::convergence::{CheckpointCmf, VerdictOverCheckpoints};
     use std::path::PathBuf;
 
     /// A finished run with these settings, measured `dimension` with these margins (the rest of
@@ -201,6 +207,27 @@ mod tests {
             row,
             "| one and three classes | 1, 3 | mono: **1** (K1 0.67); tri: **2** (K1 1.50, K2 0.80) \
              | no (1 of 2) | under-trained (longer: **3** (K2 1.20, K3 0.70)) |"
+        );
+    }
+
+    #[test]
+    fn checkpoints_measured_on_the_way_are_read_beside_the_final_figure() {
+        let mut border = run("border", "LMS", 3, &[(2, 1.2), (3, 0.96)]);
+        let at = |step, dimension, margin| CheckpointCmf {
+            step,
+            dimension,
+            per_k: vec![[dimension as f64, 1.0, margin]],
+        };
+        border.over_checkpoints = VerdictOverCheckpoints::from_points(vec![
+            at(34_000, 3, 0.87),
+            at(38_000, 4, 0.80),
+            at(40_000, 3, 0.96),
+        ]);
+        let table = rows("[[row]]\nexperiment = \"x\"\nruns = [\"border\"]\n");
+        let md = markdown(&table, &[border], &path()).unwrap();
+        assert!(
+            md.contains("border: **3** (K2 1.20, K3 0.96) — 3, 4, 3 at 34 000–40 000 steps: on the border |"),
+            "{md}"
         );
     }
 

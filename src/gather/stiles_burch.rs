@@ -93,6 +93,7 @@ mod tests {
             summary: None,
             settings: Default::default(),
             stiles_burch,
+            over_checkpoints: None,
         }
     }
 

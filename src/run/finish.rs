@@ -243,11 +243,16 @@ const WORDS_WIDTH: usize = 96;
 /// `n` with its digits in groups of three, joined by no-break spaces so that [`wrap`] keeps
 /// the number on one line: `80 000`, as the docs write step counts.
 fn grouped(n: u64) -> String {
+    digits_grouped(n, '\u{a0}')
+}
+
+/// `n` with its digits in groups of three joined by `separator`: `80 000`.
+pub fn digits_grouped(n: u64, separator: char) -> String {
     let digits = n.to_string();
     let mut out = String::new();
     for (i, c) in digits.chars().enumerate() {
         if i > 0 && (digits.len() - i).is_multiple_of(3) {
-            out.push('\u{a0}');
+            out.push(separator);
         }
         out.push(c);
     }

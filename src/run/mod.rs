@@ -42,7 +42,7 @@ mod finish;
 mod open;
 mod steps;
 
-pub use finish::{in_words, out_dir, print_outcome};
+pub use finish::{digits_grouped, in_words, out_dir, print_outcome};
 pub use steps::{heldout_error, heldout_motion_error, measure};
 
 /// What a run does besides training.

@@ -10,6 +10,7 @@ fn run(folder: &str, settings: &[(&str, &str)], status: Status) -> Run {
         steps: None,
         summary: None,
         stiles_burch: None,
+        over_checkpoints: None,
         settings: settings
             .iter()
             .map(|(k, v)| (k.to_string(), v.to_string()))
