@@ -70,7 +70,12 @@ pub enum Reading {
     /// Never higher than at the checkpoint before, lower at the last than at the first.
     Falling,
     /// Up and down between these dimensions: a margin near 1 that falls on either side.
-    Border { lowest: usize, highest: usize },
+    Border {
+        /// The lowest dimension seen.
+        lowest: usize,
+        /// The highest dimension seen.
+        highest: usize,
+    },
 }
 
 /// The verdict over the checkpoints that carry CMF-SIM.
