@@ -113,11 +113,29 @@ pub fn study(
             Err(e) => println!("  {}: skipped ({e})", path.display()),
         }
     }
-    report::write_outputs(&out, &config, &rows)?;
-    if let Some(verdict) = VerdictOverCheckpoints::of(&rows) {
+    let last = final_measurement(dir);
+    report::write_outputs(&out, &config, &rows, last.clone())?;
+    let points = VerdictOverCheckpoints::points_of(&rows);
+    if let Some(verdict) = VerdictOverCheckpoints::with_final(points, last) {
         println!("  {}", verdict.describe());
     }
     Ok(rows)
+}
+
+/// The CMF-SIM the run in `dir` measured at its end (`summary.json`), if it finished and
+/// measured one; a summary that does not read is reported and passed over.
+fn final_measurement(dir: &Path) -> Option<CheckpointCmf> {
+    let path = dir.join("summary.json");
+    if !path.is_file() {
+        return None;
+    }
+    match crate::run::Summary::read(&path) {
+        Ok(summary) => CheckpointCmf::final_of(&summary),
+        Err(e) => {
+            println!("  {}: does not read ({e}); the verdict leaves it out", path.display());
+            None
+        }
+    }
 }
 
 fn row_path(out: &Path, step: u64) -> PathBuf {
@@ -305,6 +323,11 @@ mod tests {
             md.contains("on 32 at step 10, 8 at step 20 held-out scenes"),
             "{md}"
         );
+        // The run's own final measurement joins CMF-SIM's verdict at the table's end.
+        assert!(!md.contains("CMF-SIM at"), "one measurement is no verdict: {md}");
+        let last = CheckpointCmf::from_final(30, 3, &[(2, 1.2), (3, 0.5)]);
+        let md = table(&config, &fewer, Some(last));
+        assert!(md.contains("(steps 20–30): 2-D, 3-D — rising"), "{md}");
         // Two runs side by side: a line per run in each plot, every row of each in runs.md.
         let side = dir.join("side");
         let runs = [("a".to_string(), rows.clone()), ("b".to_string(), again)];

@@ -238,7 +238,7 @@ fn read_run(dir: &Path, folder: String, rows: &BTreeMap<PathBuf, String>) -> Run
     let summary_path = dir.join("summary.json");
     let mut summary = None;
     let status = if summary_path.is_file() {
-        match read_summary(&summary_path) {
+        match Summary::read(&summary_path) {
             Ok(s) => {
                 summary = Some(s);
                 Status::Done
@@ -304,20 +304,10 @@ pub const OVER_CHECKPOINTS_FILE: &str = "convergence/cmf_over_checkpoints.json";
 fn over_checkpoints(dir: &Path, summary: Option<&Summary>) -> Option<VerdictOverCheckpoints> {
     let path = dir.join(OVER_CHECKPOINTS_FILE);
     let text = std::fs::read_to_string(&path).ok()?;
-    let mut points: Vec<CheckpointCmf> = serde_json::from_str(&text)
+    let points: Vec<CheckpointCmf> = serde_json::from_str(&text)
         .map_err(|e| eprintln!("colorvision gather: {}: {e}", path.display()))
         .ok()?;
-    if let Some(s) = summary.filter(|s| !s.dimension_over_steps.is_empty()) {
-        points.retain(|p| p.step <= s.steps);
-        let last = CheckpointCmf::from_final(s.steps, s.dimension, &s.converged_ratio_per_k);
-        points.insert(0, last);
-    }
-    VerdictOverCheckpoints::from_points(points)
-}
-
-fn read_summary(path: &Path) -> Result<Summary, String> {
-    let text = std::fs::read_to_string(path).map_err(|e| e.to_string())?;
-    serde_json::from_str(&text).map_err(|e| e.to_string())
+    VerdictOverCheckpoints::with_final(points, summary.and_then(CheckpointCmf::final_of))
 }
 
 fn read_failure(path: &Path) -> String {
@@ -359,7 +349,7 @@ pub(crate) fn recorded_run(
 ) -> Run {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let path = root.join("results").join(record).join("summary.json");
-    let mut summary = read_summary(&path).unwrap();
+    let mut summary = Summary::read(&path).unwrap();
     edit(&mut summary);
     Run {
         folder: folder.into(),

@@ -2,7 +2,7 @@
 //! caption saying what each column measures), `convergence.json` (the rows as measured) and
 //! `convergence_invariants.svg` / `convergence_measures.svg` (the measures over steps, log x).
 
-use super::StudyRow;
+use super::{CheckpointCmf, StudyRow, VerdictOverCheckpoints};
 use crate::config::RunConfig;
 use crate::invariants;
 use crate::io::write_atomic;
@@ -33,8 +33,10 @@ fn fmt_list(v: &[f64]) -> String {
         .join("/")
 }
 
-/// The table in Markdown, one row per checkpoint.
-pub fn table(config: &RunConfig, rows: &[StudyRow]) -> String {
+/// The table in Markdown, one row per checkpoint, ending with CMF-SIM's verdict over the
+/// checkpoints and the run's `last` measurement (see
+/// [`VerdictOverCheckpoints::with_final`](super::VerdictOverCheckpoints::with_final)).
+pub fn table(config: &RunConfig, rows: &[StudyRow], last: Option<CheckpointCmf>) -> String {
     let mut md = format!(
         "Convergence of `{}` {} (seed {}), every checkpoint. Gain: held-out prediction error of \
          \"next = current\" over the model's. CMF-SIM: dimension, and per K the converged worst \
@@ -98,7 +100,8 @@ pub fn table(config: &RunConfig, rows: &[StudyRow]) -> String {
             r.recovery.p.spacing_r,
         );
     }
-    if let Some(verdict) = super::verdict::VerdictOverCheckpoints::of(rows) {
+    let points = VerdictOverCheckpoints::points_of(rows);
+    if let Some(verdict) = VerdictOverCheckpoints::with_final(points, last) {
         let _ = write!(md, "\n{}\n", verdict.describe());
     }
     md
@@ -125,13 +128,14 @@ pub(super) fn write_outputs(
     out: &Path,
     config: &RunConfig,
     rows: &[StudyRow],
+    last: Option<CheckpointCmf>,
 ) -> Result<(), RunError> {
     let json = serde_json::to_string_pretty(rows).expect("plain data");
     write_atomic(&out.join("convergence.json"), json.as_bytes())?;
-    let points = super::VerdictOverCheckpoints::points_of(rows);
+    let points = VerdictOverCheckpoints::points_of(rows);
     let json = serde_json::to_string_pretty(&points).expect("plain data");
     write_atomic(&out.join(super::verdict::CMF_FILE), json.as_bytes())?;
-    write_atomic(&out.join("convergence.md"), table(config, rows).as_bytes())?;
+    write_atomic(&out.join("convergence.md"), table(config, rows, last).as_bytes())?;
     let x: Vec<f64> = rows.iter().map(|r| r.step.max(1) as f64).collect();
     let series = |name: &str, f: &dyn Fn(&StudyRow) -> Option<f64>| {
         let (xs, ys): (Vec<f64>, Vec<f64>) = rows
