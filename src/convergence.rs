@@ -132,7 +132,10 @@ fn final_measurement(dir: &Path) -> Option<CheckpointCmf> {
     match crate::run::Summary::read(&path) {
         Ok(summary) => CheckpointCmf::final_of(&summary),
         Err(e) => {
-            println!("  {}: does not read ({e}); the verdict leaves it out", path.display());
+            println!(
+                "  {}: does not read ({e}); the verdict leaves it out",
+                path.display()
+            );
             None
         }
     }
@@ -324,7 +327,10 @@ mod tests {
             "{md}"
         );
         // The run's own final measurement joins CMF-SIM's verdict at the table's end.
-        assert!(!md.contains("CMF-SIM at"), "one measurement is no verdict: {md}");
+        assert!(
+            !md.contains("CMF-SIM at"),
+            "one measurement is no verdict: {md}"
+        );
         let last = CheckpointCmf::from_final(30, 3, &[(2, 1.2), (3, 0.5)]);
         let md = table(&config, &fewer, Some(last));
         assert!(md.contains("(steps 20–30): 2-D, 3-D — rising"), "{md}");

@@ -135,7 +135,10 @@ pub(super) fn write_outputs(
     let points = VerdictOverCheckpoints::points_of(rows);
     let json = serde_json::to_string_pretty(&points).expect("plain data");
     write_atomic(&out.join(super::verdict::CMF_FILE), json.as_bytes())?;
-    write_atomic(&out.join("convergence.md"), table(config, rows, last).as_bytes())?;
+    write_atomic(
+        &out.join("convergence.md"),
+        table(config, rows, last).as_bytes(),
+    )?;
     let x: Vec<f64> = rows.iter().map(|r| r.step.max(1) as f64).collect();
     let series = |name: &str, f: &dyn Fn(&StudyRow) -> Option<f64>| {
         let (xs, ys): (Vec<f64>, Vec<f64>) = rows

@@ -145,5 +145,8 @@ fn the_final_measurement_joins_the_checkpoints() {
     assert_eq!(v.dimensions, vec![3, 4, 4]);
     assert_eq!(v.reading(), Reading::Rising);
     let alone = CheckpointCmf::from_final(40_000, 3, &[(3, 0.96)]);
-    assert_eq!(VerdictOverCheckpoints::with_final(vec![], Some(alone)), None);
+    assert_eq!(
+        VerdictOverCheckpoints::with_final(vec![], Some(alone)),
+        None
+    );
 }
