@@ -1,4 +1,5 @@
-//! CMF-SIM's verdict over several checkpoints of one run: the dimension at each, in step order,
+//! CMF-SIM's verdict over several checkpoints of one run (and its own final measurement, where
+//! it finished: [`VerdictOverCheckpoints::with_final`]): the dimension at each, in step order,
 //! and per K how many of the checkpoints that tried K passed it and the range of its margin
 //! (converged worst error / threshold of the best set; pass < 1).
 //!
