@@ -316,8 +316,7 @@ pub fn run_in(
             out.display()
         );
         let path = out.join("summary.json");
-        let text = std::fs::read_to_string(&path).map_err(crate::io::fs_err(&path))?;
-        return serde_json::from_str(&text).map_err(|e| RunError::Folder {
+        return Summary::read(&path).map_err(|e| RunError::Folder {
             path: path.clone(),
             reason: format!("invalid summary: {e}; --force runs it again"),
         });

@@ -114,8 +114,8 @@ fn the_directions_column_reads_each_direction_s_r2_and_is_empty_when_not_measure
         env!("CARGO_MANIFEST_DIR"),
         "/results/LMS-quick-6k/summary.json"
     );
-    let text = std::fs::read_to_string(path).expect("the quick run's record reads");
-    let mut summary: crate::run::Summary = serde_json::from_str(&text).unwrap();
+    let mut summary = crate::run::Summary::read(std::path::Path::new(path))
+        .expect("the quick run's record reads");
     let recovery = &mut summary.invariants.as_mut().unwrap().recovery;
     recovery.directions = Some(crate::invariants::directions::DirectionRecovery {
         classes: vec!["L".into(), "M".into(), "S".into()],
