@@ -1,9 +1,9 @@
 #!/bin/bash
 # Copies the record of a finished run folder into results/NAME: its settings, start, summary,
 # final CMF-SIM and dimension plot (and, when measured, its convergence table, the CMF-SIM of
-# its checkpoints and its CMFs against Stiles & Burch), and record.json naming the folder it was
-# trained in (so that `gather` names a run continued from that folder by this record) — the
-# small files the README's tables are generated from (`colorvision gather results --markdown`).
+# its checkpoints, the figure of its checkpoints' averaged weights and its CMFs against Stiles &
+# Burch), and record.json naming the folder it was trained in (so that `gather` names a run
+# continued from that folder by this record) — the small files the README's tables are generated from (`colorvision gather results --markdown`).
 # No checkpoints, pictures or per-step log.
 # Usage: scripts/record-run.sh RUN_DIR NAME
 set -euo pipefail
@@ -22,6 +22,9 @@ printf '{"trained_in": "%s"}\n' "$TRAINED_IN" > "$TMP/record.json"
 [ -f "$RUN/convergence/convergence.md" ] && cp "$RUN/convergence/convergence.md" "$TMP/"
 if [ -f "$RUN/convergence/cmf_over_checkpoints.json" ]; then
     mkdir "$TMP/convergence" && cp "$RUN/convergence/cmf_over_checkpoints.json" "$TMP/convergence/"
+fi
+if [ -f "$RUN/average/average.json" ]; then
+    mkdir "$TMP/average" && cp "$RUN/average/average.json" "$TMP/average/"
 fi
 if [ -f "$RUN/stiles-burch/table.json" ]; then
     mkdir "$TMP/stiles-burch" && cp "$RUN/stiles-burch/table.json" "$TMP/stiles-burch/"

@@ -11,13 +11,66 @@
 //!
 //! Output, in `--out` or `DIR/average/`: `checkpoints/step_<last>/` (the averaged parameters,
 //! the last checkpoint's Adam state and metadata), `cmf_sim.json` and its plot, `average.json`
-//! (the steps averaged, the dimension, the margins and the invariants).
+//! ([`Averaged`]: the steps averaged, the dimension, the margins and the invariants). `gather`
+//! shows it beside the run's final figure when it is in `DIR/average/`.
 
 use crate::cli::{AverageOptions, ObserverKind};
 use crate::measurement_dir::measurement_dir;
 use crate::run_error::RunError;
 use cortex::Trainer;
+use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
+
+/// The file `average` writes in its output folder.
+pub const AVERAGE_FILE: &str = "average.json";
+
+/// What `average` measured ([`AVERAGE_FILE`]).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Averaged {
+    /// The checkpoints averaged, by step, ascending.
+    pub steps: Vec<u64>,
+    /// Held-out prediction gain over "next = current" of the averaged cortex.
+    pub heldout_gain_averaged: f64,
+    /// The same of the last checkpoint alone, on the same held-out batches.
+    pub heldout_gain_last_checkpoint: f64,
+    /// CMF-SIM's dimension of the averaged cortex (0: undefined, see `verdict`).
+    pub dimension: usize,
+    /// CMF-SIM's verdict in words.
+    pub verdict: String,
+    /// Per K tried: `(K, converged max error / threshold over every wavelength)`; < 1 passes.
+    pub margins: Vec<(usize, f64)>,
+    /// The averaged cortex's learned invariants against the truth (evaluation only).
+    pub invariants: crate::invariants::Recovery,
+}
+
+impl Averaged {
+    /// Reads an [`AVERAGE_FILE`]; the error says why it does not read.
+    pub fn read(path: &Path) -> Result<Averaged, String> {
+        let text = std::fs::read_to_string(path).map_err(|e| e.to_string())?;
+        serde_json::from_str(&text).map_err(|e| e.to_string())
+    }
+
+    /// Which checkpoints, e.g. "weights averaged over 8 checkpoints, 34 000–48 000 steps".
+    pub fn span(&self) -> String {
+        let group = |n: u64| crate::run::digits_grouped(n, ' ');
+        let first = self.steps.first().copied().unwrap_or(0);
+        let last = self.steps.last().copied().unwrap_or(0);
+        format!(
+            "weights averaged over {} checkpoints, {}–{} steps",
+            self.steps.len(),
+            group(first),
+            group(last)
+        )
+    }
+
+    /// What CMF-SIM measured of them, e.g. "3 (K1 20.06, K2 1.36, K3 0.91)".
+    pub fn figure(&self) -> String {
+        match self.dimension {
+            0 => format!("undefined ({})", self.verdict),
+            d => format!("{d} ({})", crate::run::margins_text(&self.margins)),
+        }
+    }
+}
 
 /// Sets every parameter of `into` to the mean of that parameter over `into` and `others`.
 /// Panics when a parameter's name or shape differs (checkpoints of one run never do).
@@ -150,16 +203,16 @@ pub fn command(options: &AverageOptions) -> Result<(), RunError> {
         "  CMF-SIM: dimension {} ({}); margins {margins:?}",
         r.dimension, r.verdict
     );
-    let json = serde_json::json!({
-        "steps": steps,
-        "heldout_gain_averaged": averaged,
-        "heldout_gain_last_checkpoint": alone,
-        "dimension": r.dimension,
-        "verdict": r.verdict,
-        "margins": margins,
-        "invariants": recovery,
-    });
-    crate::io::write_json(&out.join("average.json"), &json)?;
+    let averaged = Averaged {
+        steps: steps.clone(),
+        heldout_gain_averaged: averaged,
+        heldout_gain_last_checkpoint: alone,
+        dimension: r.dimension,
+        verdict: r.verdict.clone(),
+        margins,
+        invariants: recovery,
+    };
+    crate::io::write_json(&out.join(AVERAGE_FILE), &averaged)?;
     println!("wrote {}/", out.display());
     Ok(())
 }

@@ -27,7 +27,9 @@
 //! gets the paper's table, row by row, above the table of runs ([`paper_rows`]). A run whose
 //! checkpoints CMF-SIM measured (`colorvision convergence --cmf`, [`OVER_CHECKPOINTS_FILE`])
 //! shows there, beside its final figure, the dimensions at those checkpoints and its own end,
-//! and how they read: settled, rising, falling or on the border ([`crate::convergence::verdict`]).
+//! and how they read: settled, rising, falling or on the border ([`crate::convergence::verdict`]);
+//! a run whose late checkpoints were averaged (`colorvision average`, [`AVERAGED_FILE`]) shows
+//! the averaged cortex's figure after them.
 //!
 //! Runs whose colour-matching functions were compared with Stiles & Burch (`colorvision
 //! stiles-burch --run DIR`) get a table of their own below the runs' table ([`stiles_burch`]);
@@ -44,6 +46,7 @@ pub mod table;
 pub(crate) use settings::run_settings;
 pub use settings::{flatten, CONTINUED_FROM_KEY, RECORD_FILE};
 
+use crate::averaging::Averaged;
 use crate::convergence::{CheckpointCmf, VerdictOverCheckpoints};
 use crate::run::Summary;
 use crate::run_error::RunError;
@@ -122,6 +125,9 @@ pub struct Run {
     /// CMF-SIM's verdict over its checkpoints, when `colorvision convergence --cmf` measured
     /// some ([`over_checkpoints`]).
     pub over_checkpoints: Option<VerdictOverCheckpoints>,
+    /// The figure of its checkpoints' averaged weights, when `colorvision average` measured it
+    /// into the run folder ([`AVERAGED_FILE`]).
+    pub averaged: Option<Averaged>,
 }
 
 /// `colorvision gather`.
@@ -283,6 +289,12 @@ fn read_run(dir: &Path, folder: String, rows: &BTreeMap<PathBuf, String>) -> Run
         .ok()
     });
     let over_checkpoints = over_checkpoints(dir, summary.as_ref());
+    let averaged_path = dir.join(AVERAGED_FILE);
+    let averaged = averaged_path.is_file().then(|| {
+        Averaged::read(&averaged_path)
+            .map_err(|e| eprintln!("colorvision gather: {}: {e}", averaged_path.display()))
+            .ok()
+    });
     Run {
         folder,
         status,
@@ -291,12 +303,17 @@ fn read_run(dir: &Path, folder: String, rows: &BTreeMap<PathBuf, String>) -> Run
         settings,
         stiles_burch,
         over_checkpoints,
+        averaged: averaged.flatten(),
     }
 }
 
 /// Where a run folder (and its record) keeps the CMF-SIM of the checkpoints `colorvision
 /// convergence --cmf` measured.
 pub const OVER_CHECKPOINTS_FILE: &str = "convergence/cmf_over_checkpoints.json";
+
+/// Where a run folder (and its record) keeps what `colorvision average` measured of its
+/// checkpoints' averaged weights (its default output folder).
+pub const AVERAGED_FILE: &str = "average/average.json";
 
 /// CMF-SIM's verdict over the checkpoints measured in `dir` ([`OVER_CHECKPOINTS_FILE`], those
 /// up to the run's steps) and the run's own final measurement; `None` without two such
@@ -359,6 +376,7 @@ pub(crate) fn recorded_run(
         settings: [("cones".to_string(), cones.to_string())].into(),
         stiles_burch: None,
         over_checkpoints: None,
+        averaged: None,
     }
 }
 
@@ -392,6 +410,29 @@ mod tests {
         assert_eq!((k3.tried, k3.passed), (2, 2), "{verdict:?}");
         std::fs::write(&path, "[{").unwrap();
         assert_eq!(over_checkpoints(&dir, Some(&summary)), None);
+        std::fs::remove_dir_all(&dir).ok();
+    }
+
+    /// `average`'s figure in the run folder is read with the run; one that does not read is
+    /// passed over (and reported), not taken for the run's.
+    #[test]
+    fn the_averaged_weights_figure_is_read_with_the_run() {
+        let dir = std::env::temp_dir().join(format!("cv_gather_avg_{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(dir.join("average")).unwrap();
+        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("results");
+        let record = root.join("LMSQ-humanQ-idealised-48k");
+        std::fs::copy(record.join("summary.json"), dir.join("summary.json")).unwrap();
+        let rows = BTreeMap::new();
+        assert_eq!(read_run(&dir, "x".into(), &rows).averaged, None);
+        let file = dir.join(AVERAGED_FILE);
+        std::fs::copy(record.join(AVERAGED_FILE), &file).unwrap();
+        let averaged = read_run(&dir, "x".into(), &rows).averaged.unwrap();
+        assert_eq!((averaged.steps.len(), averaged.dimension), (8, 3));
+        assert_eq!(averaged.steps[0], 34_000);
+        std::fs::write(&file, "{").unwrap();
+        let run = read_run(&dir, "x".into(), &rows);
+        assert_eq!((run.status, run.averaged), (Status::Done, None));
         std::fs::remove_dir_all(&dir).ok();
     }
 }

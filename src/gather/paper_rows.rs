@@ -84,7 +84,8 @@ fn against_paper(run: &Run) -> (Option<crate::paper::Reported>, Option<bool>) {
 
 /// `NAME: **d** (K1 …)`: a run and what it measured, and, where CMF-SIM measured several of
 /// its checkpoints, their dimensions and how they read (`… — 3, 3, 4, 3 at 34 000–40 000
-/// steps: on the border`).
+/// steps: on the border`), then the figure of those checkpoints' averaged weights, where
+/// measured (`; weights averaged over 4 checkpoints, 34 000–40 000 steps: **3** (K1 …)`).
 fn measured(run: &Run) -> String {
     let cell = super::table::dimension_cell(run);
     let cell = if cell.is_empty() {
@@ -92,10 +93,15 @@ fn measured(run: &Run) -> String {
     } else {
         super::table::emphasise_number(&cell, "**", "**")
     };
-    match &run.over_checkpoints {
-        Some(verdict) => format!("{}: {cell} — {}", run.folder, verdict.brief()),
-        None => format!("{}: {cell}", run.folder),
+    let mut text = format!("{}: {cell}", run.folder);
+    if let Some(verdict) = &run.over_checkpoints {
+        text = format!("{text} — {}", verdict.brief());
     }
+    if let Some(averaged) = &run.averaged {
+        let figure = super::table::emphasise_number(&averaged.figure(), "**", "**");
+        text = format!("{text}; {}: {figure}", averaged.span());
+    }
+    text
 }
 
 /// The Markdown table of `rows` over the gathered `runs`; `path` names the rows' file in errors.
@@ -224,9 +230,23 @@ mod tests {
             at(40_000, 3, 0.96),
         ]);
         let table = rows("[[row]]\nexperiment = \"x\"\nruns = [\"border\"]\n");
-        let md = markdown(&table, &[border], &path()).unwrap();
+        let md = markdown(&table, std::slice::from_ref(&border), &path()).unwrap();
         assert!(
             md.contains("border: **3** (K2 1.20, K3 0.96) — 3, 4, 3 at 34 000–40 000 steps: on the border |"),
+            "{md}"
+        );
+        // The averaged weights' figure follows, read from a record.
+        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("results");
+        let file = root
+            .join("LMSQ-humanQ-idealised-48k")
+            .join(crate::gather::AVERAGED_FILE);
+        border.averaged = Some(crate::averaging::Averaged::read(&file).unwrap());
+        let md = markdown(&table, &[border], &path()).unwrap();
+        assert!(
+            md.contains(
+                "on the border; weights averaged over 8 checkpoints, 34 000–48 000 steps: **3** \
+                 (K1 20.06, K2 1.36, K3 0.91) |"
+            ),
             "{md}"
         );
     }

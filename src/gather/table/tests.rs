@@ -11,6 +11,7 @@ fn run(folder: &str, settings: &[(&str, &str)], status: Status) -> Run {
         summary: None,
         stiles_burch: None,
         over_checkpoints: None,
+        averaged: None,
         settings: settings
             .iter()
             .map(|(k, v)| (k.to_string(), v.to_string()))
