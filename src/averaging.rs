@@ -24,6 +24,15 @@ use std::path::{Path, PathBuf};
 /// The file `average` writes in its output folder.
 pub const AVERAGE_FILE: &str = "average.json";
 
+/// `average`'s output folder inside the run folder when `--out` is not given.
+pub const AVERAGE_DIR: &str = "average";
+
+/// Where `average` leaves [`AVERAGE_FILE`] in run folder `run` without `--out` (and where a
+/// run's record keeps it).
+pub fn averaged_path(run: &Path) -> PathBuf {
+    run.join(AVERAGE_DIR).join(AVERAGE_FILE)
+}
+
 /// What `average` measured ([`AVERAGE_FILE`]).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Averaged {
@@ -154,7 +163,7 @@ pub fn command(options: &AverageOptions) -> Result<(), RunError> {
         ));
     }
     let dir = &options.run;
-    let out = measurement_dir(dir, options.out.as_ref(), "average")?;
+    let out = measurement_dir(dir, options.out.as_ref(), AVERAGE_DIR)?;
     let lock = crate::run_lock::RunLock::acquire(dir)?;
     let config = crate::run_folder::read_valid_config(dir)?;
     let paths = steps

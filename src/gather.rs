@@ -28,8 +28,8 @@
 //! checkpoints CMF-SIM measured (`colorvision convergence --cmf`, [`OVER_CHECKPOINTS_FILE`])
 //! shows there, beside its final figure, the dimensions at those checkpoints and its own end,
 //! and how they read: settled, rising, falling or on the border ([`crate::convergence::verdict`]);
-//! a run whose late checkpoints were averaged (`colorvision average`, [`AVERAGED_FILE`]) shows
-//! the averaged cortex's figure after them.
+//! a run whose late checkpoints were averaged (`colorvision average`,
+//! [`crate::averaging::averaged_path`]) shows the averaged cortex's figure after them.
 //!
 //! Runs whose colour-matching functions were compared with Stiles & Burch (`colorvision
 //! stiles-burch --run DIR`) get a table of their own below the runs' table ([`stiles_burch`]);
@@ -126,7 +126,7 @@ pub struct Run {
     /// some ([`over_checkpoints`]).
     pub over_checkpoints: Option<VerdictOverCheckpoints>,
     /// The figure of its checkpoints' averaged weights, when `colorvision average` measured it
-    /// into the run folder ([`AVERAGED_FILE`]).
+    /// into the run folder ([`crate::averaging::averaged_path`]).
     pub averaged: Option<Averaged>,
 }
 
@@ -289,7 +289,7 @@ fn read_run(dir: &Path, folder: String, rows: &BTreeMap<PathBuf, String>) -> Run
         .ok()
     });
     let over_checkpoints = over_checkpoints(dir, summary.as_ref());
-    let averaged_path = dir.join(AVERAGED_FILE);
+    let averaged_path = crate::averaging::averaged_path(dir);
     let averaged = averaged_path.is_file().then(|| {
         Averaged::read(&averaged_path)
             .map_err(|e| eprintln!("colorvision gather: {}: {e}", averaged_path.display()))
@@ -310,10 +310,6 @@ fn read_run(dir: &Path, folder: String, rows: &BTreeMap<PathBuf, String>) -> Run
 /// Where a run folder (and its record) keeps the CMF-SIM of the checkpoints `colorvision
 /// convergence --cmf` measured.
 pub const OVER_CHECKPOINTS_FILE: &str = "convergence/cmf_over_checkpoints.json";
-
-/// Where a run folder (and its record) keeps what `colorvision average` measured of its
-/// checkpoints' averaged weights (its default output folder).
-pub const AVERAGED_FILE: &str = "average/average.json";
 
 /// CMF-SIM's verdict over the checkpoints measured in `dir` ([`OVER_CHECKPOINTS_FILE`], those
 /// up to the run's steps) and the run's own final measurement; `None` without two such
@@ -419,14 +415,14 @@ mod tests {
     fn the_averaged_weights_figure_is_read_with_the_run() {
         let dir = std::env::temp_dir().join(format!("cv_gather_avg_{}", std::process::id()));
         let _ = std::fs::remove_dir_all(&dir);
-        std::fs::create_dir_all(dir.join("average")).unwrap();
+        std::fs::create_dir_all(dir.join(crate::averaging::AVERAGE_DIR)).unwrap();
         let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("results");
         let record = root.join("LMSQ-humanQ-idealised-48k");
         std::fs::copy(record.join("summary.json"), dir.join("summary.json")).unwrap();
         let rows = BTreeMap::new();
         assert_eq!(read_run(&dir, "x".into(), &rows).averaged, None);
-        let file = dir.join(AVERAGED_FILE);
-        std::fs::copy(record.join(AVERAGED_FILE), &file).unwrap();
+        let file = crate::averaging::averaged_path(&dir);
+        std::fs::copy(crate::averaging::averaged_path(&record), &file).unwrap();
         let averaged = read_run(&dir, "x".into(), &rows).averaged.unwrap();
         assert_eq!((averaged.steps.len(), averaged.dimension), (8, 3));
         assert_eq!(averaged.steps[0], 34_000);

@@ -237,9 +237,7 @@ mod tests {
         );
         // The averaged weights' figure follows, read from a record.
         let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("results");
-        let file = root
-            .join("LMSQ-humanQ-idealised-48k")
-            .join(crate::gather::AVERAGED_FILE);
+        let file = crate::averaging::averaged_path(&root.join("LMSQ-humanQ-idealised-48k"));
         border.averaged = Some(crate::averaging::Averaged::read(&file).unwrap());
         let md = markdown(&table, &[border], &path()).unwrap();
         assert!(
