@@ -3,7 +3,8 @@
 # final CMF-SIM and dimension plot (and, when measured, its convergence table, the CMF-SIM of
 # its checkpoints, the figure of its checkpoints' averaged weights and its CMFs against Stiles &
 # Burch), and record.json naming the folder it was trained in (so that `gather` names a run
-# continued from that folder by this record) — the small files the README's tables are generated from (`colorvision gather results --markdown`).
+# continued from that folder by this record) — the small files the README's tables are
+# generated from (`colorvision gather results --markdown`).
 # No checkpoints, pictures or per-step log.
 # Usage: scripts/record-run.sh RUN_DIR NAME
 set -euo pipefail

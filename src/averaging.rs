@@ -55,8 +55,7 @@ pub struct Averaged {
 impl Averaged {
     /// Reads an [`AVERAGE_FILE`]; the error says why it does not read.
     pub fn read(path: &Path) -> Result<Averaged, String> {
-        let text = std::fs::read_to_string(path).map_err(|e| e.to_string())?;
-        serde_json::from_str(&text).map_err(|e| e.to_string())
+        crate::io::read_json(path)
     }
 
     /// Which checkpoints, e.g. "weights averaged over 8 checkpoints, 34 000–48 000 steps".

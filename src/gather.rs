@@ -289,12 +289,7 @@ fn read_run(dir: &Path, folder: String, rows: &BTreeMap<PathBuf, String>) -> Run
         .ok()
     });
     let over_checkpoints = over_checkpoints(dir, summary.as_ref());
-    let averaged_path = crate::averaging::averaged_path(dir);
-    let averaged = averaged_path.is_file().then(|| {
-        Averaged::read(&averaged_path)
-            .map_err(|e| eprintln!("colorvision gather: {}: {e}", averaged_path.display()))
-            .ok()
-    });
+    let averaged = averaged(dir);
     Run {
         folder,
         status,
@@ -303,7 +298,7 @@ fn read_run(dir: &Path, folder: String, rows: &BTreeMap<PathBuf, String>) -> Run
         settings,
         stiles_burch,
         over_checkpoints,
-        averaged: averaged.flatten(),
+        averaged,
     }
 }
 
@@ -323,9 +318,21 @@ fn over_checkpoints(dir: &Path, summary: Option<&Summary>) -> Option<VerdictOver
     VerdictOverCheckpoints::with_final(points, summary.and_then(CheckpointCmf::final_of))
 }
 
+/// What `colorvision average` measured of `dir`'s checkpoints, when it wrote into `dir`
+/// ([`crate::averaging::averaged_path`]); a file that does not read is reported on stderr and
+/// passed over.
+fn averaged(dir: &Path) -> Option<Averaged> {
+    let path = crate::averaging::averaged_path(dir);
+    if !path.is_file() {
+        return None;
+    }
+    Averaged::read(&path)
+        .map_err(|e| eprintln!("colorvision gather: {}: {e}", path.display()))
+        .ok()
+}
+
 fn read_failure(path: &Path) -> String {
-    let text = std::fs::read_to_string(path).map_err(|e| e.to_string());
-    match text.and_then(|t| serde_json::from_str::<Failure>(&t).map_err(|e| e.to_string())) {
+    match crate::io::read_json::<Failure>(path) {
         Ok(f) => format!("{} (exit {})", f.error, f.exit_code),
         Err(e) => format!("{} does not read: {e}", path.display()),
     }

@@ -185,8 +185,7 @@ impl LastMeasurement {
 impl Summary {
     /// Reads `summary.json` at `path`; the error in words.
     pub fn read(path: &Path) -> Result<Summary, String> {
-        let text = std::fs::read_to_string(path).map_err(|e| e.to_string())?;
-        serde_json::from_str(&text).map_err(|e| e.to_string())
+        crate::io::read_json(path)
     }
 
     /// The summary of an observer measured without training (S-05's Φ = identity baselines):
