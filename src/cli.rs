@@ -196,6 +196,10 @@ pub struct CmfSimOptions {
     /// eyes of different cone counts compared with patches of the same number of cones.
     #[arg(long)]
     pub patch_radius_fraction: Option<f64>,
+    /// With `--run`: test the run's checkpoint of this step (`checkpoints/step_<N>/`) instead
+    /// of its newest one.
+    #[arg(long)]
+    pub checkpoint_step: Option<u64>,
     /// Shared options (`--cones`, `--seed`, `--out`, ...).
     #[command(flatten)]
     pub common: CommonOptions,

@@ -282,7 +282,10 @@ pub fn cmf_sim(options: &CmfSimOptions) -> Result<(), RunError> {
     let (mut config, trainer, out) = match (&options.run, kind) {
         (Some(dir), ObserverKind::Cortex) => {
             let out = measurement_dir(dir, options.common.out.as_ref(), "cmf-sim")?;
-            let (config, trainer, checkpoint) = load_run(dir)?;
+            let (config, trainer, checkpoint) = match options.checkpoint_step {
+                None => load_run(dir)?,
+                Some(step) => crate::run_folder::load_run_at(dir, step)?,
+            };
             println!(
                 "colorvision cmf-sim: {} (checkpoint {})",
                 dir.display(),
@@ -300,6 +303,12 @@ pub fn cmf_sim(options: &CmfSimOptions) -> Result<(), RunError> {
             return Err(RunError::invalid(
                 "--run",
                 "only the `cortex` observer reads a run folder; the others take --preset/--cones",
+            ))
+        }
+        (None, _) if options.checkpoint_step.is_some() => {
+            return Err(RunError::invalid(
+                "--checkpoint-step",
+                "names a checkpoint of --run DIR, and no --run was given",
             ))
         }
         (None, _) => {

@@ -257,21 +257,8 @@ fn w_oracle_init(options: &CommonOptions, out: &Path) -> Result<(), RunError> {
     let start = out.join("start").join("checkpoints");
     let checkpoint = start.join(cortex::checkpoint::checkpoint_name(0));
     if !checkpoint.exists() {
-        let retina = Retina::new(config.retina.clone())?;
-        let Some((dog, size)) = retina.dog_kernel() else {
-            return Err(RunError::invalid(
-                "retina.lateral_inhibition",
-                "this eye has no lateral inhibition to start W from",
-            ));
-        };
         let mut trainer = cortex::Trainer::new(config.cortex.clone())?;
-        let kernel = autodiff::Tensor::from_vec([size, size], dog.to_vec());
-        if !trainer.cortex.set_w_kernel(&kernel) {
-            return Err(RunError::invalid(
-                "cortex.w.mode",
-                "W is not learned in this cortex",
-            ));
-        }
+        run::start_w_at_the_eyes_kernel(&config, &mut trainer)?;
         trainer.save_checkpoint_with(&start, None, None)?;
     }
     drop(start_lock);

@@ -263,6 +263,26 @@ pub fn load_run(dir: &Path) -> Result<(RunConfig, Trainer, PathBuf), RunError> {
     Ok((config, trainer, checkpoint))
 }
 
+/// [`load_run`] at the checkpoint of `step` (`checkpoints/step_<step>/`), which must exist and
+/// verify.
+pub fn load_run_at(dir: &Path, step: u64) -> Result<(RunConfig, Trainer, PathBuf), RunError> {
+    let config = read_valid_config(dir)?;
+    let checkpoint = dir
+        .join("checkpoints")
+        .join(cortex::checkpoint::checkpoint_name(step));
+    if !checkpoint.join("meta.json").is_file() {
+        return Err(RunError::Folder {
+            path: dir.to_path_buf(),
+            reason: format!(
+                "no checkpoint of step {step} ({} does not exist)",
+                checkpoint.display()
+            ),
+        });
+    }
+    let trainer = Trainer::continue_from(&checkpoint, Some(config.cortex.clone()))?;
+    Ok((config, trainer, checkpoint))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -37,5 +37,5 @@ pub use float::Float;
 pub use op::{BackwardCx, GradSlots, GradTarget, Op, Pointwise};
 pub use params::{ParamId, ParamStore};
 pub use pool::BufferPool;
-pub use tape::{BackwardHooks, NoHooks, NodeKind, NodeView, Tape, Var};
+pub use tape::{BackwardHooks, NoHooks, NodeKind, NodeView, NonFiniteSite, Pass, Tape, Var};
 pub use tensor::{Shape, Tensor};

@@ -25,23 +25,31 @@ pub enum CortexError {
     #[error("{path}: {reason}")]
     Checkpoint { path: PathBuf, reason: String },
     #[error(
-        "the loss became {value} at step {step}; training stopped. The last good checkpoint \
+        "the loss became {value} at step {step}{}; training stopped. The last good checkpoint \
          (if any) is untouched{}",
+        .site.as_ref().map(|s| format!(", first produced by {s}")).unwrap_or_default(),
         .last_checkpoint.as_ref().map(|p| format!(": {}", p.display())).unwrap_or_default()
     )]
     NonFiniteLoss {
         step: u64,
         value: f64,
+        /// Where the first non-finite value was made (`autodiff::NonFiniteSite`, bucket =
+        /// scope), when it could be traced.
+        site: Option<String>,
         last_checkpoint: Option<PathBuf>,
     },
     #[error(
-        "the gradient of `{param}` became non-finite at step {step}; training stopped before \
+        "the gradient of `{param}` became non-finite at step {step}{}; training stopped before \
          the update. The last good checkpoint (if any) is untouched{}",
+        .site.as_ref().map(|s| format!(", first produced by {s}")).unwrap_or_default(),
         .last_checkpoint.as_ref().map(|p| format!(": {}", p.display())).unwrap_or_default()
     )]
     NonFiniteGradient {
         step: u64,
+        /// The first parameter in id order whose gradient is non-finite.
         param: String,
+        /// Where the first non-finite value was made, as for `NonFiniteLoss`.
+        site: Option<String>,
         last_checkpoint: Option<PathBuf>,
     },
     #[error("data source state: {0}")]

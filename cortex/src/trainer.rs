@@ -219,6 +219,22 @@ impl Trainer {
         (pred, o2)
     }
 
+    /// Where the step's first non-finite value was made, in words: the op, its bucket and the
+    /// pass (`autodiff::Tape::trace_non_finite`; a backprop sweep on the step's tape).
+    fn non_finite_site(&mut self, loss: Var) -> Option<String> {
+        self.tape.trace_non_finite(loss).map(|site| {
+            let bucket = site
+                .scope
+                .map(|b| format!(" in bucket {b}"))
+                .unwrap_or_default();
+            let pass = match site.pass {
+                autodiff::Pass::Forward => "forward value",
+                autodiff::Pass::Backward => "backward (its vector–Jacobian product)",
+            };
+            format!("`{}`{bucket}, {pass}", site.op)
+        })
+    }
+
     /// One gradient update from `batch`.
     pub fn step(&mut self, batch: &OnsBatch) -> Result<StepStats, CortexError> {
         let t0 = Instant::now();
@@ -251,6 +267,7 @@ impl Trainer {
             return Err(CortexError::NonFiniteLoss {
                 step: self.step + 1,
                 value: loss,
+                site: self.non_finite_site(pred.loss),
                 last_checkpoint: self.last_checkpoint.clone(),
             });
         }
@@ -275,14 +292,17 @@ impl Trainer {
             fwd[i] += times.forward(name);
             bwd[i] = times.backward(name);
         }
-        if let Some((id, _)) = self
+        let bad = self
             .grads
             .iter()
             .find(|(_, g)| g.data().iter().any(|v| !v.is_finite()))
-        {
+            .map(|(id, _)| id);
+        if let Some(id) = bad {
+            let param = self.cortex.params.name(id).to_string();
             return Err(CortexError::NonFiniteGradient {
                 step: self.step + 1,
-                param: self.cortex.params.name(id).to_string(),
+                param,
+                site: self.non_finite_site(pred.loss),
                 last_checkpoint: self.last_checkpoint.clone(),
             });
         }

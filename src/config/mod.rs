@@ -99,6 +99,11 @@ pub struct RunConfig {
     pub steps: u64,
     /// Use the oracle eye motion (said in the run's output when on).
     pub oracle_motion: bool,
+    /// A diagnostic, not a learning result: W starts at the eye's true lateral-inhibition
+    /// kernel (read from the eye, which learning never does) instead of the identity. With
+    /// `cortex.train.w_learning_rate_scale = 0` W is held there. Said in the run's output.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub oracle_w_start: bool,
     /// Credit assignment: `backprop` (default), `feedback-alignment`,
     /// `direct-feedback-alignment` or `forward-forward` (`cortex::rule`).
     pub learning_rule: cortex::RuleKind,

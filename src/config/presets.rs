@@ -90,6 +90,7 @@ impl RunConfig {
             seed: 0,
             steps,
             oracle_motion: matches!(cortex.m.mode, cortex::config::MMode::Oracle),
+            oracle_w_start: false,
             learning_rule: cortex::RuleKind::Backprop,
             retina,
             cortex,

@@ -43,6 +43,7 @@ mod open;
 mod steps;
 
 pub use finish::{digits_grouped, in_words, out_dir, print_outcome};
+pub use open::start_w_at_the_eyes_kernel;
 pub use steps::{heldout_error, heldout_motion_error, measure};
 
 /// What a run does besides training.

@@ -147,6 +147,9 @@ impl<'a> RunState<'a> {
                 "  the cortex receives the optic nerve signal only (eye motion estimated by bucket M)"
             );
         }
+        if c.oracle_w_start {
+            println!("  DIAGNOSTIC: W starts at the eye's true lateral-inhibition kernel (not a learning result)");
+        }
         if let Some(mix) = &c.retina.scenes.tetra {
             println!(
                 "  scenes: natural, with {:.0} % of the tiles holding {} (one of the environments \
@@ -191,12 +194,39 @@ fn new_trainer(config: &RunConfig, origin: Origin<'_>) -> Result<Trainer, RunErr
         Origin::New => {
             let mut cortex_config = config.cortex.clone();
             cortex_config.train.steps = config.steps;
-            Trainer::new(cortex_config)?
+            let mut trainer = Trainer::new(cortex_config)?;
+            if config.oracle_w_start {
+                start_w_at_the_eyes_kernel(config, &mut trainer)?;
+            }
+            trainer
         }
         Origin::Continue(checkpoint) => {
             Trainer::continue_from(checkpoint, Some(config.cortex.clone()))?
         }
     })
+}
+
+/// A diagnostic (`oracle_w_start`): sets the cortex's W to the eye's true lateral-inhibition
+/// kernel, read from the eye as no learning run does.
+pub fn start_w_at_the_eyes_kernel(
+    config: &RunConfig,
+    trainer: &mut Trainer,
+) -> Result<(), RunError> {
+    let retina = retina::Retina::new(config.retina.clone())?;
+    let Some((dog, size)) = retina.dog_kernel() else {
+        return Err(RunError::invalid(
+            "retina.lateral_inhibition",
+            "this eye has no lateral inhibition to start W from",
+        ));
+    };
+    let kernel = autodiff::Tensor::from_vec([size, size], dog.to_vec());
+    if !trainer.cortex.set_w_kernel(&kernel) {
+        return Err(RunError::invalid(
+            "cortex.w.mode",
+            "W is not learned in this cortex",
+        ));
+    }
+    Ok(())
 }
 
 /// The run's learning rule, its random state drawn from the run's seed and fitted to the

@@ -3,14 +3,21 @@
 //! Inputs, in order: points `x (P, 2)`, then the coupling MLP `w1 (1, H)`, `b1 (H,)`,
 //! `w2 (H, H)`, `b2 (H,)`, `w3 (H, 2)`, `b3 (2,)` (weights `(in, out)`, `x @ W` convention).
 //! Output `(P, 2)`. With `c` the kept (conditioning) column and `o = 1 − c`:
-//! - `(t, s) = MLP(x_c)`: `h1 = relu(x_c·w1 + b1)`, `h2 = relu(h1·w2 + b2)`,
-//!   `(t, s) = h2·w3 + b3` (last-layer column 0 is the shift, column 1 the log-scale);
+//! - `(t, ŝ) = MLP(x_c)`: `h1 = relu(x_c·w1 + b1)`, `h2 = relu(h1·w2 + b2)`,
+//!   `(t, ŝ) = h2·w3 + b3` (last-layer column 0 is the shift, column 1 the raw log-scale);
+//! - the log-scale `s = ŝ` (the authors' code, unbounded), or with a bound `a`,
+//!   `s = a·tanh(ŝ/a)`: the same map near `ŝ = 0` (slope 1, so an identity-initialised flow
+//!   starts the same), and `exp(±s) ∈ [e^(−a), e^a]` always, so neither the map nor its
+//!   inverse can overflow (a `tanh`-scaled log-scale, common in RealNVP implementations;
+//!   Glow, Kingma & Dhariwal 2018, bounds its scale with a sigmoid to the same end);
 //! - forward: `y_c = x_c`, `y_o = x_o·exp(s) + t`;
 //! - inverse: `y_c = x_c`, `y_o = (x_o − t)·exp(−s)`, exact for the same parameters.
 //!
 //! Backward, with `g = ∂L/∂y`: forward `∂L/∂t = g_o`, `∂L/∂s = g_o·x_o·exp(s)`,
 //! `∂L/∂x_o = g_o·exp(s)`; inverse `∂L/∂t = −g_o·exp(−s)`, `∂L/∂s = −g_o·y_o`,
-//! `∂L/∂x_o = g_o·exp(−s)`; then through the MLP (ReLU derivative `[h > 0]`, 0 at the kink)
+//! `∂L/∂x_o = g_o·exp(−s)`; `∂L/∂ŝ = ∂L/∂s·(1 − (s/a)²)` when bounded. A point whose error
+//! `g_o` is zero contributes exactly zero, even where an unbounded `exp(±s)` overflowed (no
+//! `0·∞`). Then through the MLP (ReLU derivative `[h > 0]`, 0 at the kink)
 //! to its parameters and to `x_c`: `∂L/∂x_c = g_c + ∂L/∂(MLP input)`.
 //!
 //! Evaluation (kernels in `coupling/`): points in chunks of [`CHUNK`], a chunk's hidden
@@ -50,6 +57,8 @@ pub const OPS: &[&str] = &["affine_coupling"];
 pub struct AffineCoupling<T> {
     kept: usize,
     inverse: bool,
+    /// `a` of the bounded log-scale `s = a·tanh(ŝ/a)`, or `None` (unbounded).
+    log_scale_bound: Option<T>,
     /// The kernel build (the fastest this CPU runs).
     isa: Isa,
     /// The parameters `forward` saw (inputs 1..=6 concatenated), for backward.
@@ -68,9 +77,24 @@ impl<T: Float> AffineCoupling<T> {
         AffineCoupling {
             kept,
             inverse,
+            log_scale_bound: None,
             isa: Isa::detect(),
             params: Vec::new(),
         }
+    }
+
+    /// The same coupling with its log-scale bounded: `s = a·tanh(ŝ/a)` for `Some(a)` (module
+    /// docs), unbounded for `None`. Panics unless `a` is finite and positive.
+    #[track_caller]
+    pub fn with_log_scale_bound(mut self, bound: Option<f64>) -> Self {
+        if let Some(a) = bound {
+            assert!(
+                a.is_finite() && a > 0.0,
+                "affine_coupling: log-scale bound {a} must be finite and > 0"
+            );
+        }
+        self.log_scale_bound = bound.map(T::of);
+        self
     }
 
     /// The coupling run by a given kernel build (tests compare the builds).
@@ -139,7 +163,12 @@ impl<T: Float> Op<T> for AffineCoupling<T> {
         for t in &inputs[1..] {
             self.params.extend_from_slice(t.data());
         }
-        let block = Block::forward_pass(Mlp::from_flat(&self.params, h), self.kept, self.inverse);
+        let block = Block::forward_pass(
+            Mlp::from_flat(&self.params, h),
+            self.kept,
+            self.inverse,
+            self.log_scale_bound,
+        );
         out.data_mut()
             .par_chunks_mut(2 * BLOCK)
             .zip(inputs[0].data().par_chunks(2 * BLOCK))
@@ -157,7 +186,14 @@ impl<T: Float> Op<T> for AffineCoupling<T> {
         }
         let given = Mlp::from_parts(h, std::array::from_fn(|i| cx.inputs[i + 1].data()));
         let fwd = Mlp::from_flat(&self.params, h);
-        let block = Block::backward_pass(fwd, given, self.kept, self.inverse, want_params);
+        let block = Block::backward_pass(
+            fwd,
+            given,
+            self.kept,
+            self.inverse,
+            want_params,
+            self.log_scale_bound,
+        );
         let (x, dy) = (cx.inputs[0].data(), cx.dy.data());
         let (nblocks, np) = ((x.len() / 2).div_ceil(BLOCK), num_params(h));
         let mut partial = dx.scratch([nblocks, np]);
@@ -196,9 +232,17 @@ impl<T: Float> Op<T> for AffineCoupling<T> {
 
 impl<T: Float> Tape<T> {
     /// One affine coupling of the points `(P, 2)`, keeping column `kept` (0 or 1) and
-    /// transforming the other; `mlp = [w1, b1, w2, b2, w3, b3]`. See [`crate::nn::coupling`].
+    /// transforming the other; `mlp = [w1, b1, w2, b2, w3, b3]`; `log_scale_bound` as in
+    /// [`AffineCoupling::with_log_scale_bound`]. See [`crate::nn::coupling`].
     #[track_caller]
-    pub fn affine_coupling(&mut self, points: Var, mlp: &[Var], kept: usize, inverse: bool) -> Var {
+    pub fn affine_coupling(
+        &mut self,
+        points: Var,
+        mlp: &[Var],
+        kept: usize,
+        inverse: bool,
+        log_scale_bound: Option<f64>,
+    ) -> Var {
         assert_eq!(
             mlp.len(),
             6,
@@ -207,7 +251,10 @@ impl<T: Float> Tape<T> {
         );
         let mut inputs = [points; 7];
         inputs[1..].copy_from_slice(mlp);
-        self.apply(AffineCoupling::new(kept, inverse), &inputs)
+        self.apply(
+            AffineCoupling::new(kept, inverse).with_log_scale_bound(log_scale_bound),
+            &inputs,
+        )
     }
 }
 

@@ -14,6 +14,10 @@
 //!   like PyTorch's `nn.Linear` (weight and bias uniform in `±1/√fan_in`); the last layer is
 //!   zero, so `t = s = 0` and the flow starts as the identity. 8 blocks × 338 = 2 704
 //!   parameters, as the official model.
+//! - Log-scale: `s = ŝ`, the MLP's raw output (official), or, with
+//!   [`RealNvpConfig::log_scale_bound`] `= Some(a)`, `s = a·tanh(ŝ/a)`, so that every block
+//!   scales by a factor in `[e^(−a), e^a]` and neither P nor P⁻¹ can overflow
+//!   ([`crate::nn::coupling`]).
 //! - Inverse: blocks in reverse order, `p_o ← (p_o − t) · exp(−s)`; `t, s` depend only on the
 //!   untouched `p_c`, so the inverse is exact (up to rounding) for any parameters.
 //! - `log |det ∂P/∂uv| = Σ_k s_k`: the Jacobian of each block is triangular with diagonal
@@ -32,12 +36,14 @@ use rand::Rng;
 use rayon::prelude::*;
 
 /// Shape of the flow. The official values are the defaults.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RealNvpConfig {
     /// Number of affine coupling blocks (authors' code, docs/references.md#p-bucket: 8).
     pub blocks: usize,
     /// Width of the two hidden layers of each coupling MLP (authors' code, docs/references.md#p-bucket: 16).
     pub hidden: usize,
+    /// `a` of the bounded log-scale `s = a·tanh(ŝ/a)`; `None`: unbounded, as the authors' code.
+    pub log_scale_bound: Option<f64>,
 }
 
 impl Default for RealNvpConfig {
@@ -45,6 +51,7 @@ impl Default for RealNvpConfig {
         RealNvpConfig {
             blocks: 8,
             hidden: 16,
+            log_scale_bound: None,
         }
     }
 }
@@ -192,7 +199,7 @@ impl RealNvp {
         (0..nb).fold(points, |p, j| {
             let k = if inverse { nb - 1 - j } else { j };
             let mlp = &vars.0[k * PER_BLOCK..][..PER_BLOCK];
-            tape.affine_coupling(p, mlp, k % 2, inverse)
+            tape.affine_coupling(p, mlp, k % 2, inverse, self.cfg.log_scale_bound)
         })
     }
 
@@ -261,6 +268,10 @@ impl RealNvp {
                     let k = if inverse { nb - 1 - j } else { j };
                     let c = k % 2;
                     let (t, s) = mlps[k].eval(p[c], &mut hidden);
+                    let s = match self.cfg.log_scale_bound {
+                        Some(a) => a * (s / a).tanh(),
+                        None => s,
+                    };
                     p[1 - c] = if inverse {
                         (p[1 - c] - t) * (-s).exp()
                     } else {

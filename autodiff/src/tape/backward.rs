@@ -130,7 +130,7 @@ impl<T: Float> Tape<T> {
     /// Returns every gradient buffer to the pool, then adds each seed into its node's gradient;
     /// returns the highest seeded node index (the sweep starts there).
     #[track_caller]
-    fn seed_grads(&mut self, seeds: &[(Var, Tensor<T>)]) -> usize {
+    pub(super) fn seed_grads(&mut self, seeds: &[(Var, Tensor<T>)]) -> usize {
         for g in self.grads.iter_mut() {
             if let Some(g) = g.take() {
                 self.pool.put(g);
@@ -157,7 +157,7 @@ impl<T: Float> Tape<T> {
     /// Propagates the output gradient `dy` of node `i` to its inputs: shows it to the hooks,
     /// runs the op's VJP (or the hooks' override) when an input wants a gradient, then keeps
     /// `dy` (leaves, parameters, retained nodes) or returns it to the pool.
-    fn backward_node(
+    pub(super) fn backward_node(
         &mut self,
         i: usize,
         mut dy: Tensor<T>,
@@ -224,7 +224,7 @@ impl<T: Float> Tape<T> {
 /// Shapes, variables and kinds of one node's inputs, reused across the nodes of a backward
 /// sweep so that it allocates once.
 #[derive(Default)]
-struct NodeInputs {
+pub(super) struct NodeInputs {
     shapes: Vec<Shape>,
     vars: Vec<Var>,
     kinds: Vec<NodeKind>,

@@ -21,8 +21,10 @@ use crate::{Float, Shape, Tensor};
 use std::sync::atomic::{AtomicU32, Ordering};
 
 mod backward;
+mod non_finite;
 
 pub use backward::{BackwardHooks, NoHooks, NodeView};
+pub use non_finite::{NonFiniteSite, Pass};
 
 static NEXT_TAPE_ID: AtomicU32 = AtomicU32::new(1);
 

@@ -111,3 +111,35 @@ fn backward_returns_its_seed_to_the_pool() {
     assert_eq!(tape.pool().fresh_allocations, after_first);
     assert_eq!(tape.grad(x).unwrap().data(), &[4.0; 3]);
 }
+
+/// A NaN made by an op's forward is traced to that op and its scope; one made only by a VJP
+/// (`sqrt` at 0: value 0, derivative ∞) to that op's backward; a finite step to nothing.
+#[test]
+fn non_finite_values_are_traced_to_the_op_that_made_them() {
+    let mut tape = Tape::<f64>::new();
+    let x = tape.leaf(Tensor::from_vec([3], vec![1.0, -1.0, 4.0]));
+    tape.enter_scope("S");
+    let r = tape.sqrt(x);
+    tape.close_scope();
+    let loss = tape.sum(r);
+    let site = tape.trace_non_finite(loss).expect("sqrt(−1) is NaN");
+    assert_eq!(
+        (site.op, site.scope, site.pass),
+        ("sqrt", Some("S"), Pass::Forward)
+    );
+    assert_eq!(site.index, r.index());
+
+    tape.clear();
+    let x = tape.leaf(Tensor::from_vec([2], vec![0.0, 4.0]));
+    let r = tape.sqrt(x);
+    let loss = tape.sum(r);
+    assert!(tape.first_non_finite_value().is_none());
+    let site = tape.trace_non_finite(loss).expect("d sqrt/dx at 0 is ∞");
+    assert_eq!((site.op, site.pass), ("sqrt", Pass::Backward));
+
+    tape.clear();
+    let x = tape.leaf(Tensor::from_vec([2], vec![1.0, 4.0]));
+    let r = tape.sqrt(x);
+    let loss = tape.sum(r);
+    assert_eq!(tape.trace_non_finite(loss), None);
+}

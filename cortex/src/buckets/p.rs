@@ -55,6 +55,7 @@ impl PBucket {
                     RealNvpConfig {
                         blocks: cfg.p.couplings,
                         hidden: cfg.p.hidden,
+                        log_scale_bound: cfg.p.log_scale_bound,
                     },
                     &mut rng,
                 );

@@ -26,6 +26,8 @@ const PER_BLOCK: usize = 6;
 pub struct FusedFlow {
     /// Per block, its MLP's parameters in f64.
     blocks: Vec<[Tensor<f64>; PER_BLOCK]>,
+    /// The flow's log-scale bound.
+    log_scale_bound: Option<f64>,
     /// Spare point buffers, returned after each call.
     spare: Mutex<Vec<Vec<f64>>>,
 }
@@ -40,6 +42,7 @@ impl FusedFlow {
             .collect();
         FusedFlow {
             blocks,
+            log_scale_bound: flow.config().log_scale_bound,
             spare: Mutex::new(Vec::new()),
         }
     }
@@ -78,7 +81,9 @@ impl FusedFlow {
             let p = &self.blocks[k];
             let inputs = [&x, &p[0], &p[1], &p[2], &p[3], &p[4], &p[5]];
             // The coupling overwrites its whole output.
-            AffineCoupling::<f64>::new(k % 2, inverse).forward(&inputs, &mut y);
+            AffineCoupling::<f64>::new(k % 2, inverse)
+                .with_log_scale_bound(self.log_scale_bound)
+                .forward(&inputs, &mut y);
             std::mem::swap(&mut x, &mut y);
         }
         pts.as_flattened_mut().copy_from_slice(x.data());

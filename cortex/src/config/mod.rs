@@ -119,6 +119,15 @@ pub struct PConfig {
     pub couplings: usize,
     /// Hidden width of each coupling MLP 1→h→h→2 (authors' code, docs/references.md#p-bucket: 16).
     pub hidden: usize,
+    /// Bound `a` on each coupling's log-scale, `s = a·tanh(ŝ/a)`, so that P and P⁻¹ scale a
+    /// coordinate by at most `e^a` per coupling and can never overflow
+    /// (`autodiff::nn::coupling`). Absent: unbounded, the authors' code, whose `exp(−s)` can
+    /// overflow in P⁻¹(P(uv) + d̂) and end training with a non-finite gradient; a config
+    /// written before the bound existed reads back as unbounded. Default 2 (a factor of
+    /// e² ≈ 7.4 per coupling, far beyond the foveated lattice's 1.9 centre-to-edge spacing
+    /// ratio, docs/references.md#foveation).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub log_scale_bound: Option<f64>,
     /// ONS pixels per unit of motion, used only by `identity_integer_shift` to turn d into whole
     /// pixels. The oracle is shift/(R/2) with R the field in px (authors' code, docs/references.md#retina-data-flow); in the sandbox
     /// the field is the ONS, so this is n/2.

@@ -3,6 +3,9 @@
 
 use super::*;
 
+/// [`PConfig::log_scale_bound`] of every preset.
+pub const DEFAULT_LOG_SCALE_BOUND: f64 = 2.0;
+
 impl CortexConfig {
     /// The official full model (authors' code, docs/references.md#cortex-pipeline) at `paper` size.
     pub fn paper() -> Self {
@@ -23,6 +26,7 @@ impl CortexConfig {
                 mode: PMode::Flow,
                 couplings: 8,
                 hidden: 16,
+                log_scale_bound: Some(DEFAULT_LOG_SCALE_BOUND),
                 motion_ons_px_per_unit: 128.0,
             },
             m: MConfig {

@@ -125,6 +125,14 @@ impl CortexConfig {
         if self.p.mode == PMode::Flow && (self.p.couplings == 0 || self.p.hidden == 0) {
             return invalid("p", "a flow needs couplings ≥ 1 and hidden ≥ 1".into());
         }
+        if let Some(a) = self.p.log_scale_bound {
+            if !(a.is_finite() && a > 0.0 && a <= 20.0) {
+                return invalid(
+                    "p.log_scale_bound",
+                    format!("{a} must be finite, > 0 and ≤ 20"),
+                );
+            }
+        }
         if !(self.w.inverse_guard.is_finite() && self.w.inverse_guard > 0.0) {
             return invalid(
                 "w.inverse_guard",

@@ -97,24 +97,34 @@ fn preacts(p: &[Tensor<f64>], v: f64) -> (Vec<f64>, Vec<f64>) {
     (a1, a2)
 }
 
-fn check(x: &[Tensor<f64>], kept: usize, inverse: bool) -> Result<(), TestCaseError> {
-    let f = |t: &mut Tape<f64>, v: &[Var]| t.affine_coupling(v[0], &v[1..], kept, inverse);
+fn check(
+    x: &[Tensor<f64>],
+    kept: usize,
+    inverse: bool,
+    bound: Option<f64>,
+) -> Result<(), TestCaseError> {
+    let f = |t: &mut Tape<f64>, v: &[Var]| t.affine_coupling(v[0], &v[1..], kept, inverse, bound);
     check_gradients(f, x, &CheckConfig::default())
         .map(|_| ())
-        .map_err(|e| TestCaseError::fail(format!("kept {kept}, inverse {inverse}: {e}")))
+        .map_err(|e| {
+            TestCaseError::fail(format!(
+                "kept {kept}, inverse {inverse}, bound {bound:?}: {e}"
+            ))
+        })
 }
 
 proptest! {
     #![proptest_config(st::config())]
 
     /// affine_coupling: gradients to the points and all six parameters, point counts
-    /// across the chunk boundary (64), both columns, both directions.
+    /// across the chunk boundary (64), both columns, both directions, unbounded and bounded
+    /// log-scales (bounds from 0.2, where `tanh` bends within the drawn log-scales, to 3).
     #[test]
     fn affine_coupling_gradients(
         n in 1usize..=70, h in 1usize..=5, kept in 0usize..2, inverse in any::<bool>(),
-        seed in any::<u64>(),
+        seed in any::<u64>(), bound in proptest::option::of(0.2f64..3.0),
     ) {
-        check(&inputs(seed, n, h, kept), kept, inverse)?;
+        check(&inputs(seed, n, h, kept), kept, inverse, bound)?;
     }
 }
 
@@ -123,7 +133,20 @@ proptest! {
 #[test]
 fn affine_coupling_gradients_across_blocks() {
     for (kept, inverse) in [(0, false), (1, true)] {
-        check(&inputs(11, BLOCK + CHUNK + 5, 16, kept), kept, inverse).unwrap();
+        check(
+            &inputs(11, BLOCK + CHUNK + 5, 16, kept),
+            kept,
+            inverse,
+            None,
+        )
+        .unwrap();
+        check(
+            &inputs(12, BLOCK + CHUNK + 5, 16, kept),
+            kept,
+            inverse,
+            Some(0.5),
+        )
+        .unwrap();
     }
 }
 
@@ -132,15 +155,80 @@ fn inverse_undoes_forward() {
     let x = inputs(5, 300, 16, 0);
     let mut tape = Tape::<f64>::new();
     let v: Vec<Var> = x.iter().map(|t| tape.constant(t.clone())).collect();
-    for kept in [0, 1] {
-        let y = tape.affine_coupling(v[0], &v[1..], kept, false);
+    for (kept, bound) in [(0, None), (1, None), (0, Some(0.3)), (1, Some(0.3))] {
+        let y = tape.affine_coupling(v[0], &v[1..], kept, false, bound);
         assert!(
             tape.value(y).max_abs_diff(&x[0]) > 1e-2,
             "the coupling moves points"
         );
-        let back = tape.affine_coupling(y, &v[1..], kept, true);
+        let back = tape.affine_coupling(y, &v[1..], kept, true, bound);
         assert!(tape.value(back).max_abs_diff(&x[0]) < 1e-12);
     }
+}
+
+/// The points and MLP of [`inputs`] with the log-scale's bias pushed to `s_bias`: far enough
+/// (±95) and `exp(∓s)` overflows f32.
+fn pushed(s_bias: f64, kept: usize) -> Vec<Tensor<f64>> {
+    let mut x = inputs(7, 200, 16, kept);
+    x[6].data_mut()[1] = s_bias;
+    x
+}
+
+/// Gradients of `Σ r ⊙ coupling(x)` in f32 to the points and the six parameters, with the
+/// error `r` zero on the first half of the points (as a warp's mask zeroes the pixels whose
+/// sampling point left the image).
+fn f32_grads(
+    x: &[Tensor<f64>],
+    kept: usize,
+    inverse: bool,
+    bound: Option<f64>,
+) -> Vec<Tensor<f32>> {
+    let n = x[0].shape().dim(0);
+    let r = Tensor::from_fn([n, 2], |i| if i < n { 0.0 } else { 1.0 });
+    let mut tape = Tape::<f32>::new();
+    let v: Vec<Var> = x.iter().map(|t| tape.leaf(t.cast())).collect();
+    let y = tape.affine_coupling(v[0], &v[1..], kept, inverse, bound);
+    tape.backward_from(&[(y, r.cast())], &mut crate::NoHooks);
+    v.iter().map(|&v| tape.grad(v).unwrap().clone()).collect()
+}
+
+/// The hole P's inverse had: a log-scale pushed to ±95 overflows `exp(∓s)` in f32. Bounded,
+/// the map scales by at most `e^a` and every gradient is finite; unbounded (the authors'
+/// form), the points whose error is zero still contribute exactly zero (no `0·∞ = NaN`).
+#[test]
+fn a_pushed_log_scale_gives_finite_gradients() {
+    for (s_bias, inverse) in [(-95.0, true), (95.0, false)] {
+        let x = pushed(s_bias, 0);
+        let bounded = f32_grads(&x, 0, inverse, Some(2.0));
+        for (i, g) in bounded.iter().enumerate() {
+            assert!(
+                g.data().iter().all(|v| v.is_finite()),
+                "bounded, s bias {s_bias}, gradient {i} is not finite"
+            );
+        }
+        let mut tape = Tape::<f32>::new();
+        let v: Vec<Var> = x.iter().map(|t| tape.constant(t.cast())).collect();
+        let y = tape.affine_coupling(v[0], &v[1..], 0, inverse, Some(2.0));
+        let moved = tape
+            .value(y)
+            .data()
+            .iter()
+            .map(|v| v.abs())
+            .fold(0.0f32, f32::max);
+        assert!(
+            moved < 3.0 * 2f32.exp() + 10.0,
+            "bounded map moved a point to {moved}"
+        );
+    }
+    // Unbounded, the inverse overflows where s ≈ −95; the masked half must not turn NaN.
+    let x = pushed(-95.0, 0);
+    let g = f32_grads(&x, 0, true, None);
+    assert!(
+        g[0].data()[..x[0].shape().dim(0)]
+            .iter()
+            .all(|v| !v.is_nan()),
+        "points whose error is zero got NaN gradients"
+    );
 }
 
 /// `∂L/∂x` of `L = Σ r ⊙ coupling(x)` point by point in plain f64, with the MLP's forward
@@ -208,7 +296,7 @@ fn feedback_alignment_sends_the_point_error_through_b() {
             let mut tape = Tape::new();
             let xv = tape.leaf(x[0].clone());
             let vars: Vec<Var> = ids.iter().map(|&id| store.var(&mut tape, id)).collect();
-            let y = tape.affine_coupling(xv, &vars, kept, inverse);
+            let y = tape.affine_coupling(xv, &vars, kept, inverse, None);
             let rv = tape.constant(r.clone());
             let l = tape.mul(y, rv);
             let l = tape.sum(l);
@@ -257,7 +345,10 @@ fn run_build<T: Float>(
 ) -> Vec<Tensor<f64>> {
     let mut tape = Tape::<T>::new();
     let v: Vec<Var> = x.iter().map(|t| tape.leaf(t.cast())).collect();
-    let y = tape.apply(AffineCoupling::with_isa(kept, inverse, isa), &v);
+    let y = tape.apply(
+        AffineCoupling::with_isa(kept, inverse, isa).with_log_scale_bound(Some(1.5)),
+        &v,
+    );
     tape.backward_from(&[(y, r.cast())], &mut crate::NoHooks);
     let mut out = vec![tape.value(y).cast()];
     out.extend(v.iter().map(|&v| tape.grad(v).unwrap().cast()));
@@ -332,5 +423,5 @@ fn mismatched_hidden_width_panics() {
     x[3] = Tensor::zeros([3, 4]);
     let mut tape = Tape::<f64>::new();
     let v: Vec<Var> = x.into_iter().map(|t| tape.constant(t)).collect();
-    tape.affine_coupling(v[0], &v[1..], 0, false);
+    tape.affine_coupling(v[0], &v[1..], 0, false, None);
 }

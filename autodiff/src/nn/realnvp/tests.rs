@@ -231,7 +231,11 @@ proptest! {
     /// probability ≈ 0 at random points).
     #[test]
     fn forward_and_inverse_gradients(seed in any::<u64>()) {
-        let cfg = RealNvpConfig { blocks: 2, hidden: 3 };
+        let cfg = RealNvpConfig {
+            blocks: 2,
+            hidden: 3,
+            log_scale_bound: None,
+        };
         let (store, flow) = random_flow(seed, cfg);
         let mut inputs = vec![points(seed ^ 3, 4)];
         inputs.extend(flow.param_ids().iter().map(|&id| store.get(id).clone()));

@@ -17,11 +17,13 @@ pub(in crate::nn::coupling) struct Block<'a, T> {
     kept: usize,
     inverse: bool,
     want_params: bool,
+    /// `a` of the bounded log-scale `s = a·tanh(ŝ/a)`, or `None` for `s = ŝ`.
+    bound: Option<T>,
 }
 
 impl<'a, T: Float> Block<'a, T> {
     /// The forward pass of the coupling keeping column `kept`.
-    pub fn forward_pass(fwd: Mlp<'a, T>, kept: usize, inverse: bool) -> Self {
+    pub fn forward_pass(fwd: Mlp<'a, T>, kept: usize, inverse: bool, bound: Option<T>) -> Self {
         Block {
             fwd,
             back: None,
@@ -29,6 +31,7 @@ impl<'a, T: Float> Block<'a, T> {
             kept,
             inverse,
             want_params: false,
+            bound,
         }
     }
 
@@ -40,6 +43,7 @@ impl<'a, T: Float> Block<'a, T> {
         kept: usize,
         inverse: bool,
         want_params: bool,
+        bound: Option<T>,
     ) -> Self {
         let same = given.w1 == fwd.w1 && given.w2 == fwd.w2 && given.w3 == fwd.w3;
         Block {
@@ -49,6 +53,7 @@ impl<'a, T: Float> Block<'a, T> {
             kept,
             inverse,
             want_params,
+            bound,
         }
     }
 
@@ -124,6 +129,33 @@ impl<'a, T: Float> Block<'a, T> {
         self.backward_impl::<true, 64, 16>(xb, dyb, gx, acc, sc)
     }
 
+    /// The MLP on the chunk loaded in `sc`, then the bound on its log-scales: `sc.ts` holds
+    /// `[t; s]` with `s = a·tanh(ŝ/a)` when bounded. `tanh(x) = 1 − 2/(exp(2x) + 1)` through
+    /// the vectorised `exp`: exactly 0 at 0, ±1 (never NaN) where `exp(2x)` under- or
+    /// overflows.
+    #[inline(always)]
+    fn mlp<const FMA: bool, const TILE: usize>(&self, sc: &mut Scratch<T>) {
+        self.fwd.forward::<FMA, TILE>(sc);
+        if let Some(a) = self.bound {
+            let two = T::one() + T::one();
+            let s: &mut [T; CHUNK] = (&mut sc.ts[CHUNK..]).try_into().unwrap();
+            let mut e = s.map(|v| two * v / a);
+            exp_chunk::<T, FMA>(&mut e);
+            for (v, e) in s.iter_mut().zip(e) {
+                *v = a * (T::one() - two / (e + T::one()));
+            }
+        }
+    }
+
+    /// `∂s/∂ŝ` of a bounded log-scale `s`: `1 − (s/a)²` (1 when unbounded).
+    #[inline(always)]
+    fn bound_slope(&self, s: T) -> T {
+        match self.bound {
+            Some(a) => T::one() - (s / a) * (s / a),
+            None => T::one(),
+        }
+    }
+
     /// `∂y_o/∂x_o` of the chunk: `exp(s)`, or `exp(−s)` for the inverse.
     #[inline(always)]
     fn scale<const FMA: bool>(&self, sc: &Scratch<T>) -> [T; CHUNK] {
@@ -145,7 +177,7 @@ impl<'a, T: Float> Block<'a, T> {
         let (c, o) = (self.kept, 1 - self.kept);
         for (yc, xc) in yb.chunks_mut(2 * CHUNK).zip(xb.chunks(2 * CHUNK)) {
             sc.load(xc, c);
-            self.fwd.forward::<FMA, TILE>(sc);
+            self.mlp::<FMA, TILE>(sc);
             let e = self.scale::<FMA>(sc);
             let t = &sc.ts[..CHUNK];
             for (p, (y, x)) in yc.chunks_exact_mut(2).zip(xc.chunks_exact(2)).enumerate() {
@@ -187,19 +219,25 @@ impl<'a, T: Float> Block<'a, T> {
                 (xo[p], go[p]) = (x[o], d[o]);
             }
             sc.load(xc, c);
-            self.fwd.forward::<FMA, TILE>(sc);
-            // e = ∂y_o/∂x_o; padding points have go = 0 and contribute nothing.
+            self.mlp::<FMA, TILE>(sc);
+            // e = ∂y_o/∂x_o; padding points have go = 0 and contribute nothing. A zero error
+            // gives zero whatever e is (no 0·∞ where an unbounded scale overflowed).
             let e = self.scale::<FMA>(sc);
-            let t = &sc.ts[..CHUNK];
+            let (t, s) = sc.ts.split_at(CHUNK);
             let (gt, gs) = sc.g3.split_at_mut(CHUNK);
             for p in 0..CHUNK {
-                let ge = go[p] * e[p];
+                let ge = if go[p] == zero { zero } else { go[p] * e[p] };
+                let slope = self.bound_slope(s[p]);
                 if self.inverse {
                     gt[p] = -ge;
-                    gs[p] = -ge * (xo[p] - t[p]);
+                    gs[p] = if ge == zero {
+                        zero
+                    } else {
+                        -ge * (xo[p] - t[p]) * slope
+                    };
                 } else {
                     gt[p] = go[p];
-                    gs[p] = ge * xo[p];
+                    gs[p] = ge * xo[p] * slope;
                 }
             }
             if self.want_params || self.feedback.is_none() {
@@ -215,7 +253,9 @@ impl<'a, T: Float> Block<'a, T> {
                 let g = &mut g[ci * 2 * CHUNK..];
                 for (p, (g, d)) in g.chunks_exact_mut(2).zip(dyc.chunks_exact(2)).enumerate() {
                     g[c] += d[c] + sc.dv[p];
-                    g[o] = madd::<T, FMA>(go[p], e[p], g[o]);
+                    if go[p] != zero {
+                        g[o] = madd::<T, FMA>(go[p], e[p], g[o]);
+                    }
                 }
             }
         }
