@@ -1,5 +1,5 @@
-//! Image statistics the tests use to check scenes and the spiking path (compiled for tests
-//! only): spectral principal components, radially averaged power spectra, correlation.
+//! Image statistics the tests and [`crate::scene::statistics`] use: spectral principal
+//! components, radially averaged power spectra, correlation.
 //!
 //! - [`pca_components_for_variance`]: eigenvalues of the covariance (mean removed) of pixel
 //!   spectra; the smallest number of components whose eigenvalues hold the given fraction of the

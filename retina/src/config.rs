@@ -24,7 +24,8 @@ use crate::eye_motion::EyeMotionConfig;
 use crate::foveation::{FoveationConfig, LayoutConfig};
 use crate::lateral_inhibition::DogConfig;
 use crate::scene::dead_leaves::DeadLeavesConfig;
-use crate::scene::pool::{RgbPath, ScenePoolConfig};
+use crate::scene::pool::{RgbPath, SceneGenerator, ScenePoolConfig};
+use crate::scene::surfaces::SurfacesConfig;
 use crate::scene::tetra::TetraEnvironment;
 use crate::spikes::LifConfig;
 
@@ -100,7 +101,9 @@ fn pool(tiles: usize, tile_px: usize, refresh_every_batches: usize) -> ScenePool
     ScenePoolConfig {
         tiles,
         tile_px,
+        generator: SceneGenerator::DeadLeaves,
         dead_leaves: DeadLeavesConfig::default(),
+        surfaces: SurfacesConfig::default(),
         tetra: None,
         files: vec![],
         rgb_path: RgbPath::Display,

@@ -29,8 +29,7 @@
 // Index loops over wavelengths, classes and pixels mirror the formulas in the docs.
 #![allow(clippy::needless_range_loop)]
 
-#[cfg(test)]
-mod analysis;
+pub mod analysis;
 pub mod cones;
 pub mod config;
 pub mod error;

@@ -101,6 +101,10 @@ pub struct LeafScene {
     pub shadow: Vec<f32>,
     /// Library index of each leaf's reflectance.
     pub surface: Vec<u32>,
+    /// Library index of each leaf's second pigment ([`super::surfaces`]); empty: none.
+    pub second_surface: Vec<u32>,
+    /// Weight of the second pigment per pixel, in `[0, 1]`; empty: none.
+    pub mix: Vec<f32>,
     /// Sunlight, unit luminance, on the library's grid.
     pub sun: Vec<f64>,
     /// Skylight times its relative luminance, on the library's grid.
@@ -173,6 +177,8 @@ impl LeafScene {
             shading,
             shadow,
             surface,
+            second_surface: Vec::new(),
+            mix: Vec::new(),
             sun,
             sky,
         })
@@ -189,14 +195,34 @@ impl LeafScene {
         let nl = lib.grid.len();
         let mut img = SpectralImage::zeros(lib.grid.clone(), n, n);
         for p in 0..n * n {
-            let refl = &lib.spectra[self.surface[self.label[p] as usize] as usize];
+            let leaf = self.label[p] as usize;
+            let refl = &lib.spectra[self.surface[leaf] as usize];
+            let (w, second) = self.second_pigment(leaf, p, lib);
             let (s, t) = (self.shading[p] as f64, self.shadow[p] as f64);
             for l in 0..nl {
                 let e = (1.0 - t) * self.sun[l] + t * self.sky[l];
-                img.data[l * n * n + p] = (s * e * refl[l]) as f32;
+                let r = (1.0 - w) * refl[l] + w * second[l];
+                img.data[l * n * n + p] = (s * e * r) as f32;
             }
         }
         img
+    }
+
+    /// The weight and reflectance of the second pigment at pixel `p` of `leaf` (weight 0 and
+    /// the leaf's own reflectance when the scene has none).
+    fn second_pigment<'a>(
+        &self,
+        leaf: usize,
+        p: usize,
+        lib: &'a ReflectanceLibrary,
+    ) -> (f64, &'a [f64]) {
+        if self.mix.is_empty() {
+            return (0.0, &lib.spectra[self.surface[leaf] as usize]);
+        }
+        (
+            self.mix[p] as f64,
+            &lib.spectra[self.second_surface[leaf] as usize],
+        )
     }
 
     /// The scene projected by `proj` (same grid as the library): `(k, h, w)`.
@@ -206,36 +232,51 @@ impl LeafScene {
             "LeafScene::render_projected: projector and library grids differ"
         );
         let (n, k, nl) = (self.size_px, proj.k, lib.grid.len());
-        // Per leaf: excitations under sun and under sky.
-        let mut under = vec![0.0f32; self.surface.len() * 2 * k];
+        // Per leaf and pigment: excitations under sun and under sky.
+        let pigments = if self.mix.is_empty() { 1 } else { 2 };
+        let mut under = vec![0.0f32; self.surface.len() * 2 * pigments * k];
         let mut used = vec![false; self.surface.len()];
         for &l in &self.label {
             used[l as usize] = true;
         }
-        for (leaf, &surf) in self.surface.iter().enumerate() {
-            if !used[leaf] {
-                continue;
-            }
-            let refl = &lib.spectra[surf as usize];
-            for c in 0..k {
-                let m = &proj.matrix[c * nl..(c + 1) * nl];
-                let (mut a, mut b) = (0.0f64, 0.0f64);
-                for l in 0..nl {
-                    a += m[l] as f64 * self.sun[l] * refl[l];
-                    b += m[l] as f64 * self.sky[l] * refl[l];
+        let at = |leaf: usize, pigment: usize, light: usize| {
+            ((leaf * pigments + pigment) * 2 + light) * k
+        };
+        for leaf in (0..self.surface.len()).filter(|&l| used[l]) {
+            for pigment in 0..pigments {
+                let surf = if pigment == 0 {
+                    self.surface[leaf]
+                } else {
+                    self.second_surface[leaf]
+                };
+                let refl = &lib.spectra[surf as usize];
+                for c in 0..k {
+                    let m = &proj.matrix[c * nl..(c + 1) * nl];
+                    let (mut a, mut b) = (0.0f64, 0.0f64);
+                    for l in 0..nl {
+                        a += m[l] as f64 * self.sun[l] * refl[l];
+                        b += m[l] as f64 * self.sky[l] * refl[l];
+                    }
+                    under[at(leaf, pigment, 0) + c] = a as f32;
+                    under[at(leaf, pigment, 1) + c] = b as f32;
                 }
-                under[(leaf * 2) * k + c] = a as f32;
-                under[(leaf * 2 + 1) * k + c] = b as f32;
             }
         }
         let mut out = vec![0.0f32; k * n * n];
         for p in 0..n * n {
             let leaf = self.label[p] as usize;
             let (s, t) = (self.shading[p], self.shadow[p]);
+            let w = if pigments == 2 { self.mix[p] } else { 0.0 };
             for c in 0..k {
-                let a = under[(leaf * 2) * k + c];
-                let b = under[(leaf * 2 + 1) * k + c];
-                out[c * n * n + p] = s * ((1.0 - t) * a + t * b);
+                let light = |l: usize| {
+                    let first = under[at(leaf, 0, l) + c];
+                    if pigments == 2 {
+                        first + w * (under[at(leaf, 1, l) + c] - first)
+                    } else {
+                        first
+                    }
+                };
+                out[c * n * n + p] = s * ((1.0 - t) * light(0) + t * light(1));
             }
         }
         out

@@ -23,6 +23,8 @@ pub mod library;
 pub mod pool;
 pub mod projection;
 pub mod rgb;
+pub mod statistics;
+pub mod surfaces;
 pub mod tetra;
 
 use colorimetry::cie::CieObserver;

@@ -37,6 +37,7 @@ use super::hue_sphere::HueSphere;
 use super::library::ReflectanceLibrary;
 pub use super::projection::SceneProjection;
 use super::rgb::{class_planes_by_matrix, Display, RgbImage};
+use super::surfaces::{surface_scene, SurfacesConfig};
 use super::tetra::{
     idealised_class_planes, optimal_colour_library, patch_config, TetraEnvironment,
     OPTIMAL_LIBRARY_SIZE,
@@ -52,6 +53,19 @@ pub enum RgbPath {
     Display,
     /// The linear sRGB → cone matrix (official).
     Matrix,
+}
+
+/// The synthetic natural scenes a pool draws when it has no files.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SceneGenerator {
+    /// Classic dead leaves ([`super::dead_leaves`]): an independent reflectance per leaf, leaves
+    /// down to 1.5 px. A config that names no generator (every record made before
+    /// [`SceneGenerator::Surfaces`] existed) reads back as this one.
+    #[default]
+    DeadLeaves,
+    /// Surfaces matched to photographs' spatial statistics ([`super::surfaces`]).
+    Surfaces,
 }
 
 /// Tetrachromatic augmentation.
@@ -70,8 +84,14 @@ pub struct ScenePoolConfig {
     pub tiles: usize,
     /// Tile side, px (≥ field + 2·max shift).
     pub tile_px: usize,
+    /// Which synthetic natural scenes the tiles hold.
+    #[serde(default)]
+    pub generator: SceneGenerator,
     /// Dead-leaves settings (`size_px` is replaced by `tile_px`).
     pub dead_leaves: DeadLeavesConfig,
+    /// Surface-scene settings ([`SceneGenerator::Surfaces`]).
+    #[serde(default)]
+    pub surfaces: SurfacesConfig,
     /// Tetrachromatic augmentation (`None`: natural scenes only).
     pub tetra: Option<TetraMix>,
     /// Scene files; when non-empty they replace the synthetic scenes.
@@ -291,11 +311,18 @@ impl ScenePool {
                 .filter(|t| rng.random::<f64>() < t.fraction);
             match tetra {
                 None => {
-                    let cfg = DeadLeavesConfig {
-                        size_px: size,
-                        ..self.config.dead_leaves.clone()
+                    let scene = match self.config.generator {
+                        SceneGenerator::DeadLeaves => {
+                            let cfg = DeadLeavesConfig {
+                                size_px: size,
+                                ..self.config.dead_leaves.clone()
+                            };
+                            LeafScene::generate(&cfg, &self.library, rng)?
+                        }
+                        SceneGenerator::Surfaces => {
+                            surface_scene(&self.config.surfaces, &self.library, size, rng)?
+                        }
                     };
-                    let scene = LeafScene::generate(&cfg, &self.library, rng)?;
                     (
                         proj.wrap(
                             size,

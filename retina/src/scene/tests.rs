@@ -3,8 +3,9 @@
 
 use super::dead_leaves::{DeadLeavesConfig, LeafScene};
 use super::library::ReflectanceLibrary;
-use super::pool::{RgbPath, ScenePool, ScenePoolConfig, SceneProjection, TetraMix};
+use super::pool::{RgbPath, SceneGenerator, ScenePool, ScenePoolConfig, SceneProjection, TetraMix};
 use super::rgb::{Display, RgbImage};
+use super::surfaces::SurfacesConfig;
 use super::tetra::TetraEnvironment;
 use super::*;
 use crate::analysis::{pca_components_for_variance, power_spectrum_slope};
@@ -22,7 +23,9 @@ fn pool_config(tiles: usize, tile_px: usize, tetra: Option<TetraMix>) -> ScenePo
     ScenePoolConfig {
         tiles,
         tile_px,
+        generator: SceneGenerator::DeadLeaves,
         dead_leaves: DeadLeavesConfig::default(),
+        surfaces: SurfacesConfig::default(),
         tetra,
         files: vec![],
         rgb_path: RgbPath::Display,
