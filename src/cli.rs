@@ -196,6 +196,10 @@ pub struct CmfSimOptions {
     /// eyes of different cone counts compared with patches of the same number of cones.
     #[arg(long)]
     pub patch_radius_fraction: Option<f64>,
+    /// Keep every patch's edge at least this many mean cone spacings from the field's edge (a
+    /// diagnostic of the lattice's rim; the default placement leaves about 2 on the quick eye).
+    #[arg(long)]
+    pub edge_clearance_cones: Option<f64>,
     /// With `--run`: test the run's checkpoint of this step (`checkpoints/step_<N>/`) instead
     /// of its newest one.
     #[arg(long)]

@@ -328,6 +328,9 @@ pub fn cmf_sim(options: &CmfSimOptions) -> Result<(), RunError> {
     if let Some(r) = options.patch_radius_fraction {
         config.observer.patch_radius_fraction = r;
     }
+    if let Some(c) = options.edge_clearance_cones {
+        config.observer.edge_clearance_cones = Some(c);
+    }
     if let Some(r) = options.readout {
         config.observer.readout = match r {
             ReadoutArg::Resolved => ReadoutMode::Resolved,

@@ -233,7 +233,11 @@ impl Observer for EyeObserver<'_> {
         use rand::Rng;
         // Keep the whole disc (plus a lateral-inhibition margin) inside the field, and the two
         // patches at least two diameters apart when the field allows it.
-        let margin = 2.0 * self.settings.patch_radius_fraction * 1.25;
+        let radius = 2.0 * self.settings.patch_radius_fraction;
+        let margin = match self.settings.edge_clearance_cones {
+            None => radius * 1.25,
+            Some(c) => radius + c * 2.0 / self.retina.config.cones_per_side as f64,
+        };
         let lim = (1.0 - margin).max(0.05);
         let min_distance = (4.0 * self.settings.patch_radius_fraction * 2.0).min(lim);
         let mut draw = || [rng.random_range(-lim..lim), rng.random_range(-lim..lim)];

@@ -26,6 +26,12 @@ pub struct ObserverSettings {
     pub readout: ReadoutMode,
     /// Distance between the resolved readout's sample points, mean cone spacings.
     pub sample_spacing_cones: f64,
+    /// When set, patches keep at least this many mean cone spacings between their edge and the
+    /// field's edge (a diagnostic of the lattice's rim, where the cortex is least trained);
+    /// unset, the default placement keeps the whole disc plus a quarter of its radius inside
+    /// the field (about 2 spacings on the quick eye).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub edge_clearance_cones: Option<f64>,
 }
 
 impl Default for ObserverSettings {
@@ -38,6 +44,7 @@ impl Default for ObserverSettings {
             decode_batch: 16,
             readout: ReadoutMode::Resolved,
             sample_spacing_cones: 1.0,
+            edge_clearance_cones: None,
         }
     }
 }
@@ -79,6 +86,14 @@ impl ObserverSettings {
                 "sample_spacing_cones",
                 format!("{s} must be ≥ 0.25 (finer samples only repeat cones)"),
             );
+        }
+        if let Some(c) = self.edge_clearance_cones {
+            if !(c.is_finite() && (0.0..=64.0).contains(&c)) {
+                return invalid(
+                    "edge_clearance_cones",
+                    format!("{c} must be in [0, 64] cone spacings"),
+                );
+            }
         }
         Ok(())
     }
