@@ -241,6 +241,10 @@ pub struct RunDirOptions {
     /// The run folder.
     #[arg(long)]
     pub run: PathBuf,
+    /// Measure the run's checkpoint of this step (`checkpoints/step_<N>/`) instead of its
+    /// newest one.
+    #[arg(long)]
+    pub checkpoint_step: Option<u64>,
     /// Shared options.
     #[command(flatten)]
     pub common: CommonOptions,

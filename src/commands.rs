@@ -10,7 +10,7 @@ use crate::measurement_dir::measurement_dir;
 use crate::observer::ReadoutMode;
 use crate::run::{self, RunMode};
 use crate::run_error::RunError;
-use crate::run_folder::{load_run, Folder};
+use crate::run_folder::Folder;
 use colorimetry::CmfSimResult;
 use retina::Retina;
 use std::path::{Path, PathBuf};
@@ -282,10 +282,8 @@ pub fn cmf_sim(options: &CmfSimOptions) -> Result<(), RunError> {
     let (mut config, trainer, out) = match (&options.run, kind) {
         (Some(dir), ObserverKind::Cortex) => {
             let out = measurement_dir(dir, options.common.out.as_ref(), "cmf-sim")?;
-            let (config, trainer, checkpoint) = match options.checkpoint_step {
-                None => load_run(dir)?,
-                Some(step) => crate::run_folder::load_run_at(dir, step)?,
-            };
+            let (config, trainer, checkpoint) =
+                crate::run_folder::load_run_step(dir, options.checkpoint_step)?;
             println!(
                 "colorvision cmf-sim: {} (checkpoint {})",
                 dir.display(),
@@ -374,7 +372,8 @@ pub fn print_cmf_sim(r: &CmfSimResult) {
 /// `--out` or `DIR/scope/` (never over the run's own `pictures/`).
 pub fn scope(options: &RunDirOptions) -> Result<(), RunError> {
     let dir = measurement_dir(&options.run, options.common.out.as_ref(), "scope")?;
-    let (config, trainer, _) = load_run(&options.run)?;
+    let (config, trainer, _) =
+        crate::run_folder::load_run_step(&options.run, options.checkpoint_step)?;
     let retina = Retina::new(config.retina.clone())?;
     let mut heldout = run::heldout_source(&config, false)?;
     let inv = crate::pictures::write_all(&dir, &config, &retina, &mut heldout, &trainer)?;

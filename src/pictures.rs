@@ -40,7 +40,15 @@ pub struct Invariants {
     /// cone classes (a dichromat's one axis: blue–yellow without L or M, teal–pink without S).
     #[serde(default)]
     pub ideal_hue_axis: Option<colorimetry::HueAxis>,
+    /// How far the Neural-Scope hues lie from the true ones over the held-out pixels of
+    /// chroma C*ab ≥ [`HUE_ERROR_MIN_CHROMA`] ([`colorimetry::hue_error`]).
+    #[serde(default)]
+    pub scope_hue_error: Option<colorimetry::HueError>,
 }
+
+/// The chroma (CIELAB C*ab) from which a pixel's hue counts in the hue error: greys have no
+/// hue to get right.
+pub const HUE_ERROR_MIN_CHROMA: f64 = 10.0;
 
 const CLASS_RGB: [[f64; 3]; 4] = [
     [1.0, 0.2, 0.2],
@@ -94,6 +102,7 @@ pub fn write_all(
         scope_hue_axis: scope.hue_axis,
         truth_hue_axis: scope.truth_hue_axis,
         ideal_hue_axis: scope.ideal_hue_axis,
+        scope_hue_error: scope.hue_error,
     })
 }
 
@@ -103,6 +112,7 @@ struct ScopeFit {
     hue_axis: Option<colorimetry::HueAxis>,
     truth_hue_axis: Option<colorimetry::HueAxis>,
     ideal_hue_axis: Option<colorimetry::HueAxis>,
+    hue_error: Option<colorimetry::HueError>,
 }
 
 /// The pixels of planes `(B, channels, n, n)` inside `border` as rows `(pixels, channels)`,
@@ -173,6 +183,7 @@ fn write_scope(
     let scope_hue_axis = colorimetry::hue_axis(&scope_rgb);
     let truth_hue_axis = colorimetry::hue_axis(&rows.1);
     let ideal_hue_axis = fitted_hue_axis(&excitations, classes, &rows.1);
+    let hue_error = colorimetry::hue_error(&scope_rgb, &rows.1, HUE_ERROR_MIN_CHROMA);
     save_rgb(&dir.join("ons.png"), n, &signed_to_rgb(&last_ons))?;
     let peak = last_truth.iter().fold(1e-6f32, |m, &v| m.max(v)) as f64;
     let (mut left, mut right) = (vec![0f32; nn * 3], vec![0f32; nn * 3]);
@@ -205,6 +216,7 @@ fn write_scope(
         hue_axis: scope_hue_axis,
         truth_hue_axis,
         ideal_hue_axis,
+        hue_error,
     })
 }
 

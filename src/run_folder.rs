@@ -263,6 +263,17 @@ pub fn load_run(dir: &Path) -> Result<(RunConfig, Trainer, PathBuf), RunError> {
     Ok((config, trainer, checkpoint))
 }
 
+/// [`load_run`] at the checkpoint of `step` when given, else at the newest valid one.
+pub fn load_run_step(
+    dir: &Path,
+    step: Option<u64>,
+) -> Result<(RunConfig, Trainer, PathBuf), RunError> {
+    match step {
+        None => load_run(dir),
+        Some(s) => load_run_at(dir, s),
+    }
+}
+
 /// [`load_run`] at the checkpoint of `step` (`checkpoints/step_<step>/`), which must exist and
 /// verify.
 pub fn load_run_at(dir: &Path, step: u64) -> Result<(RunConfig, Trainer, PathBuf), RunError> {

@@ -116,7 +116,8 @@ pub fn markdown(rows: &[Row]) -> String {
 pub fn command(options: &RunDirOptions) -> Result<Vec<Row>, RunError> {
     let out = measurement_dir(&options.run, options.common.out.as_ref(), "stiles-burch")?;
     let lock = crate::run_lock::RunLock::acquire(&options.run)?;
-    let (config, trainer, _) = crate::run_folder::load_run(&options.run)?;
+    let (config, trainer, _) =
+        crate::run_folder::load_run_step(&options.run, options.checkpoint_step)?;
     drop(lock);
     let rows = compare(&config, &trainer.cortex, &out)?;
     print!("{}", markdown(&rows));

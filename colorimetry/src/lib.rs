@@ -49,6 +49,6 @@ pub use cones::{sensitivities, ConeClass, ConeFundamentals, ConeTemplate};
 pub use error::{ColorimetryError, Result};
 pub use grid::WavelengthGrid;
 pub use observer::{Observer, Show, Stimulus};
-pub use scope::{hue_axis, HueAxis, NeuralScope, ScopeAccumulator};
+pub use scope::{hue_axis, hue_error, HueAxis, HueError, NeuralScope, ScopeAccumulator};
 pub use stiles_burch::{compare_stiles_burch, StilesBurchResult, StilesBurchSettings};
 pub use table::SpectralTable;

@@ -243,6 +243,71 @@ pub fn hue_axis(linear_srgb: &[f64]) -> Option<HueAxis> {
     })
 }
 
+/// How far a percept's hues lie from the true ones ([`hue_error`]).
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct HueError {
+    /// Mean absolute hue-angle difference over the chromatic pixels, degrees (0: every hue
+    /// right; 90: as far as unrelated hues are on average; a grey or one-axis percept of a
+    /// full-colour scene lands near 45–90).
+    pub mean_abs_deg: f64,
+    /// The same per sector of true hue, `[0°, 60°)`, `[60°, 120°)`, … in CIELAB (0°: pinkish
+    /// red, 90°: yellow, 180°: green-teal, 270°: blue); `None` where no pixel falls.
+    pub per_sector_deg: [Option<f64>; 6],
+    /// Chromatic pixels counted.
+    pub pixels: usize,
+}
+
+/// The hue-angle error of `percept` against `truth`, both linear-sRGB rows `(m, 3)`: both go to
+/// CIELAB with the D65 white scaled to the 99th percentile of the truth's luminance (as
+/// [`hue_axis`]); over the pixels whose true chroma C*ab is at least `min_chroma`, the
+/// absolute difference of the hue angles `atan2(b*, a*)`, wrapped to [0°, 180°]. `None` when no
+/// pixel is chromatic enough.
+pub fn hue_error(percept: &[f64], truth: &[f64], min_chroma: f64) -> Option<HueError> {
+    assert_eq!(
+        percept.len(),
+        truth.len(),
+        "hue_error: {} percept values for {} true ones",
+        percept.len(),
+        truth.len()
+    );
+    let to_xyz = |rows: &[f64]| -> Vec<[f64; 3]> {
+        rows.chunks_exact(3)
+            .map(|c| crate::srgb::linear_srgb_to_xyz([c[0], c[1], c[2]]).map(|v| v.max(0.0)))
+            .collect()
+    };
+    let (p, t) = (to_xyz(percept), to_xyz(truth));
+    let mut ys: Vec<f64> = t.iter().map(|v| v[1]).collect();
+    ys.sort_by(f64::total_cmp);
+    let white_y = *ys.get((ys.len().max(1) - 1) * 99 / 100)?;
+    if !(white_y > 0.0) {
+        return None;
+    }
+    let white = crate::srgb::linear_srgb_to_xyz([1.0, 1.0, 1.0]).map(|v| v * white_y);
+    let (mut sum, mut sectors, mut count) = (0.0, [(0.0, 0usize); 6], 0usize);
+    for (pv, tv) in p.iter().zip(&t) {
+        let (lp, lt) = (
+            crate::cie::xyz_to_lab(*pv, white),
+            crate::cie::xyz_to_lab(*tv, white),
+        );
+        if lt[1].hypot(lt[2]) < min_chroma {
+            continue;
+        }
+        let (hp, ht) = (lp[2].atan2(lp[1]), lt[2].atan2(lt[1]));
+        let d = (hp - ht).to_degrees().rem_euclid(360.0);
+        let d = d.min(360.0 - d);
+        let sector = ((ht.to_degrees().rem_euclid(360.0) / 60.0) as usize).min(5);
+        sum += d;
+        sectors[sector].0 += d;
+        sectors[sector].1 += 1;
+        count += 1;
+    }
+    (count > 0).then(|| HueError {
+        mean_abs_deg: sum / count as f64,
+        per_sector_deg: sectors.map(|(s, n)| (n > 0).then(|| s / n as f64)),
+        pixels: count,
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -331,5 +396,27 @@ mod tests {
         assert!(axis.minor_to_major > 0.15, "{axis:?}");
         // Greys only: no chroma, no axis.
         assert!(hue_axis(&[0.3, 0.3, 0.3, 0.6, 0.6, 0.6]).is_none());
+    }
+
+    /// Known answers of the hue error: a percept equal to the truth is 0° off; yellow seen as
+    /// blue and blue as yellow is about 180° off, sorted into the true hues' sectors; greys
+    /// below the chroma floor are not counted.
+    #[test]
+    fn hue_error_known_answers() {
+        let (yellow, blue, grey) = ([0.9, 0.8, 0.05], [0.05, 0.1, 0.9], [0.5, 0.5, 0.5]);
+        let truth: Vec<f64> = [yellow, blue, grey, [1.0, 1.0, 1.0]].concat();
+        let same = hue_error(&truth, &truth, 10.0).unwrap();
+        assert_eq!((same.mean_abs_deg, same.pixels), (0.0, 2));
+        let swapped: Vec<f64> = [blue, yellow, grey, [1.0, 1.0, 1.0]].concat();
+        let e = hue_error(&swapped, &truth, 10.0).unwrap();
+        assert!(e.mean_abs_deg > 150.0, "{e:?}");
+        assert!(
+            e.per_sector_deg[1].is_some(),
+            "yellow's hue lies in [60°, 120°): {e:?}"
+        );
+        assert!(
+            hue_error(&[0.5; 6], &[0.5; 6], 10.0).is_none(),
+            "greys: nothing to count"
+        );
     }
 }
