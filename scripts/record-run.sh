@@ -1,10 +1,11 @@
 #!/bin/bash
 # Copies the record of a finished run folder into results/NAME: its settings, start, summary,
 # final CMF-SIM and dimension plot (and, when measured, its convergence table, the CMF-SIM of
-# its checkpoints, the figure of its checkpoints' averaged weights and its CMFs against Stiles &
-# Burch), and record.json naming the folder it was trained in (so that `gather` names a run
-# continued from that folder by this record) — the small files the README's tables are
-# generated from (`colorvision gather results --markdown`).
+# its checkpoints, the figure of its checkpoints' averaged weights, its CMFs against Stiles &
+# Burch, and a protocol arm's CMF-SIM per checkpoint and location seed), and record.json
+# naming the folder it was trained in (so that `gather` names a run continued from that folder
+# by this record) — the small files the README's tables are generated from
+# (`colorvision gather results --markdown`).
 # No checkpoints, pictures or per-step log.
 # Usage: scripts/record-run.sh RUN_DIR NAME
 set -euo pipefail
@@ -27,6 +28,13 @@ fi
 if [ -f "$RUN/average/average.json" ]; then
     mkdir "$TMP/average" && cp "$RUN/average/average.json" "$TMP/average/"
 fi
+# CMF-SIM of a protocol arm's checkpoints, one folder per step and location seed
+# (scripts/protocol-arm.sh): cmf-sim-step<N>-loc<L>/cmf_sim.json.
+for m in "$RUN"/cmf-sim-step*-loc*/cmf_sim.json; do
+    [ -f "$m" ] || continue
+    d=$(basename "$(dirname "$m")")
+    mkdir -p "$TMP/$d" && cp "$m" "$TMP/$d/"
+done
 if [ -f "$RUN/stiles-burch/table.json" ]; then
     mkdir "$TMP/stiles-burch" && cp "$RUN/stiles-burch/table.json" "$TMP/stiles-burch/"
 fi
