@@ -106,6 +106,9 @@ fn pool(tiles: usize, tile_px: usize, refresh_every_batches: usize) -> ScenePool
         rgb_path: RgbPath::Display,
         white_balance: true,
         refresh_every_batches,
+        file_scale: Default::default(),
+        mat: Default::default(),
+        cache_dir: None,
     }
 }
 
