@@ -3,7 +3,7 @@
 writer (h5py over libhdf5), shaped like MATLAB's own v7.3 output.
 
 Development step only: the committed fixtures are what the tests read; the tests never run
-Python. Usage (numpy and h5py): python3 scripts/make_scene_fixtures.py [OUT_DIR]
+Python. Usage (numpy, h5py and Pillow): python3 scripts/make_scene_fixtures.py [OUT_DIR]
 
 A MATLAB v7.3 .mat file is HDF5 behind a 512-byte user block that starts with MATLAB's
 116-byte header text; MATLAB writes arrays in column-major order, so an H x W x B cube appears
@@ -24,6 +24,9 @@ Fixtures:
 - narrow_bands.mat: 450..650 nm, which does not cover a 400..700 nm eye.
 - truncated.mat: arad_like cut to its first 2/3 of bytes.
 - not_hdf5.mat: a MATLAB v5 style header with no HDF5 inside.
+- cave/pattern_ms/pattern_ms/pattern_ms_NN.png, NN = 01..31: the cube of arad_like as CAVE
+  ships a scene (one 16-bit grey PNG per band, 400..700 nm, CAVE's nested folders), samples
+  y + 16 x + 256 b.
 - scenes/: three 40 x 48 ARAD-like scenes (smooth reflectance spectra in coloured discs and
   bars under a daylight-like illuminant; chunks (31, 16, 16)), for an end-to-end training run.
 """
@@ -155,6 +158,14 @@ def main():
             "cube": (natural_scene(i), "single"),
             "bands": (bands_row(), "double"),
         }, chunks3=(31, 16, 16))
+    stack = os.path.join(out, "cave", "pattern_ms", "pattern_ms")
+    os.makedirs(stack, exist_ok=True)
+    from PIL import Image
+
+    for b in range(31):
+        band = np.round(cube[:, :, b] * 1024).astype(np.uint16)
+        Image.fromarray(band).save(os.path.join(stack, f"pattern_ms_{b + 1:02d}.png"))
+        assert np.array_equal(np.asarray(Image.open(os.path.join(stack, f"pattern_ms_{b + 1:02d}.png"))), band)
     # Self-check with the same library: the MATLAB orientation survives the round trip.
     with h5py.File(os.path.join(out, "arad_like.mat"), "r") as f:
         stored = f["cube"][()]

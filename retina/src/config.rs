@@ -108,6 +108,7 @@ fn pool(tiles: usize, tile_px: usize, refresh_every_batches: usize) -> ScenePool
         refresh_every_batches,
         file_scale: Default::default(),
         mat: Default::default(),
+        band_stack: Default::default(),
         cache_dir: None,
     }
 }

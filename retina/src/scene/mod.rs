@@ -12,12 +12,14 @@
 //!
 //! Sources: [`dead_leaves`] (the default, synthetic, embedded data), [`exr_io`] (spectral
 //! OpenEXR), [`mat_io`] (MATLAB v7.3 hyperspectral cubes such as NTIRE 2022 / ARAD_1K),
+//! [`band_stack`] (one grey PNG per band, as CAVE ships its scenes),
 //! [`rgb`] (photographs through a simulated display or the official matrix), [`tetra`]
 //! (environments rich in tetrachromatic colours, paper S-07), all gathered in a [`pool`] of
 //! tiles that training crops are drawn from. Scene files ([`sources`]: files, folders, globs)
 //! are [`prepared`] once — projected onto the eye's classes, resized, white balanced — and
 //! kept on disk in a [`plane_cache`].
 
+pub mod band_stack;
 pub mod dead_leaves;
 pub mod exr_io;
 

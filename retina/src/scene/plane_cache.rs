@@ -106,6 +106,21 @@ impl PlaneCache {
         Ok(hash)
     }
 
+    /// SHA-256 (hex) of several files' contents in order (a band stack's band files): the hash
+    /// of their names and [`PlaneCache::content_hash`]es.
+    pub fn content_hash_all(&self, paths: &[PathBuf]) -> Result<String> {
+        let mut h = Sha256::new();
+        for p in paths {
+            h.update(
+                p.file_name()
+                    .map(|n| n.as_encoded_bytes())
+                    .unwrap_or_default(),
+            );
+            h.update(self.content_hash(p)?.as_bytes());
+        }
+        Ok(hex(&h.finalize()))
+    }
+
     /// The key of a file's planes: SHA-256 (hex) of its content hash and `settings` (a
     /// description of everything that shaped the planes), with [`PREPARATION_VERSION`].
     pub fn key(content_hash: &str, settings: &[u8]) -> String {

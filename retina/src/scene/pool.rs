@@ -9,7 +9,8 @@
 //!
 //! Sources, in order of precedence:
 //! 1. `files` — files, folders and glob patterns ([`super::sources`]) of spectral OpenEXR
-//!    (`.exr`), MATLAB v7.3 / HDF5 cubes (`.mat`, `.h5`; NTIRE 2022 / ARAD_1K) and RGB
+//!    (`.exr`), MATLAB v7.3 / HDF5 cubes (`.mat`, `.h5`; NTIRE 2022 / ARAD_1K), folders of one
+//!    PNG per band (CAVE) and RGB
 //!    photographs (`.png`, through the simulated display or the official matrix, `rgb_path`),
 //!    [`super::prepared`] once for the eye — projected, short side resized to `tile_px`, white
 //!    balanced per image — and kept in an on-disk cache (`cache_dir`), not in memory. Each tile
@@ -37,6 +38,7 @@ use rand::{Rng, SeedableRng};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
+use super::band_stack::BandStackOptions;
 use super::dead_leaves::{DeadLeavesConfig, LeafScene};
 use super::hue_sphere::HueSphere;
 use super::library::ReflectanceLibrary;
@@ -97,6 +99,9 @@ pub struct ScenePoolConfig {
     /// Dataset names of `.mat` / HDF5 cubes (default: ARAD_1K's `cube` and `bands`).
     #[serde(default)]
     pub mat: MatOptions,
+    /// Wavelengths of band-stack folders (default: CAVE's, 400 nm every 10 nm).
+    #[serde(default)]
+    pub band_stack: BandStackOptions,
     /// Folder of prepared scene files (default: `$XDG_CACHE_HOME/colorvision/scenes`, else
     /// `~/.cache/colorvision/scenes`).
     #[serde(default, skip_serializing_if = "Option::is_none")]

@@ -2,9 +2,9 @@
 //! code, docs/references.md#scenes), and kept on disk instead of in memory.
 //!
 //! Per file ([`super::sources`] expands folders and patterns), in parallel:
-//! 1. read: spectral OpenEXR and MATLAB v7.3 / HDF5 cubes are checked (finite, ≥ 0) and
-//!    resampled onto the eye's wavelength grid ([`SpectralImage::resample`]); PNG photographs
-//!    are decoded to linear sRGB;
+//! 1. read: spectral OpenEXR, MATLAB v7.3 / HDF5 cubes and band-stack folders are checked
+//!    (finite, ≥ 0) and resampled onto the eye's wavelength grid ([`SpectralImage::resample`]);
+//!    PNG photographs are decoded to linear sRGB;
 //! 2. projected onto the eye's planes (the mosaic's classes and the reference L, M, S,
 //!    [`SceneProjection`]): spectra through the cone sensitivities, photographs through the
 //!    simulated display or the official matrix ([`RgbPath`]);
@@ -16,7 +16,8 @@
 //!    divided by its maximum over the image and multiplied by its response to the sRGB white,
 //!    [`ClassPlanes::white_balance`]); photographs are not (their white is already sRGB's);
 //! 5. written to the [`PlaneCache`] under a key of the file's content and of everything above
-//!    (grid, classes, sensitivities, tile size, scale mode, balance, RGB path, `.mat` names), or
+//!    (grid, classes, sensitivities, tile size, scale mode, balance, RGB path, `.mat` names,
+//!    band-stack wavelengths; a band stack's content is that of all its band files), or
 //!    found there: a second run with the same eye reads no cube.
 //!
 //! Memory holds one cube per worker thread while preparing, and afterwards only the list of
@@ -30,6 +31,7 @@ use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
+use super::band_stack::{band_files, read_scene_band_stack};
 use super::exr_io::read_scene_exr;
 use super::mat_io::read_scene_mat;
 use super::plane_cache::{default_dir, CachedPlanes, PlaneCache};
@@ -188,6 +190,9 @@ fn settings(ctx: &Context<'_>, format: SceneFormat) -> Vec<u8> {
     match format {
         SceneFormat::Exr => s += &format!("exr\nbalance {}\n", c.white_balance),
         SceneFormat::Mat => s += &format!("mat {:?}\nbalance {}\n", c.mat, c.white_balance),
+        SceneFormat::BandStack => {
+            s += &format!("stack {:?}\nbalance {}\n", c.band_stack, c.white_balance)
+        }
         SceneFormat::Png => s += &format!("png {:?}\n", c.rgb_path),
     }
     s.into_bytes()
@@ -196,7 +201,11 @@ fn settings(ctx: &Context<'_>, format: SceneFormat) -> Vec<u8> {
 /// Prepare one file, or find it in the cache: its entry, and whether it came from the cache.
 fn prepare_one(path: &Path, ctx: &Context<'_>) -> Result<(PreparedScene, bool)> {
     let format = SceneFormat::of(path).expect("sources::expand keeps scene files only");
-    let key = PlaneCache::key(&ctx.cache.content_hash(path)?, &settings(ctx, format));
+    let content = match band_files(path) {
+        Some(bands) if format == SceneFormat::BandStack => ctx.cache.content_hash_all(&bands)?,
+        _ => ctx.cache.content_hash(path)?,
+    };
+    let key = PlaneCache::key(&content, &settings(ctx, format));
     let entry = |h, w| PreparedScene {
         source: path.to_path_buf(),
         key: key.clone(),
@@ -237,6 +246,11 @@ fn read_planes(path: &Path, format: SceneFormat, ctx: &Context<'_>) -> Result<Cl
     Ok(match format {
         SceneFormat::Exr => proj.project(&read_scene_exr(path, &proj.grid)?),
         SceneFormat::Mat => proj.project(&read_scene_mat(path, &ctx.config.mat, &proj.grid)?),
+        SceneFormat::BandStack => proj.project(&read_scene_band_stack(
+            path,
+            &ctx.config.band_stack,
+            &proj.grid,
+        )?),
         SceneFormat::Png => {
             let rgb = RgbImage::read_png(path)?;
             match ctx.display {

@@ -1,16 +1,23 @@
-//! The scene files named by `[retina.scenes] files`: each entry a file, a folder (every scene
-//! file in it) or a glob pattern whose last component holds `*` (any run of characters) or `?`
-//! (one character), e.g. `data/ARAD_1K_*.mat`.
+//! The scene files named by `[retina.scenes] files`: each entry a file, a folder or a glob
+//! pattern whose last component holds `*` (any run of characters) or `?` (one character), e.g.
+//! `data/ARAD_1K_*.mat`.
 //!
-//! Scene files by extension (case-insensitive): spectral OpenEXR `.exr`; RGB photographs `.png`;
-//! hyperspectral cubes `.mat` (MATLAB v7.3), `.h5`, `.hdf5`. Folders and patterns yield the scene
-//! files they hold, in name order, and skip other files; a named file of another kind, a folder
-//! or pattern that yields none, and a missing file are errors naming the entry. A file named
-//! twice is kept once, at its first place.
+//! Scenes by extension (case-insensitive): spectral OpenEXR `.exr`; RGB photographs `.png`;
+//! hyperspectral cubes `.mat` (MATLAB v7.3), `.h5`, `.hdf5`; and folders of one grey PNG per
+//! band, CAVE's layout ([`super::band_stack`]). A folder entry that is a band stack is one
+//! scene; any other folder yields the scene files it holds and the band stacks beneath it (to
+//! [`MAX_DEPTH`] levels, so `data/CAVE` finds CAVE's `balloons_ms/balloons_ms/`). A pattern
+//! yields the scene files and band stacks it matches. Files come in name order; other files are
+//! skipped. A named file of another kind, a folder or pattern that yields none, and a missing
+//! file are errors naming the entry. A scene named twice is kept once, at its first place.
 
 use std::path::{Path, PathBuf};
 
+use super::band_stack::band_files;
 use crate::error::{Result, RetinaError};
+
+/// How deep below a folder entry band stacks are looked for.
+pub const MAX_DEPTH: usize = 3;
 
 /// How a scene file is read.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -21,11 +28,16 @@ pub enum SceneFormat {
     Png,
     /// MATLAB v7.3 / HDF5 cube ([`super::mat_io`]).
     Mat,
+    /// A folder of one grey PNG per band ([`super::band_stack`]).
+    BandStack,
 }
 
 impl SceneFormat {
-    /// The format of `path` by its extension, if it is a scene file.
+    /// The format of `path`: a band-stack folder, or a scene file by its extension.
     pub fn of(path: &Path) -> Option<SceneFormat> {
+        if path.is_dir() {
+            return band_files(path).map(|_| SceneFormat::BandStack);
+        }
         let ext = path.extension()?.to_str()?.to_ascii_lowercase();
         match ext.as_str() {
             "exr" => Some(SceneFormat::Exr),
@@ -37,7 +49,7 @@ impl SceneFormat {
 }
 
 /// The extensions of scene files, for messages.
-const KINDS: &str = ".exr, .png, .mat, .h5 or .hdf5";
+const KINDS: &str = ".exr, .png, .mat, .h5, .hdf5 or band-stack";
 
 /// Every scene file the entries name (module docs).
 pub fn expand(entries: &[PathBuf]) -> Result<Vec<PathBuf>> {
@@ -79,7 +91,11 @@ fn expand_one(entry: &Path) -> Result<Vec<PathBuf>> {
         return Ok(found);
     }
     if entry.is_dir() {
-        let found = scene_files_in(entry, entry, |_| true)?;
+        if band_files(entry).is_some() {
+            return Ok(vec![entry.to_path_buf()]);
+        }
+        let mut found = scene_files_in(entry, entry, |_| true)?;
+        found.extend(stacks_beneath(entry, MAX_DEPTH));
         if found.is_empty() {
             return Err(bad(entry, format!("the folder holds no {KINDS} file")));
         }
@@ -97,7 +113,35 @@ fn expand_one(entry: &Path) -> Result<Vec<PathBuf>> {
     Ok(vec![entry.to_path_buf()])
 }
 
-/// Scene files in `dir` whose names pass `keep`, in name order (hidden files skipped).
+/// Whether the last component of `path` starts with a dot.
+fn hidden(path: &Path) -> bool {
+    path.file_name()
+        .is_some_and(|n| n.as_encoded_bytes().starts_with(b"."))
+}
+
+/// Band-stack folders beneath `dir` (not `dir` itself), `depth` levels down, in name order.
+fn stacks_beneath(dir: &Path, depth: usize) -> Vec<PathBuf> {
+    let Ok(listing) = std::fs::read_dir(dir) else {
+        return vec![];
+    };
+    let mut subs: Vec<PathBuf> = listing
+        .filter_map(|i| i.ok().map(|i| i.path()))
+        .filter(|p| p.is_dir() && !hidden(p))
+        .collect();
+    subs.sort();
+    let mut out = vec![];
+    for sub in subs {
+        if band_files(&sub).is_some() {
+            out.push(sub);
+        } else if depth > 1 {
+            out.extend(stacks_beneath(&sub, depth - 1));
+        }
+    }
+    out
+}
+
+/// Scene files and band stacks in `dir` whose names pass `keep`, in name order (hidden ones
+/// skipped).
 fn scene_files_in(dir: &Path, entry: &Path, keep: impl Fn(&str) -> bool) -> Result<Vec<PathBuf>> {
     let listing = std::fs::read_dir(dir).map_err(|e| bad(entry, e))?;
     let mut found = Vec::new();
@@ -107,11 +151,7 @@ fn scene_files_in(dir: &Path, entry: &Path, keep: impl Fn(&str) -> bool) -> Resu
         let Some(name) = path.file_name().and_then(|n| n.to_str()) else {
             continue;
         };
-        if !name.starts_with('.')
-            && keep(name)
-            && path.is_file()
-            && SceneFormat::of(&path).is_some()
-        {
+        if !name.starts_with('.') && keep(name) && SceneFormat::of(&path).is_some() {
             found.push(if dir == Path::new(".") {
                 PathBuf::from(name)
             } else {
@@ -185,6 +225,20 @@ mod tests {
         assert!(some.is_err(), "`[` is literal: {some:?}");
         let two = expand(&[dir.join("*_000?.mat"), dir.join("ARAD_1K_0002.mat")]).unwrap();
         assert_eq!(two, all, "a file named twice is kept once");
+    }
+
+    #[test]
+    fn a_cave_folder_yields_its_nested_band_stack_as_one_scene() {
+        let cave = fixtures().join("cave");
+        let stack = cave.join("pattern_ms/pattern_ms");
+        let one = vec![stack.clone()];
+        assert_eq!(expand(std::slice::from_ref(&cave)).unwrap(), one);
+        assert_eq!(expand(&one).unwrap(), one);
+        assert_eq!(SceneFormat::of(&stack), Some(SceneFormat::BandStack));
+        // A pattern matches band stacks too; the fixtures folder holds no stack at depth 1.
+        let by_pattern = expand(&[cave.join("pattern_ms/*_ms")]).unwrap();
+        assert_eq!(by_pattern, [stack]);
+        assert_eq!(SceneFormat::of(&cave), None);
     }
 
     #[test]

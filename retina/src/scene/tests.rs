@@ -30,6 +30,7 @@ fn pool_config(tiles: usize, tile_px: usize, tetra: Option<TetraMix>) -> ScenePo
         refresh_every_batches: 0,
         file_scale: Default::default(),
         mat: Default::default(),
+        band_stack: Default::default(),
         cache_dir: None,
     }
 }

@@ -43,15 +43,19 @@ fn config(files: Vec<PathBuf>, tiles: usize, tile_px: usize, cache: &Path) -> Sc
         refresh_every_batches: 1,
         file_scale: FileScale::Tile,
         mat: MatOptions::default(),
+        band_stack: Default::default(),
         cache_dir: Some(cache.to_path_buf()),
     }
 }
 
-/// Prepare, recording every progress report as `(done, total, file name, from cache)`.
+/// One progress report: `(done, total, file name, from cache)`.
+type Report = (usize, usize, String, bool);
+
+/// Prepare, recording every progress report.
 fn prepare_logged(
     cfg: &ScenePoolConfig,
     proj: &SceneProjection,
-) -> (Result<PreparedScenes>, Vec<(usize, usize, String, bool)>) {
+) -> (Result<PreparedScenes>, Vec<Report>) {
     let log = Mutex::new(vec![]);
     let r = PreparedScenes::prepare(cfg, proj, None, &|p| {
         let name = p.path.file_name().unwrap().to_string_lossy().into_owned();
