@@ -27,6 +27,11 @@ Fixtures:
 - cave/pattern_ms/pattern_ms/pattern_ms_NN.png, NN = 01..31: the cube of arad_like as CAVE
   ships a scene (one 16-bit grey PNG per band, 400..700 nm, CAVE's nested folders), samples
   y + 16 x + 256 b.
+- envi/pattern_bil.hdr + pattern_bil.img: the cube of arad_like in ENVI, band-interleaved by
+  line, big-endian float32, wavelengths in micrometers; envi/pattern_bip.hdr + pattern_bip (no
+  extension): band-interleaved by pixel, little-endian uint16 (value * 1024) with a reflectance
+  scale factor of 1024, wavelengths listed 700..400; envi/short.hdr + short.img: the bil header
+  over a cube cut in half.
 - scenes/: three 40 x 48 ARAD-like scenes (smooth reflectance spectra in coloured discs and
   bars under a daylight-like illuminant; chunks (31, 16, 16)), for an end-to-end training run.
 """
@@ -111,6 +116,37 @@ def natural_scene(seed, h=40, w=48):
     return (np.round(cube * 4096) / 4096).astype(np.float32)
 
 
+def envi_header(h, w, bands, data_type, interleave, byte_order, wavelengths, extra=""):
+    wl = ",\n ".join(f"{v:g}" for v in wavelengths)
+    return (
+        "ENVI\ndescription = {fixture written by make_scene_fixtures.py}\n"
+        f"samples = {w}\nlines = {h}\nbands = {bands}\nheader offset = 0\n"
+        f"file type = ENVI Standard\ndata type = {data_type}\ninterleave = {interleave}\n"
+        f"byte order = {byte_order}\n{extra}wavelength = {{\n {wl}}}\n"
+    )
+
+
+def write_envi(out, cube):
+    """cube: H x W x B (rows, columns, bands)."""
+    os.makedirs(out, exist_ok=True)
+    h, w, nb = cube.shape
+    bil = np.transpose(cube, (0, 2, 1)).astype(">f4")  # line, band, sample
+    head = envi_header(h, w, nb, 4, "bil", 1, BANDS / 1000.0, "wavelength units = Micrometers\n")
+    with open(os.path.join(out, "pattern_bil.hdr"), "w") as f:
+        f.write(head)
+    bil.tofile(os.path.join(out, "pattern_bil.img"))
+    with open(os.path.join(out, "short.hdr"), "w") as f:
+        f.write(head)
+    raw = bil.tobytes()
+    with open(os.path.join(out, "short.img"), "wb") as f:
+        f.write(raw[: len(raw) // 2])
+    bip = np.round(cube[:, :, ::-1] * 1024).astype("<u2")  # line, sample, band (700..400)
+    head = envi_header(h, w, nb, 12, "bip", 0, BANDS[::-1], "reflectance scale factor = 1024\n")
+    with open(os.path.join(out, "pattern_bip.hdr"), "w") as f:
+        f.write(head)
+    bip.tofile(os.path.join(out, "pattern_bip"))
+
+
 def main():
     out = sys.argv[1] if len(sys.argv) > 1 else os.path.join(
         os.path.dirname(__file__), "..", "retina", "tests", "fixtures", "scenes"
@@ -166,6 +202,7 @@ def main():
         band = np.round(cube[:, :, b] * 1024).astype(np.uint16)
         Image.fromarray(band).save(os.path.join(stack, f"pattern_ms_{b + 1:02d}.png"))
         assert np.array_equal(np.asarray(Image.open(os.path.join(stack, f"pattern_ms_{b + 1:02d}.png"))), band)
+    write_envi(os.path.join(out, "envi"), cube)
     # Self-check with the same library: the MATLAB orientation survives the round trip.
     with h5py.File(os.path.join(out, "arad_like.mat"), "r") as f:
         stored = f["cube"][()]

@@ -39,9 +39,10 @@ pub fn retina(config: RetinaConfig) -> Result<Retina, RetinaError> {
     let retina = Retina::with_progress(config, &report);
     bar.finish_and_clear();
     let retina = retina?;
+    let total = total.load(Ordering::Relaxed);
     println!(
-        "  scenes: {} files prepared for this eye ({} from the cache in {})",
-        total.load(Ordering::Relaxed),
+        "  scenes: {total} {} prepared for this eye ({} from the cache in {})",
+        if total == 1 { "file" } else { "files" },
         cached.load(Ordering::Relaxed),
         retina
             .config

@@ -12,7 +12,8 @@
 //!
 //! Sources: [`dead_leaves`] (the default, synthetic, embedded data), [`exr_io`] (spectral
 //! OpenEXR), [`mat_io`] (MATLAB v7.3 hyperspectral cubes such as NTIRE 2022 / ARAD_1K),
-//! [`band_stack`] (one grey PNG per band, as CAVE ships its scenes),
+//! [`band_stack`] (one grey PNG per band, as CAVE ships its scenes), [`envi_io`] (ENVI cubes of
+//! hyperspectral cameras),
 //! [`rgb`] (photographs through a simulated display or the official matrix), [`tetra`]
 //! (environments rich in tetrachromatic colours, paper S-07), all gathered in a [`pool`] of
 //! tiles that training crops are drawn from. Scene files ([`sources`]: files, folders, globs)
@@ -21,6 +22,7 @@
 
 pub mod band_stack;
 pub mod dead_leaves;
+pub mod envi_io;
 pub mod exr_io;
 
 pub mod hue_sphere;

@@ -2,7 +2,7 @@
 //! code, docs/references.md#scenes), and kept on disk instead of in memory.
 //!
 //! Per file ([`super::sources`] expands folders and patterns), in parallel:
-//! 1. read: spectral OpenEXR, MATLAB v7.3 / HDF5 cubes and band-stack folders are checked
+//! 1. read: spectral OpenEXR, MATLAB v7.3 / HDF5 and ENVI cubes and band-stack folders are checked
 //!    (finite, ≥ 0) and resampled onto the eye's wavelength grid ([`SpectralImage::resample`]);
 //!    PNG photographs are decoded to linear sRGB;
 //! 2. projected onto the eye's planes (the mosaic's classes and the reference L, M, S,
@@ -17,7 +17,8 @@
 //!    [`ClassPlanes::white_balance`]); photographs are not (their white is already sRGB's);
 //! 5. written to the [`PlaneCache`] under a key of the file's content and of everything above
 //!    (grid, classes, sensitivities, tile size, scale mode, balance, RGB path, `.mat` names,
-//!    band-stack wavelengths; a band stack's content is that of all its band files), or
+//!    band-stack wavelengths; a band stack's content is that of all its band files, an ENVI
+//!    cube's that of its header and cube file), or
 //!    found there: a second run with the same eye reads no cube.
 //!
 //! Memory holds one cube per worker thread while preparing, and afterwards only the list of
@@ -32,6 +33,7 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use super::band_stack::{band_files, read_scene_band_stack};
+use super::envi_io::{cube_file, read_scene_envi};
 use super::exr_io::read_scene_exr;
 use super::mat_io::read_scene_mat;
 use super::plane_cache::{default_dir, CachedPlanes, PlaneCache};
@@ -189,6 +191,7 @@ fn settings(ctx: &Context<'_>, format: SceneFormat) -> Vec<u8> {
     );
     match format {
         SceneFormat::Exr => s += &format!("exr\nbalance {}\n", c.white_balance),
+        SceneFormat::Envi => s += &format!("envi\nbalance {}\n", c.white_balance),
         SceneFormat::Mat => s += &format!("mat {:?}\nbalance {}\n", c.mat, c.white_balance),
         SceneFormat::BandStack => {
             s += &format!("stack {:?}\nbalance {}\n", c.band_stack, c.white_balance)
@@ -201,8 +204,13 @@ fn settings(ctx: &Context<'_>, format: SceneFormat) -> Vec<u8> {
 /// Prepare one file, or find it in the cache: its entry, and whether it came from the cache.
 fn prepare_one(path: &Path, ctx: &Context<'_>) -> Result<(PreparedScene, bool)> {
     let format = SceneFormat::of(path).expect("sources::expand keeps scene files only");
-    let content = match band_files(path) {
-        Some(bands) if format == SceneFormat::BandStack => ctx.cache.content_hash_all(&bands)?,
+    let content = match format {
+        SceneFormat::BandStack => ctx
+            .cache
+            .content_hash_all(&band_files(path).unwrap_or_default())?,
+        SceneFormat::Envi => ctx
+            .cache
+            .content_hash_all(&[path.into(), cube_file(path)?])?,
         _ => ctx.cache.content_hash(path)?,
     };
     let key = PlaneCache::key(&content, &settings(ctx, format));
@@ -245,6 +253,7 @@ fn read_planes(path: &Path, format: SceneFormat, ctx: &Context<'_>) -> Result<Cl
     let proj = ctx.projection;
     Ok(match format {
         SceneFormat::Exr => proj.project(&read_scene_exr(path, &proj.grid)?),
+        SceneFormat::Envi => proj.project(&read_scene_envi(path, &proj.grid)?),
         SceneFormat::Mat => proj.project(&read_scene_mat(path, &ctx.config.mat, &proj.grid)?),
         SceneFormat::BandStack => proj.project(&read_scene_band_stack(
             path,

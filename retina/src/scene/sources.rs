@@ -3,7 +3,8 @@
 //! `data/ARAD_1K_*.mat`.
 //!
 //! Scenes by extension (case-insensitive): spectral OpenEXR `.exr`; RGB photographs `.png`;
-//! hyperspectral cubes `.mat` (MATLAB v7.3), `.h5`, `.hdf5`; and folders of one grey PNG per
+//! hyperspectral cubes `.mat` (MATLAB v7.3), `.h5`, `.hdf5`, and ENVI headers `.hdr` (beside
+//! their raw cubes); and folders of one grey PNG per
 //! band, CAVE's layout ([`super::band_stack`]). A folder entry that is a band stack is one
 //! scene; any other folder yields the scene files it holds and the band stacks beneath it (to
 //! [`MAX_DEPTH`] levels, so `data/CAVE` finds CAVE's `balloons_ms/balloons_ms/`). A pattern
@@ -30,6 +31,8 @@ pub enum SceneFormat {
     Mat,
     /// A folder of one grey PNG per band ([`super::band_stack`]).
     BandStack,
+    /// An ENVI header beside its raw cube ([`super::envi_io`]).
+    Envi,
 }
 
 impl SceneFormat {
@@ -43,13 +46,14 @@ impl SceneFormat {
             "exr" => Some(SceneFormat::Exr),
             "png" => Some(SceneFormat::Png),
             "mat" | "h5" | "hdf5" => Some(SceneFormat::Mat),
+            "hdr" => Some(SceneFormat::Envi),
             _ => None,
         }
     }
 }
 
 /// The extensions of scene files, for messages.
-const KINDS: &str = ".exr, .png, .mat, .h5, .hdf5 or band-stack";
+const KINDS: &str = ".exr, .png, .mat, .h5, .hdf5, .hdr (ENVI) or band-stack";
 
 /// Every scene file the entries name (module docs).
 pub fn expand(entries: &[PathBuf]) -> Result<Vec<PathBuf>> {
