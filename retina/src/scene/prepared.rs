@@ -3,7 +3,7 @@
 //!
 //! Per file ([`super::sources`] expands folders and patterns), in parallel:
 //! 1. read: spectral OpenEXR, MATLAB v7.3 / HDF5 and ENVI cubes and band-stack folders are checked
-//!    (finite, ≥ 0) and resampled onto the eye's wavelength grid ([`SpectralImage::resample`]);
+//!    (finite, ≥ 0) and resampled onto the eye's wavelength grid ([`super::SpectralImage::resample`]);
 //!    PNG photographs are decoded to linear sRGB;
 //! 2. projected onto the eye's planes (the mosaic's classes and the reference L, M, S,
 //!    [`SceneProjection`]): spectra through the cone sensitivities, photographs through the
