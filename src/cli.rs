@@ -135,6 +135,12 @@ pub struct CommonOptions {
     /// A TOML file of settings; command-line options override it.
     #[arg(long)]
     pub config: Option<PathBuf>,
+    /// Scenes from a file, folder or pattern instead of the built-in ones: a hyperspectral cube
+    /// (.mat MATLAB v7.3 such as ARAD_1K, .h5, ENVI .hdr), a folder of one PNG per band (CAVE),
+    /// a spectral .exr or an RGB .png; the same as setting [retina.scenes] files = [FILE].
+    /// Quote a pattern: --scene 'data/ARAD_1K_*.mat'.
+    #[arg(long, value_name = "FILE")]
+    pub scene: Option<PathBuf>,
     /// Continue the run in the output folder from its newest checkpoint that verifies (run,
     /// train, experiment). The folder's config.toml gives the settings; any option given must
     /// agree with it. The continued run ends as if it had never stopped (same thread count).
@@ -163,6 +169,7 @@ impl CommonOptions {
             || self.seed.is_some()
             || self.steps.is_some()
             || self.config.is_some()
+            || self.scene.is_some()
     }
 }
 

@@ -148,7 +148,7 @@ pub fn simulate(options: &CommonOptions) -> Result<(), RunError> {
     let config = RunConfig::resolve(options, "quick")?;
     let out = run::out_dir(&config, options.out.as_ref(), "simulate");
     crate::run_folder::refuse_file(&out)?;
-    let retina = Retina::new(config.retina.clone())?;
+    let retina = crate::scene_bar::retina(config.retina.clone())?;
     let mut rng = <rand::rngs::StdRng as rand::SeedableRng>::seed_from_u64(config.seed);
     let mut written = Vec::new();
     crate::io::save_into(&out, |staging| -> Result<(), RunError> {

@@ -26,6 +26,7 @@ pub mod run;
 pub mod run_error;
 pub mod run_folder;
 pub mod run_lock;
+pub mod scene_bar;
 pub mod source;
 pub mod stats;
 pub mod stiles_burch;

@@ -11,7 +11,8 @@ use colorimetry::plot::{LinePlot, Series};
 use colorimetry::{ConeClass, ConeTemplate, WavelengthGrid};
 use rand::rngs::StdRng;
 use rand::SeedableRng;
-use retina::scene::pool::{RgbPath, SceneGenerator, ScenePool, ScenePoolConfig};
+use retina::config::RetinaConfig;
+use retina::scene::pool::{SceneGenerator, ScenePool, ScenePoolConfig};
 use retina::scene::projection::SceneProjection;
 use retina::scene::rgb::{class_planes_by_matrix, RgbImage};
 use retina::scene::statistics::{measure_image, SpatialStatistics, CROP_PX, DISTANCES_PX};
@@ -26,13 +27,9 @@ fn generator_statistics(proj: &SceneProjection, generator: SceneGenerator) -> Sp
         tiles: 1,
         tile_px: CROP_PX,
         generator,
-        dead_leaves: Default::default(),
-        surfaces: Default::default(),
         tetra: None,
-        files: vec![],
-        rgb_path: RgbPath::Display,
-        white_balance: true,
         refresh_every_batches: 0,
+        ..RetinaConfig::quick().scenes
     };
     let pool = ScenePool::new(cfg, proj.clone(), 1, &mut StdRng::seed_from_u64(7)).unwrap();
     let mut rng = StdRng::seed_from_u64(11);

@@ -109,6 +109,10 @@ fn pool(tiles: usize, tile_px: usize, refresh_every_batches: usize) -> ScenePool
         rgb_path: RgbPath::Display,
         white_balance: true,
         refresh_every_batches,
+        file_scale: Default::default(),
+        mat: Default::default(),
+        band_stack: Default::default(),
+        cache_dir: None,
     }
 }
 

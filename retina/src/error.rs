@@ -36,6 +36,15 @@ pub enum RetinaError {
         /// The first bad pixel and its value.
         message: String,
     },
+    /// A spectral scene file (MATLAB v7.3 `.mat`, HDF5) is not readable, or its content is not
+    /// a spectral cube: the message says which (not HDF5, no cube dataset, wrong shape, …).
+    #[error("{}: {message}", path.display())]
+    SceneFile {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong, on one line.
+        message: String,
+    },
     /// An OpenEXR file has no channel whose name carries a wavelength.
     #[error(
         "{}: no wavelength channels (expected names like `wl_550nm` or `S0.550,0nm`; \
@@ -95,6 +104,18 @@ impl RetinaError {
         RetinaError::InvalidSetting {
             name: name.into(),
             message: message.into(),
+        }
+    }
+
+    /// A [`RetinaError::SceneFile`] for `path`; the message is folded onto one line.
+    pub fn scene_file(path: impl Into<PathBuf>, message: impl AsRef<str>) -> Self {
+        RetinaError::SceneFile {
+            path: path.into(),
+            message: message
+                .as_ref()
+                .split_whitespace()
+                .collect::<Vec<_>>()
+                .join(" "),
         }
     }
 

@@ -35,7 +35,7 @@ use crate::eye_motion::normalise_shift;
 use crate::foveation::{ConeLayout, ConeSampler, MipStack};
 use crate::lateral_inhibition::{add_multiplicative_noise, LateralInhibition};
 use crate::mosaic::Mosaic;
-use crate::scene::pool::{ScenePool, SceneProjection};
+use crate::scene::pool::{ProgressFn, ScenePool, SceneProjection};
 use crate::scene::{ClassPlanes, SpectralImage};
 pub use optic_nerve::OnsBatch;
 
@@ -99,6 +99,12 @@ impl std::fmt::Debug for Retina {
 impl Retina {
     /// Build the eye: mosaic, layout, sensitivities, LI and the scene pool.
     pub fn new(config: RetinaConfig) -> Result<Retina> {
+        Self::with_progress(config, &|_| {})
+    }
+
+    /// [`Retina::new`], telling `progress` of each scene file prepared for the pool (a
+    /// command-line program draws it as a bar; see [`crate::scene::prepared`]).
+    pub fn with_progress(config: RetinaConfig, progress: ProgressFn<'_>) -> Result<Retina> {
         config.validate()?;
         let n = config.cones_per_side;
         let mosaic = Mosaic::from_spec_str(&config.cones, n, config.mosaic_seed)?;
@@ -113,7 +119,13 @@ impl Retina {
             .map(|c| LateralInhibition::new(c, n));
         let projection = SceneProjection::new(&mosaic.classes, &config.template, &grid)?;
         let mut rng = SmallRng::seed_from_u64(config.scene_seed);
-        let pool = ScenePool::new(config.scenes.clone(), projection, levels, &mut rng)?;
+        let pool = ScenePool::with_progress(
+            config.scenes.clone(),
+            projection,
+            levels,
+            &mut rng,
+            progress,
+        )?;
         Ok(Retina {
             config,
             mosaic,

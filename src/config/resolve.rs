@@ -82,6 +82,9 @@ impl RunConfig {
         if let Some(seed) = options.seed {
             config.seed = seed;
         }
+        if let Some(scene) = &options.scene {
+            config.retina.scenes.files = vec![scene.clone()];
+        }
         let in_file = |field: &str, reason: String| match &file_path {
             Some(path) => ConfigError::InFile {
                 path: path.clone(),

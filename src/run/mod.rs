@@ -127,7 +127,7 @@ pub struct Summary {
 fn heldout_retina(config: &RunConfig) -> Result<Retina, RunError> {
     let mut c = config.retina.clone();
     c.scene_seed = c.scene_seed.wrapping_add(0x005E_ED0F_0E1D);
-    Ok(Retina::new(c)?)
+    Ok(crate::scene_bar::retina(c)?)
 }
 
 /// The run's held-out batches (the held-out eye, its own batch seed), the same sequence on
@@ -323,7 +323,7 @@ pub fn run_in(
     }
     // The eye is built (its scene files read) before the folder is touched: bad input stops
     // the run with nothing written.
-    let retina = Retina::new(config.retina.clone())?;
+    let retina = crate::scene_bar::retina(config.retina.clone())?;
     let source = RetinaSource::new(retina, config.seed, config.oracle_motion);
     // Held-out batches carry the true motion for evaluation (the estimator's error); the
     // cortex reads it only when the run itself uses the oracle.

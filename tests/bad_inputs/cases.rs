@@ -317,6 +317,36 @@ pub const CASES: &[Case] = &[
         &[],
         &["garbage.png"],
     ),
+    case(
+        "scene MAT truncated",
+        None,
+        &["--scene", "truncated.mat"],
+        &["truncated.mat", "truncated"],
+    ),
+    case(
+        "scene MAT without cube",
+        Some("[retina.scenes]\nfiles = [\"wrong_dataset.mat\"]"),
+        &[],
+        &["wrong_dataset.mat", "no dataset `cube`", "radiance"],
+    ),
+    case(
+        "scene MAT NaN",
+        Some("[retina.scenes]\nfiles = [\"arad_*.mat\"]"),
+        &[],
+        &["arad_nan.mat", "pixel", "NaN"],
+    ),
+    case(
+        "scene MAT v5",
+        None,
+        &["--scene", "not_hdf5.mat"],
+        &["not_hdf5.mat", "MATLAB v5"],
+    ),
+    case(
+        "scene pattern matching nothing",
+        None,
+        &["--scene", "ARAD_1K_*.mat"],
+        &["scenes.files", "ARAD_1K_*.mat", "matches no"],
+    ),
 ];
 
 /// Cases whose `--out` already exists: a plain file, and a folder that is not a run folder.

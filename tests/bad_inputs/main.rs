@@ -39,6 +39,7 @@ fn try_input(dir: &Path, name: &str, args: &[String], expect: &[&str], totals: &
         .args(args)
         .current_dir(dir)
         .env_remove("COLORVISION_FAULT")
+        .env("XDG_CACHE_HOME", dir.join(".cache"))
         .env("RUST_BACKTRACE", "0")
         .output()
         .unwrap();
@@ -167,6 +168,7 @@ fn settings_once_ignored_are_honoured() {
             .args(["train", "--config", &format!("{name}.toml"), "--out", name])
             .current_dir(&dir)
             .env_remove("COLORVISION_FAULT")
+            .env("XDG_CACHE_HOME", dir.join(".cache"))
             .output()
             .unwrap();
         let log = String::from_utf8_lossy(&o.stdout).to_string();

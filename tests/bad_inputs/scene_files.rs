@@ -1,5 +1,6 @@
 //! Scene files the bad inputs name: spectral EXRs holding a NaN, a negative value, half their
-//! bytes, or a header declaring 100 000² pixels; a PNG declaring as many; a PNG of garbage.
+//! bytes, or a header declaring 100 000² pixels; a PNG declaring as many; a PNG of garbage;
+//! MATLAB v7.3 cubes cut short, without a `cube`, holding a NaN, and a MATLAB v5 file.
 
 use std::path::Path;
 
@@ -70,4 +71,14 @@ pub fn write_scene_files(dir: &Path) {
     png_bytes[29..33].copy_from_slice(&crc.to_be_bytes());
     std::fs::write(dir.join("huge.png"), png_bytes).unwrap();
     std::fs::write(dir.join("garbage.png"), b"\x89PNG\r\n\x1a\nnot really").unwrap();
+    // MATLAB v7.3 cubes written by h5py (retina/tests/fixtures/scenes/README.md).
+    let fixtures = Path::new(env!("CARGO_MANIFEST_DIR")).join("retina/tests/fixtures/scenes");
+    for name in [
+        "truncated.mat",
+        "wrong_dataset.mat",
+        "arad_nan.mat",
+        "not_hdf5.mat",
+    ] {
+        std::fs::copy(fixtures.join(name), dir.join(name)).unwrap();
+    }
 }

@@ -8,12 +8,13 @@ use std::process::{Command, Output};
 pub const BIN: &str = env!("CARGO_BIN_EXE_colorvision");
 
 /// `colorvision ARGS` in `dir`, with no fault injected (`COLORVISION_FAULT` removed) unless
-/// `fault` names one.
+/// `fault` names one, and the scene cache under `dir` (never the user's own).
 pub fn command(dir: &Path, args: &[&str], fault: Option<&str>) -> Command {
     let mut c = Command::new(BIN);
     c.args(args)
         .current_dir(dir)
-        .env_remove("COLORVISION_FAULT");
+        .env_remove("COLORVISION_FAULT")
+        .env("XDG_CACHE_HOME", dir.join(".cache"));
     if let Some(f) = fault {
         c.env("COLORVISION_FAULT", f);
     }

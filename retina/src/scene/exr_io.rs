@@ -148,20 +148,7 @@ pub fn read_spectral_exr(path: impl AsRef<Path>) -> Result<SpectralImage> {
 pub fn read_scene_exr(path: impl AsRef<Path>, grid: &WavelengthGrid) -> Result<SpectralImage> {
     let path = path.as_ref();
     let img = read_spectral_exr(path)?;
-    let (h, w) = (img.h, img.w);
-    let plane = (h * w).max(1);
-    if let Some(i) = img.data.iter().position(|v| !(v.is_finite() && *v >= 0.0)) {
-        return Err(RetinaError::Radiance {
-            path: path.to_path_buf(),
-            message: format!(
-                "pixel (x {}, y {}) at {} nm is {}: radiance must be finite and ≥ 0",
-                (i % plane) % w.max(1),
-                (i % plane) / w.max(1),
-                img.grid.as_slice()[i / plane],
-                img.data[i]
-            ),
-        });
-    }
+    img.check_radiance(path)?;
     img.resample(grid, &path.display().to_string())
 }
 

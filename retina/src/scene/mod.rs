@@ -11,18 +11,30 @@
 //!   planes used for the ground-truth linear sRGB.
 //!
 //! Sources: [`dead_leaves`] (the default, synthetic, embedded data), [`exr_io`] (spectral
-//! OpenEXR), [`rgb`] (photographs through a simulated display or the official matrix),
-//! [`tetra`] (environments rich in tetrachromatic colours, paper S-07), all gathered in a
-//! [`pool`] of tiles that training crops are drawn from.
+//! OpenEXR), [`mat_io`] (MATLAB v7.3 hyperspectral cubes such as NTIRE 2022 / ARAD_1K),
+//! [`band_stack`] (one grey PNG per band, as CAVE ships its scenes), [`envi_io`] (ENVI cubes of
+//! hyperspectral cameras),
+//! [`rgb`] (photographs through a simulated display or the official matrix), [`tetra`]
+//! (environments rich in tetrachromatic colours, paper S-07), all gathered in a [`pool`] of
+//! tiles that training crops are drawn from. Scene files ([`sources`]: files, folders, globs)
+//! are [`prepared`] once — projected onto the eye's classes, resized, white balanced — and
+//! kept on disk in a [`plane_cache`].
 
+pub mod band_stack;
 pub mod dead_leaves;
+pub mod envi_io;
 pub mod exr_io;
 
 pub mod hue_sphere;
 pub mod library;
+pub mod mat_io;
+pub mod plane_cache;
 pub mod pool;
+pub mod prepared;
 pub mod projection;
+pub mod resize;
 pub mod rgb;
+pub mod sources;
 pub mod statistics;
 pub mod surfaces;
 pub mod tetra;
@@ -69,6 +81,26 @@ impl SpectralImage {
         (0..self.grid.len())
             .map(|l| self.data[l * hw + y * self.w + x])
             .collect()
+    }
+
+    /// Every value must be finite and ≥ 0 (a radiance): otherwise an error naming `path`, the
+    /// first bad pixel `(x, y)`, its wavelength and its value.
+    pub fn check_radiance(&self, path: &std::path::Path) -> Result<()> {
+        let (h, w) = (self.h, self.w);
+        let plane = (h * w).max(1);
+        match self.data.iter().position(|v| !(v.is_finite() && *v >= 0.0)) {
+            None => Ok(()),
+            Some(i) => Err(RetinaError::Radiance {
+                path: path.to_path_buf(),
+                message: format!(
+                    "pixel (x {}, y {}) at {} nm is {}: radiance must be finite and ≥ 0",
+                    (i % plane) % w.max(1),
+                    (i % plane) / w.max(1),
+                    self.grid.as_slice()[i / plane],
+                    self.data[i]
+                ),
+            }),
+        }
     }
 
     /// Linearly resample every pixel's spectrum onto `grid`. Error naming `source_name` if this

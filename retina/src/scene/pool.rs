@@ -8,41 +8,51 @@
 //!   moves the origin.
 //!
 //! Sources, in order of precedence:
-//! 1. `files` — spectral OpenEXR (`.exr`, resampled onto the sensitivity grid) and RGB photographs
-//!    (`.png`, through the simulated display or the official matrix, `rgb_path`). Images
-//!    smaller than a tile are upscaled bilinearly so that their short side fits (authors' code, docs/references.md#scenes
-//!    step 3); each tile is a random crop.
+//! 1. `files` — files, folders and glob patterns ([`super::sources`]) of spectral OpenEXR
+//!    (`.exr`), MATLAB v7.3 / HDF5 cubes (`.mat`, `.h5`; NTIRE 2022 / ARAD_1K), folders of one
+//!    PNG per band (CAVE) and RGB
+//!    photographs (`.png`, through the simulated display or the official matrix, `rgb_path`),
+//!    [`super::prepared`] once for the eye — projected, short side resized to `tile_px`, white
+//!    balanced per image — and kept in an on-disk cache (`cache_dir`), not in memory. Each tile
+//!    is a random square crop of one file's planes; tile draws walk the files in an order
+//!    shuffled once from the pool's seed (initial tiles first, then each refresh), so every
+//!    file is used before any is used again.
 //! 2. otherwise synthetic dead leaves ([`super::dead_leaves`]), with a fraction
 //!    `tetra.fraction` of tiles from a tetrachromatic environment ([`super::tetra`]; the
 //!    paper's 100 patches on 900 images is 0.1).
 //!
 //! White balance (authors' code, docs/references.md#scenes, per image and per plane: divide by the maximum, multiply
-//! by the class's response to the sRGB white) is applied to spectral sources — dead leaves,
-//! tetra environments, EXR files — when `white_balance` is on (the default). RGB photographs are
-//! not balanced: their white is already the sRGB white (the official RGB path has no balance).
+//! by the class's response to the sRGB white) is applied to spectral sources — dead leaves and
+//! tetra environments per tile, EXR and `.mat` files per whole image at preparation — when
+//! `white_balance` is on (the default). RGB photographs are not balanced: their white is already
+//! the sRGB white (the official RGB path has no balance).
 //!
 //! `refresh_every_batches` > 0 replaces one tile (round robin) every that many batches, so long
 //! runs see fresh scenes at a small amortised cost.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use rand::rngs::StdRng;
+use rand::seq::SliceRandom;
 use rand::{Rng, SeedableRng};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
+use super::band_stack::BandStackOptions;
 use super::dead_leaves::{DeadLeavesConfig, LeafScene};
-use super::exr_io::read_scene_exr;
 use super::hue_sphere::HueSphere;
 use super::library::ReflectanceLibrary;
+use super::mat_io::MatOptions;
+use super::prepared::PreparedScenes;
+pub use super::prepared::{FileScale, ProgressFn, SceneProgress};
 pub use super::projection::SceneProjection;
-use super::rgb::{class_planes_by_matrix, Display, RgbImage};
+use super::rgb::Display;
 use super::surfaces::{surface_scene, SurfacesConfig};
 use super::tetra::{
     idealised_class_planes, optimal_colour_library, patch_config, TetraEnvironment,
     OPTIMAL_LIBRARY_SIZE,
 };
-use super::{ClassPlanes, SpectralImage};
+use super::ClassPlanes;
 use crate::error::{Result, RetinaError};
 use crate::foveation::MipStack;
 
@@ -94,7 +104,8 @@ pub struct ScenePoolConfig {
     pub surfaces: SurfacesConfig,
     /// Tetrachromatic augmentation (`None`: natural scenes only).
     pub tetra: Option<TetraMix>,
-    /// Scene files; when non-empty they replace the synthetic scenes.
+    /// Scene files, folders and glob patterns (`data/ARAD_1K_*.mat`); when non-empty they
+    /// replace the synthetic scenes.
     pub files: Vec<PathBuf>,
     /// RGB photograph path.
     pub rgb_path: RgbPath,
@@ -102,11 +113,19 @@ pub struct ScenePoolConfig {
     pub white_balance: bool,
     /// Replace one tile every this many batches (0 = never).
     pub refresh_every_batches: usize,
-}
-
-enum LoadedFile {
-    Spectral(SpectralImage),
-    Rgb(RgbImage),
+    /// How scene files are scaled when prepared (default: short side = `tile_px`).
+    #[serde(default)]
+    pub file_scale: FileScale,
+    /// Dataset names of `.mat` / HDF5 cubes (default: ARAD_1K's `cube` and `bands`).
+    #[serde(default)]
+    pub mat: MatOptions,
+    /// Wavelengths of band-stack folders (default: CAVE's, 400 nm every 10 nm).
+    #[serde(default)]
+    pub band_stack: BandStackOptions,
+    /// Folder of prepared scene files (default: `$XDG_CACHE_HOME/colorvision/scenes`, else
+    /// `~/.cache/colorvision/scenes`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cache_dir: Option<PathBuf>,
 }
 
 /// Bilinear resize of `(planes, h, w)` data to `(planes, nh, nw)` (align-corners mapping).
@@ -195,8 +214,9 @@ pub struct ScenePool {
     library: ReflectanceLibrary,
     /// Surfaces of the tetrachromatic patches: the observer's hue sphere or optimal colours.
     patch_library: ReflectanceLibrary,
-    display: Option<Display>,
-    files: Vec<LoadedFile>,
+    files: Option<PreparedScenes>,
+    /// The order tile draws walk the files in (a permutation drawn once).
+    file_order: Vec<usize>,
     next_refresh: usize,
 }
 
@@ -211,13 +231,24 @@ impl std::fmt::Debug for ScenePool {
 }
 
 impl ScenePool {
-    /// Load files, then make `config.tiles` tiles in parallel (each from its own seed drawn
-    /// from `rng`). Errors: unreadable files, EXR grids not covering the sensitivities.
+    /// Prepare the files, then make `config.tiles` tiles in parallel (each from its own seed
+    /// drawn from `rng`). Errors: unreadable files, scene grids not covering the sensitivities.
     pub fn new<R: Rng + ?Sized>(
         config: ScenePoolConfig,
         projection: SceneProjection,
         levels: usize,
         rng: &mut R,
+    ) -> Result<ScenePool> {
+        Self::with_progress(config, projection, levels, rng, &|_| {})
+    }
+
+    /// [`ScenePool::new`], telling `progress` of each scene file prepared.
+    pub fn with_progress<R: Rng + ?Sized>(
+        config: ScenePoolConfig,
+        projection: SceneProjection,
+        levels: usize,
+        rng: &mut R,
+        progress: ProgressFn<'_>,
     ) -> Result<ScenePool> {
         if config.tiles == 0 || config.tile_px < 2 {
             return Err(RetinaError::setting(
@@ -226,27 +257,18 @@ impl ScenePool {
             ));
         }
         let grid = projection.grid.clone();
-        let mut files = Vec::new();
-        for path in &config.files {
-            let ext = path
-                .extension()
-                .and_then(|e| e.to_str())
-                .unwrap_or("")
-                .to_ascii_lowercase();
-            files.push(match ext.as_str() {
-                "exr" => LoadedFile::Spectral(read_scene_exr(path, &grid)?),
-                "png" => LoadedFile::Rgb(RgbImage::read_png(path)?),
-                _ => {
-                    return Err(RetinaError::setting(
-                        "scenes.files",
-                        format!("{}: expected a .exr or .png file", path.display()),
-                    ))
-                }
-            });
-        }
         let display = match config.rgb_path {
             RgbPath::Display => Some(Display::srgb_like(&grid)?),
             RgbPath::Matrix => None,
+        };
+        let (files, file_order) = if config.files.is_empty() {
+            (None, vec![])
+        } else {
+            let prepared =
+                PreparedScenes::prepare(&config, &projection, display.as_ref(), progress)?;
+            let mut order: Vec<usize> = (0..prepared.len()).collect();
+            order.shuffle(rng);
+            (Some(prepared), order)
         };
         let mut patch_rng = StdRng::seed_from_u64(rng.random());
         let patch_library = match config.tetra.map(|t| t.environment) {
@@ -263,8 +285,8 @@ impl ScenePool {
             projection,
             levels,
             tiles: vec![],
-            display,
             files,
+            file_order,
             next_refresh: 0,
         };
         let seeds: Vec<u64> = (0..pool.config.tiles).map(|_| rng.random()).collect();
@@ -277,33 +299,23 @@ impl ScenePool {
         Ok(pool)
     }
 
-    /// Make the class planes of tile number `index` (module docs).
+    /// The scene file tile draw number `draw` crops (module docs), if the pool has files.
+    pub fn file_for_draw(&self, draw: usize) -> Option<&Path> {
+        let files = self.files.as_ref()?;
+        let i = self.file_order[draw % self.file_order.len()];
+        Some(&files.scenes[i].source)
+    }
+
+    /// Make the class planes of tile draw number `index`: the initial tiles are draws
+    /// `0..tiles`, each refresh the next draw (module docs).
     pub fn make_planes<R: Rng + ?Sized>(&self, index: usize, rng: &mut R) -> Result<ClassPlanes> {
         let size = self.config.tile_px;
         let proj = &self.projection;
-        let (mut planes, balance) = if !self.files.is_empty() {
-            match &self.files[index % self.files.len()] {
-                LoadedFile::Spectral(img) => {
-                    let p = proj.project(img);
-                    let data = random_crop(&p.planes, p.n_planes, p.h, p.w, size, rng);
-                    (proj.wrap(size, size, data), true)
-                }
-                LoadedFile::Rgb(rgb) => {
-                    let data = random_crop(&rgb.linear, 3, rgb.h, rgb.w, size, rng);
-                    let crop = RgbImage {
-                        h: size,
-                        w: size,
-                        linear: data,
-                    };
-                    let planes = match &self.display {
-                        Some(d) => proj.project(&d.spectral_image(&crop)),
-                        None => {
-                            proj.wrap(size, size, class_planes_by_matrix(&crop, &proj.cone_rgb))
-                        }
-                    };
-                    (planes, false)
-                }
-            }
+        let (mut planes, balance) = if let Some(files) = &self.files {
+            // Prepared planes are white balanced already (per image, not per crop).
+            let p = files.planes(self.file_order[index % self.file_order.len()], proj)?;
+            let data = random_crop(&p.planes, p.n_planes, p.h, p.w, size, rng);
+            (proj.wrap(size, size, data), false)
         } else {
             let tetra = self
                 .config
@@ -377,10 +389,10 @@ impl ScenePool {
         ))
     }
 
-    /// Replace the next tile (round robin) with a fresh one.
+    /// Replace the next tile (round robin) with a fresh one, from the next draw.
     pub fn refresh_one<R: Rng + ?Sized>(&mut self, rng: &mut R) -> Result<()> {
         let i = self.next_refresh % self.tiles.len();
-        self.tiles[i] = self.make_tile(i, rng)?;
+        self.tiles[i] = self.make_tile(self.tiles.len() + self.next_refresh, rng)?;
         self.next_refresh += 1;
         Ok(())
     }

@@ -31,6 +31,10 @@ fn pool_config(tiles: usize, tile_px: usize, tetra: Option<TetraMix>) -> ScenePo
         rgb_path: RgbPath::Display,
         white_balance: true,
         refresh_every_batches: 0,
+        file_scale: Default::default(),
+        mat: Default::default(),
+        band_stack: Default::default(),
+        cache_dir: None,
     }
 }
 
@@ -156,10 +160,12 @@ fn pool_white_balance_and_reference_planes() {
     assert_eq!(ls.plane_classes[2].name, "ref_M");
     // PNG files through the matrix path: not white balanced, exact official matrix.
     let png = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("data/astronaut.png");
+    let cache = std::env::temp_dir().join(format!("pool-png-cache-{}", std::process::id()));
     let files = ScenePoolConfig {
         files: vec![png],
         rgb_path: RgbPath::Matrix,
         tiles: 1,
+        cache_dir: Some(cache.clone()),
         ..cfg
     };
     let pool = ScenePool::new(files, proj, 1, &mut StdRng::seed_from_u64(0)).unwrap();
@@ -170,6 +176,7 @@ fn pool_white_balance_and_reference_planes() {
         .copied()
         .fold(0.0f32, f32::max);
     assert!(max_l <= 1.0831, "{max_l}");
+    std::fs::remove_dir_all(&cache).unwrap();
 }
 
 /// A pool of four 64-px synthetic tiles for `classes`, with `tetra` patches.

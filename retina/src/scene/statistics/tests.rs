@@ -1,7 +1,8 @@
 //! Known answers of the statistics, and the generators against held-out photographs.
 
 use super::*;
-use crate::scene::pool::{RgbPath, SceneGenerator, ScenePool, ScenePoolConfig};
+use crate::config::RetinaConfig;
+use crate::scene::pool::{SceneGenerator, ScenePool, ScenePoolConfig};
 use crate::scene::projection::SceneProjection;
 use colorimetry::{ConeClass, ConeTemplate, WavelengthGrid};
 use rand::rngs::StdRng;
@@ -82,13 +83,9 @@ fn generator(generator: SceneGenerator) -> SpatialStatistics {
         tiles: 1,
         tile_px: CROP_PX,
         generator,
-        dead_leaves: Default::default(),
-        surfaces: Default::default(),
         tetra: None,
-        files: vec![],
-        rgb_path: RgbPath::Display,
-        white_balance: true,
         refresh_every_batches: 0,
+        ..RetinaConfig::quick().scenes
     };
     let pool = ScenePool::new(cfg, proj, 1, &mut StdRng::seed_from_u64(5)).unwrap();
     let mut rng = StdRng::seed_from_u64(6);
