@@ -38,7 +38,7 @@
 //!     let y = tape.matmul(x, wv);
 //!     let loss = tape.sum(y);
 //!     let grads = rule.assign_credit(&mut tape, loss.into(), &params);
-//!     opt.step(&mut params, &grads).unwrap();
+//!     opt.step(1e-3, &mut params, &grads).unwrap();
 //! }
 //! ```
 //!

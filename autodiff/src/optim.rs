@@ -2,6 +2,9 @@
 //! container that applies one to a [`ParamStore`] ([`Optimizer`]).
 //!
 //! - **Sign.** Gradients are `∂L/∂θ` ([`ParamGrads`]); rules *subtract* them.
+//! - **Learning rate.** The caller gives it to every [`Optimizer::step`] (a schedule decides
+//!   it, step by step); no rule or optimiser keeps one of its own. A parameter's rate is that
+//!   rate times its scale ([`Optimizer::set_lr_scale`], 1 unless set).
 //! - **Frozen parameters** are skipped entirely: no update, no state change, even when a
 //!   gradient for them is present.
 //! - **Steps** are counted per parameter (Adam's bias correction uses the number of updates that
@@ -30,10 +33,10 @@ pub trait UpdateRule<T: Float> {
     /// Names of the state tensors kept per parameter, each shaped like the parameter.
     fn slots(&self) -> &'static [&'static str];
     /// Updates `p` in place from its gradient `g`, state `slots` (in the order of
-    /// [`UpdateRule::slots`]) and `step`, the 1-based count of updates of this parameter.
-    /// `lr_scale` multiplies the rule's learning rate for this parameter (1 unless the
-    /// optimiser was told otherwise, [`Optimizer::set_lr_scale`]).
-    fn update(&self, p: &mut [T], g: &[T], slots: &mut [Tensor<T>], step: u64, lr_scale: f64);
+    /// [`UpdateRule::slots`]) and `step`, the 1-based count of updates of this parameter, at
+    /// learning rate `lr` (the step's rate times this parameter's scale,
+    /// [`Optimizer::set_lr_scale`]).
+    fn update(&self, p: &mut [T], g: &[T], slots: &mut [Tensor<T>], step: u64, lr: f64);
 }
 
 /// Why an optimiser step or a state load failed.
@@ -74,7 +77,7 @@ struct State<T> {
 
 /// Applies an [`UpdateRule`] to the trainable parameters of a store, keeping per-parameter state.
 pub struct Optimizer<T: Float, R: UpdateRule<T>> {
-    /// The rule (its hyper-parameters, e.g. `opt.rule.lr`, may be changed between steps).
+    /// The rule (its hyper-parameters, e.g. `opt.rule.beta1`, may be changed between steps).
     pub rule: R,
     /// Error when a trainable parameter has no gradient (catches unused parameters).
     pub strict: bool,
@@ -93,14 +96,17 @@ impl<T: Float, R: UpdateRule<T>> Optimizer<T, R> {
         }
     }
 
-    /// Multiplies the learning rate of parameter `id` by `scale` from the next step on.
+    /// Multiplies the learning rate of parameter `id` by `scale` from the next step on (0
+    /// holds it).
     pub fn set_lr_scale(&mut self, id: ParamId, scale: f64) {
         self.lr_scales.insert(id, scale);
     }
 
-    /// Updates every trainable parameter that has a gradient in `grads`.
+    /// Updates every trainable parameter that has a gradient in `grads`, at `learning_rate`
+    /// (times each parameter's scale).
     pub fn step(
         &mut self,
+        learning_rate: f64,
         params: &mut ParamStore<T>,
         grads: &ParamGrads<T>,
     ) -> Result<(), OptimError> {
@@ -143,7 +149,7 @@ impl<T: Float, R: UpdateRule<T>> Optimizer<T, R> {
                 g.data(),
                 &mut st.slots,
                 st.step,
-                self.lr_scales.get(&id).copied().unwrap_or(1.0),
+                learning_rate * self.lr_scales.get(&id).copied().unwrap_or(1.0),
             );
         }
         Ok(())
@@ -270,9 +276,9 @@ mod tests {
     fn frozen_parameters_and_their_state_are_untouched() {
         let (mut params, grads) = setup();
         params.freeze(ParamId(1));
-        let mut opt = Optimizer::new(Adam::new(0.1));
+        let mut opt = Optimizer::new(Adam::default());
         for _ in 0..3 {
-            opt.step(&mut params, &grads).unwrap();
+            opt.step(0.1, &mut params, &grads).unwrap();
         }
         assert_eq!(params.get(ParamId(1)).data()[0].to_bits(), 0.5f32.to_bits());
         assert_eq!(
@@ -291,9 +297,9 @@ mod tests {
             g
         };
         let (mut p1, _) = setup();
-        let mut o1 = Optimizer::new(Adam::new(0.05));
-        o1.step(&mut p1, &grads_at(0)).unwrap();
-        o1.step(&mut p1, &grads_at(1)).unwrap();
+        let mut o1 = Optimizer::new(Adam::default());
+        o1.step(0.05, &mut p1, &grads_at(0)).unwrap();
+        o1.step(0.05, &mut p1, &grads_at(1)).unwrap();
         let path =
             std::env::temp_dir().join(format!("autodiff-optim-{}.safetensors", std::process::id()));
         o1.save_safetensors(&path, &p1).unwrap();
@@ -305,15 +311,15 @@ mod tests {
             q
         };
         let (mut p2, mut p3) = (copy(&p1), copy(&p1));
-        let mut o2 = Optimizer::new(Adam::new(0.05));
+        let mut o2 = Optimizer::new(Adam::default());
         o2.load_safetensors(&path, &p2).unwrap();
         std::fs::remove_file(&path).unwrap();
-        let mut fresh = Optimizer::new(Adam::new(0.05));
+        let mut fresh = Optimizer::new(Adam::default());
         for k in 2..5 {
             let g = grads_at(k);
-            o1.step(&mut p1, &g).unwrap();
-            o2.step(&mut p2, &g).unwrap();
-            fresh.step(&mut p3, &g).unwrap();
+            o1.step(0.05, &mut p1, &g).unwrap();
+            o2.step(0.05, &mut p2, &g).unwrap();
+            fresh.step(0.05, &mut p3, &g).unwrap();
         }
         for id in p1.ids() {
             assert_eq!(p1.get(id), p2.get(id), "{}", p1.name(id));
@@ -330,8 +336,8 @@ mod tests {
     fn shape_mismatch_and_strict_mode_are_errors() {
         let (mut params, mut grads) = setup();
         grads.insert(ParamId(1), Tensor::zeros([2]));
-        let mut opt = Optimizer::new(Sgd::new(0.1));
-        let err = opt.step(&mut params, &grads).unwrap_err();
+        let mut opt = Optimizer::new(Sgd::default());
+        let err = opt.step(0.1, &mut params, &grads).unwrap_err();
         assert!(
             err.to_string()
                 .contains("\"b\" has shape [2], parameter has [1]"),
@@ -340,7 +346,7 @@ mod tests {
         grads.remove(ParamId(1));
         opt.strict = true;
         assert!(matches!(
-            opt.step(&mut params, &grads),
+            opt.step(0.1, &mut params, &grads),
             Err(OptimError::MissingGrad { .. })
         ));
         assert_eq!(
