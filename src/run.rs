@@ -19,32 +19,37 @@
 //! CMF-SIM schedule as one that never stopped (same seed, same thread count; the checkpoint
 //! records the count, and a resume with another one says so before its first step).
 
-use crate::config::RunConfig;
 use crate::interrupt;
-use crate::observer::EyeObserver;
 use crate::pictures;
-use crate::run_folder::{self, Folder, Opened};
-use crate::source::RetinaSource;
 use colorimetry::cmf_sim::CmfSimSettings;
 use colorimetry::plot::{LinePlot, Scale, Series};
 use colorimetry::{run_cmf_sim, CmfSimResult};
 use cortex::{DataSource, Trainer};
+use folder::{Folder, Opened};
 use indicatif::{ProgressBar, ProgressStyle};
 use retina::Retina;
+use science::config::RunConfig;
+use science::heldout::{heldout_error, heldout_motion_error, heldout_source};
+use science::observer::EyeObserver;
+use science::source::RetinaSource;
+use science::summary::{margins_text, DimensionPoint, LastMeasurement, Summary};
 use serde::{Deserialize, Serialize};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
-pub use crate::run_error::RunError;
-
+pub mod error;
 mod finish;
+pub mod folder;
+pub mod lock;
+pub mod measurement_dir;
 mod open;
 mod steps;
 
-pub use finish::{digits_grouped, in_words, out_dir, print_outcome};
+pub use error::RunError;
+pub use finish::{in_words, out_dir, print_outcome};
 pub use open::start_w_at_the_eyes_kernel;
-pub use steps::{heldout_error, heldout_motion_error, measure};
+pub use steps::measure;
 
 /// What a run does besides training.
 #[derive(Clone, Copy, Debug)]
@@ -64,163 +69,6 @@ impl RunMode {
         pictures: true,
         progress: true,
     };
-}
-
-/// One CMF-SIM measurement during training.
-#[derive(Clone, Debug, Serialize, Deserialize)]
-pub struct DimensionPoint {
-    /// Steps done.
-    pub step: u64,
-    /// Dimension measured (0: undefined).
-    pub dimension: usize,
-    /// Seconds CMF-SIM took.
-    pub seconds: f64,
-    /// Seconds since the run started, when this measurement finished.
-    pub wall_seconds: f64,
-    /// Primary sets per K of this measurement's budget.
-    pub sets_per_k: usize,
-    /// Test wavelengths of this measurement's budget.
-    pub test_wavelengths: usize,
-}
-
-/// `summary.json`.
-#[derive(Clone, Debug, Serialize, Deserialize)]
-pub struct Summary {
-    /// The colour dimensionality CMF-SIM measured at the end (0 when not measured or undefined).
-    pub dimension: usize,
-    /// Gradient updates done.
-    pub steps: u64,
-    /// Steps of the checkpoints the run was resumed from, in order (empty: never stopped).
-    #[serde(default)]
-    pub resumed_at_steps: Vec<u64>,
-    /// Wall time of the whole run (its parts, when resumed), s.
-    pub wall_seconds: f64,
-    /// Mean training-step time, ms.
-    pub mean_step_ms: f64,
-    /// Whether the cortex received the oracle eye motion.
-    pub oracle_motion: bool,
-    /// Dimension over training.
-    pub dimension_over_steps: Vec<DimensionPoint>,
-    /// First measurement of each dimension 1, 2, 3, …: `(dimension, step, seconds since the
-    /// run started)`.
-    pub first_step_at_dimension: Vec<(usize, u64, f64)>,
-    /// Held-out prediction error at the end: `[model MSE, "next = current" MSE, ratio]`.
-    pub heldout_prediction: Option<[f64; 3]>,
-    /// Mean distance of the estimated eye motion from the true one on held-out batches at the
-    /// end, ONS pixels (`None` with oracle motion).
-    pub heldout_motion_error_px: Option<f64>,
-    /// CMF-SIM verdict at the end.
-    pub verdict: String,
-    /// Per K tried at the end, in words: the converged margin of its reported set (see
-    /// [`colorimetry::cmf_sim::KSummary::describe`]).
-    pub cmf_sim_per_k: Vec<String>,
-    /// Per K tried at the end: `(K, converged max error / threshold over every wavelength)`;
-    /// < 1 passes.
-    pub converged_ratio_per_k: Vec<(usize, f64)>,
-    /// Learned invariants against the truth (evaluation only).
-    pub invariants: Option<pictures::Invariants>,
-    /// The resolved config.
-    pub config: RunConfig,
-}
-
-/// A held-out eye: the same mosaic and layout, different scenes.
-fn heldout_retina(config: &RunConfig) -> Result<Retina, RunError> {
-    let mut c = config.retina.clone();
-    c.scene_seed = c.scene_seed.wrapping_add(0x005E_ED0F_0E1D);
-    Ok(Retina::new(c)?)
-}
-
-/// The run's held-out batches (the held-out eye, its own batch seed), the same sequence on
-/// every call; with `true_motion` each batch carries the eye's motion for evaluation.
-pub fn heldout_source(config: &RunConfig, true_motion: bool) -> Result<RetinaSource, RunError> {
-    Ok(RetinaSource::new(
-        heldout_retina(config)?,
-        config.seed ^ 0xA5A5,
-        true_motion,
-    ))
-}
-
-/// CMF-SIM's margins in short, e.g. "K1 4.54, K2 1.02, K3 0.99": per K tried, the reported
-/// set's worst error over every test wavelength in units of the threshold (above 1 fails,
-/// below 1 passes).
-pub fn margins_text(converged_ratio_per_k: &[(usize, f64)]) -> String {
-    converged_ratio_per_k
-        .iter()
-        .map(|(k, r)| format!("K{k} {r:.2}"))
-        .collect::<Vec<_>>()
-        .join(", ")
-}
-
-/// The last CMF-SIM measurement, as the summary reports it.
-#[derive(Clone, Debug, Default, Serialize, Deserialize)]
-pub struct LastMeasurement {
-    /// Step measured at.
-    pub step: u64,
-    /// Dimension (0: undefined).
-    pub dimension: usize,
-    /// Verdict.
-    pub verdict: String,
-    /// Per K tried, the converged margin in words ([`colorimetry::cmf_sim::KSummary::describe`]).
-    pub cmf_sim_per_k: Vec<String>,
-    /// `(K, converged max error / threshold over every wavelength)` per K tried.
-    pub converged_ratio_per_k: Vec<(usize, f64)>,
-}
-
-impl LastMeasurement {
-    /// What the CMF-SIM result `r`, measured at `step`, reports.
-    pub fn of(step: u64, r: &CmfSimResult) -> Self {
-        LastMeasurement {
-            step,
-            dimension: r.dimension,
-            verdict: r.verdict.clone(),
-            cmf_sim_per_k: (r.per_k.iter())
-                .map(|q| q.describe(r.test_wavelengths_nm.len()))
-                .collect(),
-            converged_ratio_per_k: (r.per_k.iter())
-                .map(|q| (q.n_primaries, q.converged_worst_ratio))
-                .collect(),
-        }
-    }
-}
-
-impl Summary {
-    /// Reads `summary.json` at `path`; the error in words.
-    pub fn read(path: &Path) -> Result<Summary, String> {
-        crate::io::read_json(path)
-    }
-
-    /// The summary of an observer measured without training (S-05's Φ = identity baselines):
-    /// no step done, one CMF-SIM measurement `r` with `config.cmf_sim`, no learned invariants.
-    pub fn untrained(config: &RunConfig, r: &CmfSimResult) -> Summary {
-        let measured = LastMeasurement::of(0, r);
-        Summary {
-            dimension: r.dimension,
-            steps: 0,
-            resumed_at_steps: Vec::new(),
-            wall_seconds: r.seconds,
-            mean_step_ms: 0.0,
-            oracle_motion: config.oracle_motion,
-            dimension_over_steps: vec![DimensionPoint {
-                step: 0,
-                dimension: r.dimension,
-                seconds: r.seconds,
-                wall_seconds: r.seconds,
-                sets_per_k: config.cmf_sim.sets_per_k,
-                test_wavelengths: config.cmf_sim.n_test_wavelengths,
-            }],
-            first_step_at_dimension: match r.dimension {
-                0 => Vec::new(),
-                d => vec![(d, 0, r.seconds)],
-            },
-            heldout_prediction: None,
-            heldout_motion_error_px: None,
-            verdict: measured.verdict,
-            cmf_sim_per_k: measured.cmf_sim_per_k,
-            converged_ratio_per_k: measured.converged_ratio_per_k,
-            invariants: None,
-            config: config.clone(),
-        }
-    }
 }
 
 /// The run's own state at a checkpoint (stored in its `meta.json` as `run_state`), restored
@@ -299,7 +147,7 @@ pub fn run_continued(
 
 /// A run in `out` as `folder` allows (new, resumed from its newest valid checkpoint, or
 /// replaced); a finished run returns its summary. The run holds the folder's lock
-/// ([`crate::run_lock`]) until it returns, so no other process trains into `out` meanwhile.
+/// ([`crate::run::lock`]) until it returns, so no other process trains into `out` meanwhile.
 pub fn run_in(
     config: &RunConfig,
     out: &Path,
@@ -307,9 +155,9 @@ pub fn run_in(
     folder: Folder,
     origin: Origin<'_>,
 ) -> Result<Summary, RunError> {
-    run_folder::refuse_file(out)?;
-    let _lock = crate::run_lock::RunLock::acquire(out)?;
-    let opened = run_folder::open(out, config, folder)?;
+    folder::refuse_file(out)?;
+    let _lock = lock::RunLock::acquire(out)?;
+    let opened = folder::open(out, config, folder)?;
     if opened == Opened::Finished {
         println!(
             "colorvision: {} holds this run, finished; its summary.json stands",

@@ -48,6 +48,54 @@ use std::sync::{Arc, Mutex};
 /// Largest total size of the per-location cache, bytes (beyond it, shows render directly).
 const CACHE_LIMIT_BYTES: usize = 1 << 30;
 
+/// The observers CMF-SIM tests through an eye: the learned cortex, or one whose colour
+/// dimension is known ([`crate::ladder`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ObserverKind {
+    /// The learned cortex of a trained run.
+    Cortex,
+    /// Φ = identity: the optic nerve signal is the percept (no colour constancy).
+    Identity,
+    /// The cone activations are the percept, lateral inhibition omitted (1).
+    Cones,
+    /// Oracle decoder: each kind of cone interpolated across the mosaic (as many dimensions as
+    /// independent kinds; cones mixing opsins solved by least squares over the mixtures).
+    Oracle,
+    /// Oracle decoder, each cell keeping only its own kind (no demosaicking).
+    OracleMosaic,
+    /// The cone excitations of an ideal eye with these cones: no mosaic, no noise.
+    Analytic,
+}
+
+impl ObserverKind {
+    /// Every kind, in the order the command line lists them.
+    pub const ALL: [ObserverKind; 6] = [
+        ObserverKind::Cortex,
+        ObserverKind::Identity,
+        ObserverKind::Cones,
+        ObserverKind::Oracle,
+        ObserverKind::OracleMosaic,
+        ObserverKind::Analytic,
+    ];
+
+    /// The kind named `name` ([`ObserverKind::name`]).
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|k| k.name() == name)
+    }
+
+    /// Its name on the command line and in folder names (`oracle-mosaic`).
+    pub fn name(self) -> &'static str {
+        match self {
+            ObserverKind::Cortex => "cortex",
+            ObserverKind::Identity => "identity",
+            ObserverKind::Cones => "cones",
+            ObserverKind::Oracle => "oracle",
+            ObserverKind::OracleMosaic => "oracle-mosaic",
+            ObserverKind::Analytic => "analytic",
+        }
+    }
+}
+
 /// What turns one ONS frame into a percept image.
 pub enum Decoder<'a> {
     /// The learned cortex's decoder Φ (N channels).

@@ -1,11 +1,11 @@
-//! The resolved settings of a run: a preset, then a TOML file, then command-line options, each
-//! overriding the last. Every number is a config value; a preset is a named set of them.
+//! The resolved settings of a run: a preset, then a TOML file and `KEY=VALUE` settings, then
+//! preset, cones, seed and steps given directly ([`Overrides`]), each overriding the last. Every
+//! number is a config value; a preset is a named set of them.
 //!
 //! A TOML file may give any subset of the fields; unknown fields are errors that name the file
-//! and the field (a typo never silently does nothing). The resolved config is written into the
+//! (or `--set`) and the field (a typo never silently does nothing). The resolved config is written into the
 //! run folder as `config.toml`, so a run can be repeated with `--config runs/X/config.toml`.
 
-use crate::cli::CommonOptions;
 use crate::observer::ObserverSettings;
 use colorimetry::cmf_sim::CmfSimSettings;
 use cortex::CortexConfig;
@@ -13,9 +13,12 @@ use retina::RetinaConfig;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
+mod overrides;
 mod presets;
 mod resolve;
 mod validate;
+
+pub use overrides::{parse_setting, set_dotted, Overrides};
 
 pub use presets::{LONG_STEPS, MAIN_HUE_SPHERE_FRACTION, MAIN_STEPS, PRESETS};
 
@@ -159,105 +162,4 @@ impl RunConfig {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn options(config: Option<PathBuf>) -> CommonOptions {
-        CommonOptions {
-            config,
-            ..CommonOptions::default()
-        }
-    }
-
-    #[test]
-    fn the_checkpoint_budget_applies_during_training_only() {
-        let c = RunConfig::preset("quick", "LMS").unwrap();
-        let during = c.cmf_settings(false);
-        let last = c.cmf_settings(true);
-        assert_eq!(
-            last, c.cmf_sim,
-            "the final measurement uses the full budget"
-        );
-        assert_eq!(
-            (
-                during.sets_per_k,
-                during.n_test_wavelengths,
-                during.location_pairs
-            ),
-            (
-                c.schedule.checkpoint_cmf_sets_per_k,
-                c.schedule.checkpoint_cmf_wavelengths,
-                c.schedule.checkpoint_cmf_location_pairs
-            )
-        );
-        assert!(during.sets_per_k < last.sets_per_k);
-        let tiny = RunConfig::preset("tiny", "LMS").unwrap();
-        assert_eq!(tiny.cmf_settings(false), tiny.cmf_sim, "0 means as cmf_sim");
-    }
-
-    #[test]
-    fn a_typo_in_a_config_file_names_the_file_and_the_field() {
-        let dir = std::env::temp_dir().join(format!("cv_cfg_{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        let path = dir.join("typo.toml");
-        std::fs::write(
-            &path,
-            "preset = \"tiny\"\n[cortex.train]\nlearning_rat = 0.01\n",
-        )
-        .unwrap();
-        let err = RunConfig::resolve(&options(Some(path.clone())), "quick")
-            .unwrap_err()
-            .to_string();
-        assert!(
-            err.contains("typo.toml") && err.contains("learning_rat"),
-            "{err}"
-        );
-        std::fs::write(
-            &path,
-            "preset = \"tiny\"\nsteps = 7\n[cortex.train]\nlearning_rate = 0.01\n",
-        )
-        .unwrap();
-        let c = RunConfig::resolve(&options(Some(path)), "quick").unwrap();
-        assert_eq!(
-            (c.steps, c.cortex.train.learning_rate, c.preset.as_str()),
-            (7, 0.01, "tiny")
-        );
-        std::fs::remove_dir_all(dir).ok();
-    }
-
-    #[test]
-    fn command_line_overrides_the_file_and_mismatched_sizes_are_rejected() {
-        let mut o = options(None);
-        o.preset = Some("tiny".into());
-        o.cones = Some("LM".into());
-        o.steps = Some(5);
-        let c = RunConfig::resolve(&o, "quick").unwrap();
-        assert_eq!(
-            (c.cones.as_str(), c.retina.cones.as_str(), c.steps),
-            ("LM", "LM", 5)
-        );
-        let mut bad = c.clone();
-        bad.cortex.ons_size_px = 64;
-        assert!(bad
-            .validate()
-            .unwrap_err()
-            .to_string()
-            .contains("ons_size_px"));
-    }
-
-    #[test]
-    fn every_seed_resolves_to_a_config_that_serialises() {
-        for seed in [1, 2, 3, 12345, i64::MAX as u64] {
-            let mut o = options(None);
-            o.preset = Some("tiny".into());
-            o.seed = Some(seed);
-            let c = RunConfig::resolve(&o, "quick").unwrap();
-            let back: RunConfig = toml::from_str(&c.to_toml()).unwrap();
-            assert_eq!(back, c, "seed {seed}");
-        }
-        let mut o = options(None);
-        o.seed = Some(u64::MAX);
-        let e = RunConfig::resolve(&o, "quick").unwrap_err().to_string();
-        assert!(e.contains("seed"), "{e}");
-    }
-}
+mod tests;

@@ -1,5 +1,4 @@
 use super::*;
-use crate::convergence::CmfPoint;
 
 fn cmf(dimension: usize, per_k: &[(usize, bool, f64)]) -> CmfPoint {
     CmfPoint {

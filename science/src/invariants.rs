@@ -12,7 +12,7 @@
 //!   correlation over all taps, over the 48 surround taps only (0 for the initial identity,
 //!   whose surround is flat), and the zero-frequency (DC) gain against the DoG's. The DC gain
 //!   is reported, not scored: the prediction loss hardly identifies it (`colorvision
-//!   w-dc-gauge`, [`crate::w_gauge`]), so W's recovery is read from its shape.
+//!   w-dc-gauge`), so W's recovery is read from its shape.
 //! - **P** (positions), [`PRecovery`]: learned positions `P(uv)` against the true positions
 //!   (both in the normalised field [−1, 1]²). Positions are identifiable only up to an affine
 //!   map (the cortex may shift, rotate, shear or scale its own coordinates), so the learned

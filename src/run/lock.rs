@@ -14,7 +14,7 @@
 //!   it created for the lock alone is removed too, so a refused run leaves nothing behind.
 
 use crate::io::{fs_err, IoError};
-use crate::run_error::RunError;
+use crate::run::error::RunError;
 use atomic_io::process_alive;
 use std::path::{Path, PathBuf};
 

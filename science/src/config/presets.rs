@@ -13,17 +13,17 @@ use retina::RetinaConfig;
 /// The named sets of settings, in the order the help lists them.
 pub const PRESETS: [&str; 7] = ["tiny", "quick", "main", "long", "large", "sandbox", "paper"];
 
-/// Steps of the `long` preset: the quick eye trained until the convergence study of
-/// docs/measurements.md (three seeds) finds its held-out prediction gain flat (10–11 from
-/// 16 000 steps on) and the learned invariants settled (C recall ≥ 0.97, P 0.3–0.4 cone
-/// spacings). Its CMF-SIM dimension is not settled there: from 24 000 to 40 000 steps the seeds'
+/// Steps of the `long` preset: the quick eye trained until the convergence study (three seeds;
+/// docs/notebook/2026-11-24-a-learned-cortex-converging.md) finds its held-out prediction gain
+/// flat (10–11 from 16 000 steps on) and the learned invariants settled (C recall ≥ 0.97, P
+/// 0.3–0.4 cone spacings). Its CMF-SIM dimension is not settled there: from 24 000 to 40 000 steps the seeds'
 /// checkpoints fall on either side of the border between 2 and 3.
 pub const LONG_STEPS: u64 = 40_000;
 
 /// Steps of the `main` preset, the run of `cargo run --release`: the quick eye with a tenth of
 /// its scene tiles from its hue sphere is 3-D at this length for every seed measured
-/// (docs/measurements.md, "The main run"), and the run stays within half an hour on 2 cores
-/// including the build. At 6 000 steps the same run is on the 2-D/3-D border (3-D in 3 of 6).
+/// (docs/notebook/2026-11-27-main-run-12000-steps.md), and the run stays within half an hour
+/// on 2 cores including the build. At 6 000 steps the same run is on the 2-D/3-D border (3-D in 3 of 6).
 pub const MAIN_STEPS: u64 = 12_000;
 
 /// Share of the `main` run's scene tiles that hold surfaces of the most saturated colour the
@@ -31,7 +31,8 @@ pub const MAIN_STEPS: u64 = 12_000;
 /// Natural scenes hold few short-wavelength colours, and without them the quick eye is still on
 /// the 2-D/3-D border at 40 000 steps (the `long` preset: 3, 3, 2 for seeds 0–2; seed 2 3-D
 /// from 80 000); with this share the blue test lights are as steady as the greens by 6 000
-/// steps and every seed measured is 3-D at 12 000 (docs/measurements.md).
+/// steps and every seed measured is 3-D at 12 000
+/// (docs/notebook/2026-11-27-main-run-12000-steps.md).
 pub const MAIN_HUE_SPHERE_FRACTION: f64 = 0.1;
 
 /// The scenes of the `main` preset: natural, with [`MAIN_HUE_SPHERE_FRACTION`] of the tiles

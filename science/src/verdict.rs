@@ -9,8 +9,8 @@
 //! border* when they go up and down. Checkpoints near the end of training are the ones to ask
 //! (`convergence --cmf --cmf-steps`).
 
-use super::StudyRow;
-use crate::run::Summary;
+use crate::invariants::{self, Recovery};
+use crate::summary::Summary;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
@@ -55,6 +55,43 @@ impl CheckpointCmf {
             )
         })
     }
+}
+
+/// CMF-SIM at one checkpoint, in brief.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct CmfPoint {
+    /// Colour dimensionality (0: undefined).
+    pub dimension: usize,
+    /// Σ base error / Σ percept energy (≥ 1: no colour constancy).
+    pub base_over_energy: f64,
+    /// Per K tried: `[K, passed (0/1), converged worst error/threshold of its best set]`.
+    pub per_k: Vec<[f64; 3]>,
+    /// Wall time of the measurement, s.
+    pub seconds: f64,
+}
+
+/// Everything measured at one checkpoint.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct StudyRow {
+    /// Training step of the checkpoint.
+    pub step: u64,
+    /// Held-out prediction error of "next = current" over the model's, logged by the run at
+    /// the last evaluation at or before `step`.
+    pub heldout_gain: Option<f64>,
+    /// Wall time of training up to the checkpoint, s, as the run recorded it.
+    pub wall_seconds: Option<f64>,
+    /// The learned invariants.
+    pub recovery: Recovery,
+    /// Held-out scenes behind the hidden and direction R² (rows kept from before the count was
+    /// recorded used [`invariants::HELD_OUT_SCENES`]).
+    #[serde(default = "default_held_out_scenes")]
+    pub held_out_scenes: usize,
+    /// The calibrated CMF-SIM (with `--cmf`).
+    pub cmf: Option<CmfPoint>,
+}
+
+fn default_held_out_scenes() -> usize {
+    invariants::HELD_OUT_SCENES
 }
 
 /// Per K: checkpoints that tried it, how many passed, lowest and highest margin.
@@ -192,7 +229,7 @@ impl VerdictOverCheckpoints {
             Reading::Falling => "falling",
             Reading::Border { .. } => "on the border",
         };
-        let group = |n: u64| crate::run::digits_grouped(n, ' ');
+        let group = |n: u64| crate::summary::digits_grouped(n, ' ');
         format!(
             "{} at {}–{} steps: {reading}",
             dims.join(", "),

@@ -3,9 +3,9 @@
 //! fourth class) — and the patch-mean readout that the resolved readout replaced fails the
 //! identity rung (it finds colour constancy in the raw optic nerve signal).
 
-use colorvision::config::RunConfig;
-use colorvision::ladder::{measure_rung, Expected, LADDER};
-use colorvision::observer::ReadoutMode;
+use science::config::RunConfig;
+use science::ladder::{measure_rung, Expected, LADDER};
+use science::observer::ReadoutMode;
 
 fn tiny(readout: ReadoutMode) -> RunConfig {
     let mut c = RunConfig::preset("tiny", "LMS").unwrap();

@@ -3,7 +3,7 @@
 //! `DIR/scope/`). Never the run's own record: the run folder itself, another run folder, or
 //! what the run writes inside its folder ([`RUN_RECORD`]) is refused.
 
-use crate::run_error::RunError;
+use crate::run::error::RunError;
 use std::path::{Component, Path, PathBuf};
 
 /// Entries of a run folder that the run itself writes (its record); a measurement of the run

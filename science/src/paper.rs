@@ -184,7 +184,7 @@ mod tests {
         let continued = |cones: &str, environment: Option<&str>| {
             let mut s = BTreeMap::from([("cones".to_string(), cones.to_string())]);
             s.insert(
-                crate::gather::CONTINUED_FROM_KEY.into(),
+                "continued_from".into(), // as `colorvision gather` names it
                 "trained @ 40000".into(),
             );
             if let Some(e) = environment {

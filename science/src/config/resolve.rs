@@ -1,15 +1,14 @@
-//! Resolving a [`RunConfig`]: a preset, then a TOML file (deep-merged; unknown fields are
-//! errors naming the file and the field), then command-line options; the settings said twice
-//! reconciled, and every component's seed derived from the run's seed.
+//! Resolving a [`RunConfig`]: a preset, then a TOML file and `--set` settings over it
+//! (deep-merged; unknown fields are errors naming the file or `--set` and the field), then the
+//! [`Overrides`] of preset, cones, seed and steps; the settings said twice reconciled, and every
+//! component's seed derived from the run's seed.
 
 use super::*;
 
 impl RunConfig {
-    /// Preset (from `--preset` or the file), file overrides, then command-line options.
-    pub fn resolve(
-        options: &CommonOptions,
-        default_preset: &str,
-    ) -> Result<RunConfig, ConfigError> {
+    /// Preset (from `--preset` or the file), file and `--set` overrides, then the other
+    /// [`Overrides`].
+    pub fn resolve(options: &Overrides, default_preset: &str) -> Result<RunConfig, ConfigError> {
         let file = match &options.config {
             Some(path) => {
                 let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Read {
@@ -30,10 +29,11 @@ impl RunConfig {
     /// [`RunConfig::resolve`] with the config file already read: `file` is its name (as errors
     /// name it) and its settings (any subset of the fields, as in a `--config` file).
     pub fn resolve_value(
-        options: &CommonOptions,
+        options: &Overrides,
         file: Option<(String, toml::Value)>,
         default_preset: &str,
     ) -> Result<RunConfig, ConfigError> {
+        let file = options.lay_settings_over(file)?;
         let file_str = |key: &str| {
             file.as_ref()
                 .and_then(|(_, v)| v.get(key))
@@ -51,6 +51,7 @@ impl RunConfig {
             .or_else(|| file_str("cones"))
             .unwrap_or_else(|| "LMS".to_string());
         let base = RunConfig::preset(&preset, &cones)?;
+        options.check_settings_alone(&base)?;
         let given = |key: &[&str]| {
             file.as_ref()
                 .is_some_and(|(_, v)| key.iter().try_fold(v, |v, k| v.get(k)).is_some())
@@ -95,7 +96,7 @@ impl RunConfig {
         };
         config.reconcile(&keys).map_err(|(f, r)| in_file(f, r))?;
         if let Some(steps) = options.steps {
-            config.steps = steps as u64;
+            config.steps = steps;
         }
         config.cortex.train.steps = config.steps;
         config.apply_seed();
@@ -175,11 +176,18 @@ pub fn one_line(message: &str) -> String {
     out
 }
 
-/// Names where a bad value came from: the command-line flag that set it, else the config file.
-fn attribute(e: ConfigError, options: &CommonOptions, file: Option<&str>) -> ConfigError {
+/// Names where a bad value came from: the command-line flag or `--set` that gave it, else the
+/// config file.
+fn attribute(e: ConfigError, options: &Overrides, file: Option<&str>) -> ConfigError {
     let ConfigError::Invalid { field, reason } = e else {
         return e;
     };
+    if let Some(key) = options.set_key_of(&field) {
+        return ConfigError::Invalid {
+            field: format!("--set {key}"),
+            reason,
+        };
+    }
     let flag = match field.as_str() {
         "steps" if options.steps.is_some() => Some("--steps"),
         "cones" if options.cones.is_some() => Some("--cones"),

@@ -19,10 +19,9 @@
 //! and the converged margins (the passing set's worst ratio at the expected K, the best failing
 //! set's at K − 1), for the readout under test and for the patch-mean readout it replaced.
 
-use crate::cli::ObserverKind;
 use crate::config::RunConfig;
-use crate::observer::{Decoder, EyeObserver, OracleDecoder, ReadoutMode};
-use crate::run_error::RunError;
+use crate::observer::{Decoder, EyeObserver, ObserverKind, OracleDecoder, ReadoutMode};
+use crate::Error;
 use colorimetry::analytic::ConeObserver;
 use colorimetry::{run_cmf_sim, CmfSimResult};
 use cortex::Trainer;
@@ -157,14 +156,14 @@ pub fn oracle_decoder(
     retina: &Retina,
     config: &RunConfig,
     interpolate: bool,
-) -> Result<OracleDecoder, RunError> {
+) -> Result<OracleDecoder, Error> {
     OracleDecoder::new(retina, interpolate, config.cmf_sim.seed)
-        .map_err(|e| RunError::invalid("cones", e.to_string()))
+        .map_err(|e| Error::invalid("cones", e.to_string()))
 }
 
 /// This eye's own cone fundamentals (the classes of its mosaic, its template and lens) as an
 /// observer whose percept is the cone excitations: no mosaic, no noise.
-pub fn own_fundamentals(retina: &Retina, config: &RunConfig) -> Result<ConeObserver, RunError> {
+pub fn own_fundamentals(retina: &Retina, config: &RunConfig) -> Result<ConeObserver, Error> {
     let grid = config.retina.grid.grid()?;
     Ok(ConeObserver::new(
         &retina.mosaic.classes,
@@ -178,7 +177,7 @@ pub fn measure_observer(
     config: &RunConfig,
     kind: ObserverKind,
     trainer: Option<&Trainer>,
-) -> Result<CmfSimResult, RunError> {
+) -> Result<CmfSimResult, Error> {
     let mut eye = config.retina.clone();
     if trainer.is_none() {
         eye.scenes.tiles = 1; // the stimuli are discs: no scenes needed
@@ -245,7 +244,7 @@ pub fn measure_rung(
     config: &RunConfig,
     rung: &Rung,
     seeds: &[u64],
-) -> Result<Vec<Measurement>, RunError> {
+) -> Result<Vec<Measurement>, Error> {
     let mut c = config.clone();
     c.cones = rung.cones.into();
     c.retina.cones = rung.cones.into();
@@ -354,12 +353,11 @@ impl Row {
 /// Table header of [`Row::markdown`].
 pub const TABLE_HEADER: &str = "| rung | readout | known | verdicts (seeds 0–4; u = no constancy) | returns it | Σbase/Σenergy | margin at K (max) | margin at K−1 (min) |\n|---|---|---|---|---|---|---|---|";
 
-/// `colorvision experiment cmf-ladder`: every rung, both readouts, [`LADDER_SEEDS`] seeds;
-/// writes `ladder.json` and `ladder.md` under `out`.
-pub fn run_ladder(config: &RunConfig, out: &std::path::Path) -> Result<Vec<Row>, RunError> {
+/// Every rung with both readouts at [`LADDER_SEEDS`] location seeds (`colorvision experiment
+/// cmf-ladder`), in table order; `each` sees every row as soon as it is measured.
+pub fn measure_ladder(config: &RunConfig, mut each: impl FnMut(&Row)) -> Result<Vec<Row>, Error> {
     let seeds: Vec<u64> = (0..LADDER_SEEDS).collect();
     let mut rows = Vec::new();
-    println!("{TABLE_HEADER}");
     for mode in [ReadoutMode::Resolved, ReadoutMode::PatchMean] {
         let mut c = config.clone();
         c.observer.readout = mode;
@@ -369,13 +367,9 @@ pub fn run_ladder(config: &RunConfig, out: &std::path::Path) -> Result<Vec<Row>,
                 readout: readout_name(mode),
                 measurements: measure_rung(&c, rung, &seeds)?,
             };
-            println!("{}", row.markdown());
+            each(&row);
             rows.push(row);
         }
     }
-    crate::io::write_json(&out.join("ladder.json"), &rows)?;
-    let table: Vec<String> = rows.iter().map(Row::markdown).collect();
-    let text = format!("{TABLE_HEADER}\n{}\n", table.join("\n"));
-    crate::io::write_atomic(&out.join("ladder.md"), text.as_bytes())?;
     Ok(rows)
 }

@@ -1,27 +1,19 @@
 //! [`RunError`]: everything that stops a command, with the file or stage it concerns, and
-//! the process exit code it maps to. Its own module so that the run folder, pictures, reports
-//! and commands name it without depending on the training loop ([`crate::run`]).
+//! the process exit code it maps to: the errors of the eye, the cortex, CMF-SIM and the
+//! settings (through [`science::Error`], in its words), the run folder's and a stop by signal.
 
 use std::path::PathBuf;
 
 /// Anything that stops a run, with the file or stage it concerns.
 #[derive(Debug, thiserror::Error)]
 pub enum RunError {
-    /// The retina could not be built.
-    #[error("retina: {0}")]
-    Retina(#[from] retina::RetinaError),
-    /// Training failed (a non-finite loss names the step and the last good checkpoint).
-    #[error("cortex: {0}")]
-    Cortex(#[from] cortex::CortexError),
-    /// CMF-SIM failed.
-    #[error("CMF-SIM: {0}")]
-    Colorimetry(#[from] colorimetry::ColorimetryError),
+    /// The eye, the cortex, CMF-SIM or a setting failed ([`science::Error`]: `retina: …`,
+    /// `cortex: …`, `CMF-SIM: …`, or the setting's file and field).
+    #[error(transparent)]
+    Science(#[from] science::Error),
     /// Writing the run folder failed.
     #[error("{0}")]
     Io(#[from] crate::io::IoError),
-    /// A setting is wrong.
-    #[error("{0}")]
-    Config(#[from] crate::config::ConfigError),
     /// The run folder cannot be used for this run.
     #[error("{path}: {reason}")]
     Folder {
@@ -54,10 +46,7 @@ pub enum RunError {
 impl RunError {
     /// A setting or option that cannot be used, naming it (`field`) and why.
     pub fn invalid(field: impl Into<String>, reason: impl Into<String>) -> Self {
-        RunError::Config(crate::config::ConfigError::Invalid {
-            field: field.into(),
-            reason: reason.into(),
-        })
+        RunError::Science(science::Error::invalid(field, reason))
     }
 
     /// The process exit code for this error: 130 when a signal stopped the run, else 1.
@@ -68,3 +57,20 @@ impl RunError {
         }
     }
 }
+
+/// The errors of the crates below, each through [`science::Error`] (the same words).
+macro_rules! through_science {
+    ($($error:ty),*) => {$(
+        impl From<$error> for RunError {
+            fn from(e: $error) -> Self {
+                RunError::Science(e.into())
+            }
+        }
+    )*};
+}
+through_science!(
+    retina::RetinaError,
+    cortex::CortexError,
+    colorimetry::ColorimetryError,
+    science::config::ConfigError
+);

@@ -4,11 +4,11 @@
 //! empties a run folder first. [`load_run`] reads a run back: its config and newest checkpoint
 //! that verifies.
 
-use crate::config::RunConfig;
 use crate::io::{fs_err, IoError};
-use crate::run_error::RunError;
-use crate::run_lock::LOCK_FILE;
+use crate::run::error::RunError;
+use crate::run::lock::LOCK_FILE;
 use cortex::Trainer;
+use science::config::RunConfig;
 use std::path::{Path, PathBuf};
 
 /// What to do with a run folder that already holds files.
@@ -103,7 +103,7 @@ pub fn read_config(out: &Path) -> Result<RunConfig, RunError> {
     let path = out.join("config.toml");
     let text = std::fs::read_to_string(&path).map_err(fs_err(&path))?;
     let mut config: RunConfig = toml::from_str(&text).map_err(|e| {
-        RunError::Config(crate::config::ConfigError::Parse {
+        RunError::from(science::config::ConfigError::Parse {
             path: path.display().to_string(),
             message: e.to_string(),
         })
