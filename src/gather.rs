@@ -29,7 +29,7 @@
 //! gets the paper's table, row by row, above the table of runs ([`paper_rows`]). A run whose
 //! checkpoints CMF-SIM measured (`colorvision convergence --cmf`, [`OVER_CHECKPOINTS_FILE`])
 //! shows there, beside its final figure, the dimensions at those checkpoints and its own end,
-//! and how they read: settled, rising, falling or on the border ([`crate::convergence::verdict`]);
+//! and how they read: settled, rising, falling or on the border ([`science::verdict`]);
 //! a run whose late checkpoints were averaged (`colorvision average`,
 //! [`crate::averaging::averaged_path`]) shows the averaged cortex's figure after them.
 //!
@@ -145,7 +145,7 @@ pub struct Run {
     /// ([`stiles_burch::TABLE_FILE`]).
     pub stiles_burch: Option<Vec<crate::stiles_burch::Row>>,
     /// CMF-SIM's verdict over its checkpoints, when `colorvision convergence --cmf` measured
-    /// some ([`over_checkpoints`]).
+    /// some ([`OVER_CHECKPOINTS_FILE`]).
     pub over_checkpoints: Option<VerdictOverCheckpoints>,
     /// The figure of its checkpoints' averaged weights, when `colorvision average` measured it
     /// into the run folder ([`crate::averaging::averaged_path`]).

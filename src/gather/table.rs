@@ -20,7 +20,7 @@ use std::collections::{BTreeMap, BTreeSet};
 /// `[retina] cones` follows `cones`). A setting that only together with several kept ones
 /// singles out its runs keeps its column: one run on a larger eye shows its eye size even when
 /// its cones, seed and steps already make its row unique. When a run measures or saves
-/// ([`BOOKKEEPING`]) gets no column unless named in `first`. Candidates are taken in order:
+/// (`schedule.*`, the checkpoint interval) gets no column unless named in `first`. Candidates are taken in order:
 /// `first` (a sweep's grid keys), then shallow keys before nested ones, then by name.
 pub fn varying_keys(runs: &[Run], first: &[String]) -> Vec<String> {
     let rows: Vec<&BTreeMap<String, String>> = runs

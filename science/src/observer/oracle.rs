@@ -24,7 +24,7 @@
 //!
 //! A mosaic of more kinds than [`MAX_KINDS`] — cones mixing two opsins each at its own ratio —
 //! is demosaicked instead by weighted least squares over the mixtures
-//! ([`super::mixed_opsins`]): its planes are the excitations of the opsins, as many as the rank
+//! (`observer/mixed_opsins.rs`): its planes are the excitations of the opsins, as many as the rank
 //! of the weight rows.
 
 use rand::rngs::StdRng;
@@ -69,7 +69,7 @@ impl OracleDecoder {
     /// draws the embedding.
     ///
     /// A mosaic of more than [`MAX_KINDS`] kinds (cones mixing opsins at random ratios) is
-    /// demosaicked by least squares over its mixtures ([`super::mixed_opsins`]) when
+    /// demosaicked by least squares over its mixtures (`observer/mixed_opsins.rs`) when
     /// interpolating, and refused without interpolation.
     pub fn new(retina: &Retina, interpolate: bool, seed: u64) -> Result<Self, TooManyKinds> {
         let nn = retina.n() * retina.n();
