@@ -103,13 +103,9 @@ fn every_seed_resolves_to_a_config_that_serialises() {
 fn a_setting_given_with_set_is_laid_over_the_file_and_recorded() {
     let dir = std::env::temp_dir().join(format!("cv_cfg_set_{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
-    let path = dir.join("base.toml");
-    std::fs::write(
-        &path,
-        "preset = \"tiny\"\n[cortex.train]\nlearning_rate = 0.01\n",
-    )
-    .unwrap();
-    let mut o = options(Some(path));
+    let file = "preset = \"tiny\"\n[cortex.train]\nlearning_rate = 0.01\n";
+    std::fs::write(dir.join("base.toml"), file).unwrap();
+    let mut o = options(Some(dir.join("base.toml")));
     o.set = vec![
         "cortex.train.learning_rate=3e-4".into(),
         "retina.scenes.tiles=5".into(),
