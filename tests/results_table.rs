@@ -52,6 +52,30 @@ fn the_readme_table_is_what_gather_prints_headed_by_the_tally_in_short_rows() {
     );
 }
 
+/// The README is a path a newcomer reads in order, at most 250 lines.
+#[test]
+fn the_readme_is_a_path_of_at_most_250_lines_in_its_order() {
+    let readme = read("README.md");
+    let lines = readme.lines().count();
+    assert!(lines <= 250, "README.md has {lines} lines (at most 250)");
+    let sections: Vec<&str> = readme
+        .lines()
+        .filter_map(|l| l.strip_prefix("## "))
+        .collect();
+    assert_eq!(
+        sections,
+        [
+            "Two commands",
+            "What you will see",
+            "Does it reproduce the paper?",
+            "The pipeline and the paper",
+            "How to change …",
+            "Benchmarks",
+            "References",
+        ]
+    );
+}
+
 #[test]
 fn the_page_of_the_rows_is_what_gather_prints_one_section_per_row_in_order() {
     let page = gathered(&["--markdown=rows"]);
