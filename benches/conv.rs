@@ -152,7 +152,7 @@ fn unet(c: &mut Criterion) {
                 let l = tape.mse(y, tv);
                 tape.backward(l);
                 grads.fill_from_tape(&tape);
-                opt.step(&mut ps, &grads).unwrap();
+                opt.step(1e-3, &mut ps, &grads).unwrap();
             })
         });
     }

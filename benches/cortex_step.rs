@@ -21,12 +21,12 @@
 //! the paper steps. Plain timing loop (no criterion): a training step mutates the model, and
 //! the split per bucket is the point.
 
-use colorvision::source::RetinaSource;
 use cortex::config::{CortexConfig, MMode};
 use cortex::model::{BUCKETS, BUCKET_NAMES};
 use cortex::synthetic::{SyntheticConfig, SyntheticSource};
 use cortex::{DataSource, OnsBatch, RuleKind, StepStats, Trainer};
 use retina::Retina;
+use science::source::RetinaSource;
 
 fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(|a, b| a.partial_cmp(b).unwrap());

@@ -14,11 +14,11 @@
 //! after another: on a machine whose load drifts, compare ratios from one run, or use the
 //! interleaved `cargo bench --bench cortex_step -- rules`.
 
-use colorvision::source::RetinaSource;
 use cortex::config::{CortexConfig, MMode};
 use cortex::{DataSource, OnsBatch, RuleKind, Trainer};
 use criterion::{criterion_group, criterion_main, Criterion};
 use retina::Retina;
+use science::source::RetinaSource;
 use std::time::{Duration, Instant};
 
 /// The default run's cortex (quick, oracle motion) trained by `rule` (its random state from

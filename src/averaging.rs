@@ -14,10 +14,11 @@
 //! ([`Averaged`]: the steps averaged, the dimension, the margins and the invariants). `gather`
 //! shows it beside the run's final figure when it is in `DIR/average/`.
 
-use crate::cli::{AverageOptions, ObserverKind};
-use crate::measurement_dir::measurement_dir;
-use crate::run_error::RunError;
+use crate::cli::AverageOptions;
+use crate::run::error::RunError;
+use crate::run::measurement_dir::measurement_dir;
 use cortex::Trainer;
+use science::observer::ObserverKind;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
@@ -49,7 +50,7 @@ pub struct Averaged {
     /// Per K tried: `(K, converged max error / threshold over every wavelength)`; < 1 passes.
     pub margins: Vec<(usize, f64)>,
     /// The averaged cortex's learned invariants against the truth (evaluation only).
-    pub invariants: crate::invariants::Recovery,
+    pub invariants: science::invariants::Recovery,
 }
 
 impl Averaged {
@@ -60,7 +61,7 @@ impl Averaged {
 
     /// Which checkpoints, e.g. "weights averaged over 8 checkpoints, 34 000–48 000 steps".
     pub fn span(&self) -> String {
-        let group = |n: u64| crate::run::digits_grouped(n, ' ');
+        let group = |n: u64| science::summary::digits_grouped(n, ' ');
         let first = self.steps.first().copied().unwrap_or(0);
         let last = self.steps.last().copied().unwrap_or(0);
         format!(
@@ -75,7 +76,7 @@ impl Averaged {
     pub fn figure(&self) -> String {
         match self.dimension {
             0 => format!("undefined ({})", self.verdict),
-            d => format!("{d} ({})", crate::run::margins_text(&self.margins)),
+            d => format!("{d} ({})", science::summary::margins_text(&self.margins)),
         }
     }
 }
@@ -129,10 +130,13 @@ const HELDOUT_BATCHES: usize = 16;
 
 /// "next = current" error over the cortex's on [`HELDOUT_BATCHES`] held-out batches, the same
 /// batches on every call (a fresh source with the run's held-out seed).
-fn heldout_gain(config: &crate::config::RunConfig, trainer: &mut Trainer) -> Result<f64, RunError> {
-    let mut heldout = crate::run::heldout_source(config, true)?;
+fn heldout_gain(
+    config: &science::config::RunConfig,
+    trainer: &mut Trainer,
+) -> Result<f64, RunError> {
+    let mut heldout = science::heldout::heldout_source(config, true)?;
     let bs = config.cortex.train.batch_size;
-    let [_, _, gain] = crate::run::heldout_error(trainer, &mut heldout, bs, HELDOUT_BATCHES)?;
+    let [_, _, gain] = science::heldout::heldout_error(trainer, &mut heldout, bs, HELDOUT_BATCHES)?;
     Ok(gain)
 }
 
@@ -163,8 +167,8 @@ pub fn command(options: &AverageOptions) -> Result<(), RunError> {
     }
     let dir = &options.run;
     let out = measurement_dir(dir, options.out.as_ref(), AVERAGE_DIR)?;
-    let lock = crate::run_lock::RunLock::acquire(dir)?;
-    let config = crate::run_folder::read_valid_config(dir)?;
+    let lock = crate::run::lock::RunLock::acquire(dir)?;
+    let config = crate::run::folder::read_valid_config(dir)?;
     let paths = steps
         .iter()
         .map(|&s| checkpoint_path(dir, s))
@@ -191,16 +195,16 @@ pub fn command(options: &AverageOptions) -> Result<(), RunError> {
         paths.len(),
         checkpoint.display()
     );
-    let mut scenes = crate::run::heldout_source(&config, true)?;
-    let recovery = crate::invariants::measure_with_scenes(
+    let mut scenes = science::heldout::heldout_source(&config, true)?;
+    let recovery = science::invariants::measure_with_scenes(
         &last.cortex,
         &mut scenes,
-        crate::invariants::HELD_OUT_SCENES,
+        science::invariants::HELD_OUT_SCENES,
     );
     for line in recovery.describe() {
         println!("  {line}");
     }
-    let r = crate::ladder::measure_observer(&config, ObserverKind::Cortex, Some(&last))?;
+    let r = science::ladder::measure_observer(&config, ObserverKind::Cortex, Some(&last))?;
     crate::io::save_into(&out, |d| Ok::<_, RunError>(r.save(d).map(|_| ())?))?;
     let margins: Vec<(usize, f64)> = r
         .per_k
@@ -231,7 +235,7 @@ mod tests {
 
     #[test]
     fn every_parameter_becomes_the_mean_of_the_checkpoints() {
-        let config = crate::config::RunConfig::preset("tiny", "LMS")
+        let config = science::config::RunConfig::preset("tiny", "LMS")
             .unwrap()
             .cortex;
         let trainer = |offset: f32| {

@@ -4,7 +4,10 @@
 //! `<preset>` stay bare rather than in backticks.
 #![allow(rustdoc::invalid_html_tags)]
 
+use clap::builder::{PossibleValuesParser, TypedValueParser};
 use clap::{Args, Parser, Subcommand};
+use science::config::{ConfigError, Overrides, RunConfig};
+use science::observer::ObserverKind;
 use std::path::PathBuf;
 
 /// Emergence of colour vision from the optic nerve signal.
@@ -141,6 +144,11 @@ pub struct CommonOptions {
     /// Quote a pattern: --scene 'data/ARAD_1K_*.mat'.
     #[arg(long, value_name = "FILE")]
     pub scene: Option<PathBuf>,
+    /// Any setting of a --config file, dotted, e.g. `--set cortex.train.learning_rate=3e-4`
+    /// (repeatable; laid over the file's settings, validated as they are, and written into the
+    /// run's config.toml).
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub set: Vec<String>,
     /// Continue the run in the output folder from its newest checkpoint that verifies (run,
     /// train, experiment). The folder's config.toml gives the settings; any option given must
     /// agree with it. The continued run ends as if it had never stopped (same thread count).
@@ -152,9 +160,27 @@ pub struct CommonOptions {
 }
 
 impl CommonOptions {
+    /// The settings these options give on top of a preset.
+    pub fn overrides(&self) -> Overrides {
+        Overrides {
+            preset: self.preset.clone(),
+            cones: self.cones.clone(),
+            seed: self.seed,
+            steps: self.steps.map(|s| s as u64),
+            config: self.config.clone(),
+            scene: self.scene.clone(),
+            set: self.set.clone(),
+        }
+    }
+
+    /// The run's settings: `default_preset` unless one is given, then these options over it.
+    pub fn resolve(&self, default_preset: &str) -> Result<RunConfig, ConfigError> {
+        RunConfig::resolve(&self.overrides(), default_preset)
+    }
+
     /// What a run may do with a non-empty output folder.
-    pub fn folder(&self) -> crate::run_folder::Folder {
-        use crate::run_folder::Folder;
+    pub fn folder(&self) -> crate::run::folder::Folder {
+        use crate::run::folder::Folder;
         match (self.resume, self.force) {
             (true, _) => Folder::Resume,
             (false, true) => Folder::Replace,
@@ -170,6 +196,7 @@ impl CommonOptions {
             || self.steps.is_some()
             || self.config.is_some()
             || self.scene.is_some()
+            || !self.set.is_empty()
     }
 }
 
@@ -187,7 +214,7 @@ pub struct CmfSimOptions {
     /// independent kinds; cones mixing opsins at random ratios solved by least squares over the
     /// mixtures), `oracle-mosaic` (the oracle without interpolation), `analytic` (the cone
     /// excitations of an ideal eye, no mosaic).
-    #[arg(long, value_enum)]
+    #[arg(long, value_parser = observer_kind())]
     pub observer: Option<ObserverKind>,
     /// How the patch percept is read: `resolved` (point by point, the default) or
     /// `patch-mean` (kept to show why it is not the default).
@@ -216,21 +243,11 @@ pub struct CmfSimOptions {
     pub common: CommonOptions,
 }
 
-/// The observers `cmf-sim` can test.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-pub enum ObserverKind {
-    /// The learned cortex of `--run`.
-    Cortex,
-    /// Φ = identity: the optic nerve signal is the percept.
-    Identity,
-    /// The cone activations are the percept (lateral inhibition omitted).
-    Cones,
-    /// Oracle decoder with per-kind interpolation (least squares over mixed cones).
-    Oracle,
-    /// Oracle decoder, each cell keeping only its own kind.
-    OracleMosaic,
-    /// Ideal cone excitations, no eye.
-    Analytic,
+/// `--observer`: one of [`ObserverKind::ALL`] by its name.
+fn observer_kind() -> impl TypedValueParser<Value = ObserverKind> {
+    let names = ObserverKind::ALL.map(ObserverKind::name);
+    PossibleValuesParser::new(names)
+        .map(|name: String| ObserverKind::from_name(&name).expect("a name ObserverKind::ALL lists"))
 }
 
 /// `--readout` values.
@@ -280,7 +297,7 @@ pub struct ConvergenceOptions {
     /// Held-out scenes behind the hidden and direction R² (a multiple of 4, at least 8), half
     /// fitting and half scoring; more for an environment whose rare scenes matter (one tile in
     /// ten idealised). A kept checkpoint measured on another count is measured again.
-    #[arg(long, default_value_t = crate::invariants::HELD_OUT_SCENES)]
+    #[arg(long, default_value_t = science::invariants::HELD_OUT_SCENES)]
     pub held_out_scenes: usize,
 }
 

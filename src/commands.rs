@@ -1,18 +1,18 @@
 //! What each subcommand does. `main.rs` only parses and dispatches here.
 
 use crate::cli::{
-    CmfSimOptions, CommonOptions, ConvergenceOptions, ExperimentOptions, ObserverKind, ReadoutArg,
-    ResumeOptions, RunDirOptions, RunOptions,
+    CmfSimOptions, CommonOptions, ConvergenceOptions, ExperimentOptions, ReadoutArg, ResumeOptions,
+    RunDirOptions, RunOptions,
 };
-use crate::config::RunConfig;
 use crate::experiments;
-use crate::measurement_dir::measurement_dir;
-use crate::observer::ReadoutMode;
+use crate::run::error::RunError;
+use crate::run::folder::Folder;
+use crate::run::measurement_dir::measurement_dir;
 use crate::run::{self, RunMode};
-use crate::run_error::RunError;
-use crate::run_folder::Folder;
 use colorimetry::CmfSimResult;
 use retina::Retina;
+use science::config::RunConfig;
+use science::observer::{ObserverKind, ReadoutMode};
 use std::path::{Path, PathBuf};
 
 /// `colorvision run`: train, measure at checkpoints, summarise.
@@ -34,7 +34,7 @@ fn train_and_report(options: &RunOptions, command: &str, mode: RunMode) -> Resul
     let start = options
         .continue_from
         .as_deref()
-        .map(|path| crate::run_folder::checkpoint_to_continue(path, &config))
+        .map(|path| crate::run::folder::checkpoint_to_continue(path, &config))
         .transpose()?;
     install_signals()?;
     let origin = match &start {
@@ -67,12 +67,12 @@ pub fn resolve_run(
             });
         }
         if !options.sets_anything() {
-            let config = crate::run_folder::read_config(out)?;
+            let config = crate::run::folder::read_config(out)?;
             config.validate()?;
             return Ok((config, out.clone()));
         }
     }
-    let config = RunConfig::resolve(options, "main")?;
+    let config = options.resolve("main")?;
     let out = run::out_dir(&config, options.out.as_ref(), command);
     Ok((config, out))
 }
@@ -95,7 +95,7 @@ pub fn resume(options: &ResumeOptions) -> Result<(), RunError> {
         path: marker_path.clone(),
         reason: format!("invalid run marker: {e}"),
     })?;
-    let mut config = crate::run_folder::read_config(dir)?;
+    let mut config = crate::run::folder::read_config(dir)?;
     config.validate()?;
     if let Some(steps) = options.steps {
         extend_run(dir, &mut config, steps)?;
@@ -145,9 +145,9 @@ fn extend_run(dir: &Path, config: &mut RunConfig, steps: u64) -> Result<(), RunE
 
 /// `colorvision simulate`: pictures of every stage of the eye.
 pub fn simulate(options: &CommonOptions) -> Result<(), RunError> {
-    let config = RunConfig::resolve(options, "quick")?;
+    let config = options.resolve("quick")?;
     let out = run::out_dir(&config, options.out.as_ref(), "simulate");
-    crate::run_folder::refuse_file(&out)?;
+    crate::run::folder::refuse_file(&out)?;
     let retina = crate::scene_bar::retina(config.retina.clone())?;
     let mut rng = <rand::rngs::StdRng as rand::SeedableRng>::seed_from_u64(config.seed);
     let mut written = Vec::new();
@@ -171,9 +171,9 @@ pub fn simulate(options: &CommonOptions) -> Result<(), RunError> {
 /// `colorvision gamut`: the CMF-SIM test lights against the colours of the eye's training
 /// scenes, sampled over the batches a training with these settings (its `steps`) draws.
 pub fn gamut(options: &CommonOptions) -> Result<(), RunError> {
-    let config = RunConfig::resolve(options, "quick")?;
+    let config = options.resolve("quick")?;
     let out = run::out_dir(&config, options.out.as_ref(), "gamut");
-    crate::run_folder::refuse_file(&out)?;
+    crate::run::folder::refuse_file(&out)?;
     let s = &config.cmf_sim;
     let tests = colorimetry::WavelengthGrid::linspace(
         s.test_range_nm.0,
@@ -182,8 +182,8 @@ pub fn gamut(options: &CommonOptions) -> Result<(), RunError> {
     )
     .map_err(|e| RunError::invalid("cmf_sim.n_test_wavelengths", e.to_string()))?;
     let retina = Retina::new(config.retina.clone())?;
-    let mut source = crate::source::RetinaSource::new(retina, config.seed, false);
-    let g = crate::gamut::measure(&mut source, tests.wavelengths_nm(), config.steps);
+    let mut source = science::source::RetinaSource::new(retina, config.seed, false);
+    let g = science::gamut::measure(&mut source, tests.wavelengths_nm(), config.steps);
     let beyond: Vec<String> = g
         .beyond(10.0)
         .iter()
@@ -220,7 +220,7 @@ pub fn gamut(options: &CommonOptions) -> Result<(), RunError> {
 /// `colorvision convergence`: every checkpoint of a run folder measured the same way.
 pub fn convergence(options: &ConvergenceOptions) -> Result<(), RunError> {
     let scenes = options.held_out_scenes;
-    let batch = crate::invariants::HIDDEN_BATCH_SIZE;
+    let batch = science::invariants::HIDDEN_BATCH_SIZE;
     if scenes < 2 * batch || !scenes.is_multiple_of(batch) {
         return Err(RunError::invalid(
             "--held-out-scenes",
@@ -258,7 +258,7 @@ pub fn convergence(options: &ConvergenceOptions) -> Result<(), RunError> {
             rows.len(),
             dir.display()
         );
-        let seed = crate::run_folder::read_config(dir).map(|c| c.seed);
+        let seed = crate::run::folder::read_config(dir).map(|c| c.seed);
         let name = dir.file_name().map_or(dir.display().to_string(), |n| {
             n.to_string_lossy().into_owned()
         });
@@ -279,44 +279,42 @@ pub fn cmf_sim(options: &CmfSimOptions) -> Result<(), RunError> {
     } else {
         ObserverKind::Oracle
     });
-    let (mut config, trainer, out) = match (&options.run, kind) {
-        (Some(dir), ObserverKind::Cortex) => {
-            let out = measurement_dir(dir, options.common.out.as_ref(), "cmf-sim")?;
-            let (config, trainer, checkpoint) =
-                crate::run_folder::load_run_step(dir, options.checkpoint_step)?;
-            println!(
-                "colorvision cmf-sim: {} (checkpoint {})",
-                dir.display(),
-                checkpoint.display()
-            );
-            (config, Some(trainer), out)
-        }
-        (None, ObserverKind::Cortex) => {
-            return Err(RunError::invalid(
-                "--observer",
-                "`cortex` needs --run DIR (a trained run)",
-            ))
-        }
-        (Some(_), _) => {
-            return Err(RunError::invalid(
+    let (mut config, trainer, out) =
+        match (&options.run, kind) {
+            (Some(dir), ObserverKind::Cortex) => {
+                let out = measurement_dir(dir, options.common.out.as_ref(), "cmf-sim")?;
+                let (config, trainer, checkpoint) =
+                    crate::run::folder::load_run_step(dir, options.checkpoint_step)?;
+                println!(
+                    "colorvision cmf-sim: {} (checkpoint {})",
+                    dir.display(),
+                    checkpoint.display()
+                );
+                (config, Some(trainer), out)
+            }
+            (None, ObserverKind::Cortex) => {
+                return Err(RunError::invalid(
+                    "--observer",
+                    "`cortex` needs --run DIR (a trained run)",
+                ))
+            }
+            (Some(_), _) => return Err(RunError::invalid(
                 "--run",
                 "only the `cortex` observer reads a run folder; the others take --preset/--cones",
-            ))
-        }
-        (None, _) if options.checkpoint_step.is_some() => {
-            return Err(RunError::invalid(
-                "--checkpoint-step",
-                "names a checkpoint of --run DIR, and no --run was given",
-            ))
-        }
-        (None, _) => {
-            let config = RunConfig::resolve(&options.common, "quick")?;
-            let value = clap::ValueEnum::to_possible_value(&kind).expect("every kind has a name");
-            let name = format!("cmf-sim-{}", value.get_name());
-            let out = run::out_dir(&config, options.common.out.as_ref(), &name);
-            (config, None, out)
-        }
-    };
+            )),
+            (None, _) if options.checkpoint_step.is_some() => {
+                return Err(RunError::invalid(
+                    "--checkpoint-step",
+                    "names a checkpoint of --run DIR, and no --run was given",
+                ))
+            }
+            (None, _) => {
+                let config = options.common.resolve("quick")?;
+                let name = format!("cmf-sim-{}", kind.name());
+                let out = run::out_dir(&config, options.common.out.as_ref(), &name);
+                (config, None, out)
+            }
+        };
     if let Some(k) = options.sets_per_k {
         config.cmf_sim.sets_per_k = k;
     }
@@ -336,7 +334,7 @@ pub fn cmf_sim(options: &CmfSimOptions) -> Result<(), RunError> {
         };
     }
     config.validate()?;
-    let r = crate::ladder::measure_observer(&config, kind, trainer.as_ref())?;
+    let r = science::ladder::measure_observer(&config, kind, trainer.as_ref())?;
     r.save(&out)?;
     print_cmf_sim(&r);
     println!(
@@ -373,9 +371,9 @@ pub fn print_cmf_sim(r: &CmfSimResult) {
 pub fn scope(options: &RunDirOptions) -> Result<(), RunError> {
     let dir = measurement_dir(&options.run, options.common.out.as_ref(), "scope")?;
     let (config, trainer, _) =
-        crate::run_folder::load_run_step(&options.run, options.checkpoint_step)?;
+        crate::run::folder::load_run_step(&options.run, options.checkpoint_step)?;
     let retina = Retina::new(config.retina.clone())?;
-    let mut heldout = run::heldout_source(&config, false)?;
+    let mut heldout = science::heldout::heldout_source(&config, false)?;
     let inv = crate::pictures::write_all(&dir, &config, &retina, &mut heldout, &trainer)?;
     println!("Neural Scope pictures in {}", dir.display());
     println!(

@@ -1,5 +1,5 @@
 //! Convergence of a run: every checkpoint of a run folder measured the same way — the learned
-//! invariants against the eye's truth ([`crate::invariants`]), optionally the calibrated
+//! invariants against the eye's truth ([`science::invariants`]), optionally the calibrated
 //! CMF-SIM with the run's full budget, and the held-out prediction gain the run logged — so
 //! learning can be followed over steps (`colorvision convergence --run DIR [--cmf]`).
 //!
@@ -9,56 +9,19 @@
 
 mod report;
 pub mod runs;
-pub mod verdict;
 
 pub use report::table;
-pub use verdict::{CheckpointCmf, Reading, VerdictOverCheckpoints, CMF_FILE};
+pub use science::verdict::{
+    CheckpointCmf, CmfPoint, Reading, StudyRow, VerdictOverCheckpoints, CMF_FILE,
+};
 
-use crate::cli::ObserverKind;
-use crate::config::RunConfig;
-use crate::invariants::{self, Recovery};
 use crate::io::write_atomic;
-use crate::run_error::RunError;
+use crate::run::error::RunError;
 use cortex::Trainer;
-use serde::{Deserialize, Serialize};
+use science::config::RunConfig;
+use science::invariants;
+use science::observer::ObserverKind;
 use std::path::{Path, PathBuf};
-
-/// CMF-SIM at one checkpoint, in brief.
-#[derive(Clone, Debug, Serialize, Deserialize)]
-pub struct CmfPoint {
-    /// Colour dimensionality (0: undefined).
-    pub dimension: usize,
-    /// Σ base error / Σ percept energy (≥ 1: no colour constancy).
-    pub base_over_energy: f64,
-    /// Per K tried: `[K, passed (0/1), converged worst error/threshold of its best set]`.
-    pub per_k: Vec<[f64; 3]>,
-    /// Wall time of the measurement, s.
-    pub seconds: f64,
-}
-
-/// Everything measured at one checkpoint.
-#[derive(Clone, Debug, Serialize, Deserialize)]
-pub struct StudyRow {
-    /// Training step of the checkpoint.
-    pub step: u64,
-    /// Held-out prediction error of "next = current" over the model's, logged by the run at
-    /// the last evaluation at or before `step`.
-    pub heldout_gain: Option<f64>,
-    /// Wall time of training up to the checkpoint, s, as the run recorded it.
-    pub wall_seconds: Option<f64>,
-    /// The learned invariants.
-    pub recovery: Recovery,
-    /// Held-out scenes behind the hidden and direction R² (rows kept from before the count was
-    /// recorded used [`invariants::HELD_OUT_SCENES`]).
-    #[serde(default = "default_held_out_scenes")]
-    pub held_out_scenes: usize,
-    /// The calibrated CMF-SIM (with `--cmf`).
-    pub cmf: Option<CmfPoint>,
-}
-
-fn default_held_out_scenes() -> usize {
-    invariants::HELD_OUT_SCENES
-}
 
 /// At which checkpoints CMF-SIM measures.
 #[derive(Clone, Debug, PartialEq)]
@@ -91,7 +54,7 @@ pub fn study(
     only: &[u64],
     held_out_scenes: usize,
 ) -> Result<Vec<StudyRow>, RunError> {
-    let config = crate::run_folder::read_valid_config(dir)?;
+    let config = crate::run::folder::read_valid_config(dir)?;
     let gains = heldout_gains(&dir.join("metrics.csv"));
     let out = dir.join("convergence");
     std::fs::create_dir_all(&out).map_err(|source| crate::io::IoError::Fs {
@@ -129,7 +92,7 @@ fn final_measurement(dir: &Path) -> Option<CheckpointCmf> {
     if !path.is_file() {
         return None;
     }
-    match crate::run::Summary::read(&path) {
+    match science::summary::Summary::read(&path) {
         Ok(summary) => CheckpointCmf::final_of(&summary),
         Err(e) => {
             println!(
@@ -177,12 +140,12 @@ fn measure_checkpoint(
     }
     let trainer = Trainer::continue_from(path, Some(config.cortex.clone()))?;
     // The same held-out scenes at every checkpoint.
-    let mut scenes = crate::run::heldout_source(config, true)?;
+    let mut scenes = science::heldout::heldout_source(config, true)?;
     let recovery = invariants::measure_with_scenes(&trainer.cortex, &mut scenes, held_out_scenes);
     let cmf = if let Some(kept) = kept.and_then(|row| row.cmf) {
         Some(kept)
     } else if with_cmf {
-        let r = crate::ladder::measure_observer(config, ObserverKind::Cortex, Some(&trainer))?;
+        let r = science::ladder::measure_observer(config, ObserverKind::Cortex, Some(&trainer))?;
         let (base, energy): (f64, f64) = (r.base_error.iter().sum(), r.energy.iter().sum());
         Some(CmfPoint {
             dimension: r.dimension,

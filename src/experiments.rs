@@ -14,22 +14,23 @@
 //! | `robustness` | L:M 1:1 and 1:2 (S on its sparse lattice), and L:M:S 1:1:1 drawn i.i.d., three seeds each | RS-08 |
 //! | `stiles-burch` | fixed primaries 444.4/526.3/645.2 nm vs Stiles & Burch 1955 (analytic and trained) | RS-08, Fig. 11 |
 //! | `w-oracle-init` | diagnostic: W starts at the eye's true DoG; does the loss keep it? | §6 (W recovered) |
-//! | `cmf-ladder` | CMF-SIM's known-answer observers through the real eye ([`crate::ladder`]) | S-04, S-05 |
+//! | `cmf-ladder` | CMF-SIM's known-answer observers through the real eye ([`science::ladder`]) | S-04, S-05 |
 //!
 //! Every training experiment uses the `long` preset ([`EXPERIMENT_PRESET`]) unless `--preset`
 //! names another: `--preset large` runs it on an eye of 128×128 cones, where a dimension too
 //! narrow for the quick eye's cones clears CMF-SIM's threshold (human Q's fourth, S-07).
 
 use crate::cli::CommonOptions;
-use crate::config::RunConfig;
-use crate::observer::EyeObserver;
-use crate::run::{self, Origin, RunMode, Summary};
-use crate::run_error::RunError;
+use crate::run::error::RunError;
+use crate::run::{self, Origin, RunMode};
 use colorimetry::run_cmf_sim;
 use cortex::config::Baseline;
 use retina::scene::pool::TetraMix;
 use retina::scene::tetra::TetraEnvironment;
 use retina::Retina;
+use science::config::RunConfig;
+use science::observer::EyeObserver;
+use science::summary::Summary;
 use std::path::{Path, PathBuf};
 
 /// Names accepted by `colorvision experiment`.
@@ -73,7 +74,7 @@ pub const EXPERIMENTS: &[(&str, &str)] = &[
 ];
 
 /// The preset of every training experiment unless `--preset` says otherwise: the quick eye
-/// trained until its prediction and invariants plateau ([`crate::config::LONG_STEPS`] steps),
+/// trained until its prediction and invariants plateau ([`science::config::LONG_STEPS`] steps),
 /// since the paper's table is of converged cortices. `--preset quick` (6 000 steps) gives a fast, unconverged version.
 pub const EXPERIMENT_PRESET: &str = "long";
 
@@ -98,11 +99,7 @@ fn full_run(config: &RunConfig, out: &Path, options: &CommonOptions) -> Result<S
 
 /// Trains one retina and measures it; returns its summary.
 pub fn emergence(options: &CommonOptions, out: &Path) -> Result<Summary, RunError> {
-    full_run(
-        &RunConfig::resolve(options, EXPERIMENT_PRESET)?,
-        out,
-        options,
-    )
+    full_run(&options.resolve(EXPERIMENT_PRESET)?, out, options)
 }
 
 fn cone_sweep(options: &CommonOptions, out: &Path, cones: &[&str]) -> Result<(), RunError> {
@@ -141,7 +138,7 @@ fn tetrachromats(options: &CommonOptions, out: &Path) -> Result<(), RunError> {
     let mut table = Vec::new();
     for cones in ["LMSQ,Q:506", "LMSQ"] {
         for (name, environment) in TETRA_ENVIRONMENTS {
-            let mut config = RunConfig::resolve(&with_cones(options, cones), EXPERIMENT_PRESET)?;
+            let mut config = with_cones(options, cones).resolve(EXPERIMENT_PRESET)?;
             config.retina.scenes.tetra = environment.map(|environment| TetraMix {
                 environment,
                 fraction: TETRA_SCENE_FRACTION,
@@ -170,7 +167,7 @@ fn identity_percept(config: &RunConfig, dir: &Path, name: &str) -> Result<usize,
     let retina = Retina::new(config.retina.clone())?;
     let observer = EyeObserver::new(
         &retina,
-        crate::observer::Decoder::Ons,
+        science::observer::Decoder::Ons,
         config.observer.clone(),
     );
     let r = run_cmf_sim(&observer, &config.cmf_sim)?;
@@ -194,7 +191,7 @@ fn identity_percept(config: &RunConfig, dir: &Path, name: &str) -> Result<usize,
 /// Beyond the paper, `trained_on_cone_activations` trains the full cortex on that eye.
 fn baselines(options: &CommonOptions, out: &Path) -> Result<(), RunError> {
     let options = with_cones(options, options.cones.as_deref().unwrap_or("LMS"));
-    let config = RunConfig::resolve(&options, EXPERIMENT_PRESET)?;
+    let config = options.resolve(EXPERIMENT_PRESET)?;
     let mut cone_eye = config.clone();
     cone_eye.retina.lateral_inhibition = None;
     cone_eye.retina.layout = retina::foveation::LayoutConfig::Identity;
@@ -237,7 +234,7 @@ fn continued(
         .join("checkpoints")
         .join(cortex::checkpoint::checkpoint_name(s.steps));
     for a in after {
-        let config = RunConfig::resolve(&with_cones(options, a), EXPERIMENT_PRESET)?;
+        let config = with_cones(options, a).resolve(EXPERIMENT_PRESET)?;
         let dir = sub(out, &format!("after_{a}"));
         let s = run::run_continued(&config, &dir, &checkpoint, options.folder())?;
         println!("after ({a}): dimension {}", s.dimension);
@@ -251,9 +248,9 @@ fn continued(
 /// the loss does not single it out. Compare `colorvision convergence --run` of this run with a
 /// normal one.
 fn w_oracle_init(options: &CommonOptions, out: &Path) -> Result<(), RunError> {
-    let config = RunConfig::resolve(options, "quick")?;
+    let config = options.resolve("quick")?;
     // The start checkpoint is this experiment's own: no second process may write it at once.
-    let start_lock = crate::run_lock::RunLock::acquire(&out.join("start"))?;
+    let start_lock = crate::run::lock::RunLock::acquire(&out.join("start"))?;
     let start = out.join("start").join("checkpoints");
     let checkpoint = start.join(cortex::checkpoint::checkpoint_name(0));
     if !checkpoint.exists() {
@@ -275,7 +272,7 @@ fn w_oracle_init(options: &CommonOptions, out: &Path) -> Result<(), RunError> {
 /// human standard, the eye's own fundamentals (the ceiling) and the oracle through the eye
 /// ([`crate::stiles_burch`]), written into `trained_LMS/stiles-burch/`.
 fn stiles_burch(options: &CommonOptions, out: &Path) -> Result<(), RunError> {
-    let config = RunConfig::resolve(&with_cones(options, "LMS"), EXPERIMENT_PRESET)?;
+    let config = with_cones(options, "LMS").resolve(EXPERIMENT_PRESET)?;
     let trained = sub(out, "trained_LMS");
     let mode = RunMode {
         cmf_sim: false,
@@ -284,8 +281,8 @@ fn stiles_burch(options: &CommonOptions, out: &Path) -> Result<(), RunError> {
     };
     run::run_in(&config, &trained, mode, options.folder(), Origin::New)?;
     // The run's lock again while its folder is read and the comparison written into it.
-    let _lock = crate::run_lock::RunLock::acquire(&trained)?;
-    let (_, trainer, _) = crate::run_folder::load_run(&trained)?;
+    let _lock = crate::run::lock::RunLock::acquire(&trained)?;
+    let (_, trainer, _) = crate::run::folder::load_run(&trained)?;
     let rows =
         crate::stiles_burch::compare(&config, &trainer.cortex, &trained.join("stiles-burch"))?;
     print!("{}", crate::stiles_burch::markdown(&rows));
@@ -298,6 +295,25 @@ fn save_result(
     save: impl FnOnce(&Path) -> Result<(), RunError>,
 ) -> Result<(), RunError> {
     crate::io::save_into(dir, save)
+}
+
+/// `experiment cmf-ladder`: every rung of CMF-SIM's calibration ladder ([`science::ladder`]),
+/// each row printed as it is measured; writes `ladder.json` and `ladder.md` under `out`.
+fn cmf_ladder(options: &CommonOptions, out: &Path) -> Result<(), RunError> {
+    let config = options.resolve("quick")?;
+    println!("{}", science::ladder::TABLE_HEADER);
+    let rows = science::ladder::measure_ladder(&config, |row| println!("{}", row.markdown()))?;
+    crate::io::write_json(&out.join("ladder.json"), &rows)?;
+    let table: Vec<String> = rows.iter().map(science::ladder::Row::markdown).collect();
+    let text = format!("{}\n{}\n", science::ladder::TABLE_HEADER, table.join("\n"));
+    crate::io::write_atomic(&out.join("ladder.md"), text.as_bytes())?;
+    let calibrated = rows.iter().filter(|r| r.calibrated()).count();
+    println!(
+        "{calibrated} of {} rows return their known answer; wrote {}/ladder.md",
+        rows.len(),
+        out.display()
+    );
+    Ok(())
 }
 
 /// Runs experiment `name` (or prints the list).
@@ -342,17 +358,7 @@ pub fn run_named(name: &str, options: &CommonOptions) -> Result<(), RunError> {
         "boost" => continued(options, &out, "LMS", &["LMSQ,Q:506"]),
         "stiles-burch" => stiles_burch(options, &out),
         "w-oracle-init" => w_oracle_init(options, &out),
-        "cmf-ladder" => {
-            let config = RunConfig::resolve(options, "quick")?;
-            let rows = crate::ladder::run_ladder(&config, &out)?;
-            let calibrated = rows.iter().filter(|r| r.calibrated()).count();
-            println!(
-                "{calibrated} of {} rows return their known answer; wrote {}/ladder.md",
-                rows.len(),
-                out.display()
-            );
-            Ok(())
-        }
+        "cmf-ladder" => cmf_ladder(options, &out),
         other => Err(RunError::invalid(
             "experiment",
             format!("`{other}` is not an experiment; `colorvision experiment list` shows them"),

@@ -1,13 +1,15 @@
 //! `colorvision gather DIR`: one table of every run under `DIR` (a sweep folder, or any folder
 //! of run folders), written as `DIR/gather.csv`, `DIR/gather.md` and `DIR/index.html` (each run
-//! linked to its report, [`index`]) and printed as Markdown;
-//! `--markdown` prints only the Markdown table (for the README) and writes nothing.
+//! linked to its report, [`index`]) and printed as Markdown. `--markdown` prints one text and
+//! writes nothing ([`MarkdownPart`]): the README's answer to "Does it reproduce the paper?"
+//! ([`readme_table`]), the page of the paper's rows ([`rows_page`]) or the page of every run
+//! ([`runs_page`]).
 //!
 //! A run folder is a folder holding `config.toml` or `summary.json`; folders inside a run
 //! folder are not searched. Its numbers come from `summary.json` alone; its status is:
 //! - `done`: `summary.json` reads;
 //! - `unreadable`: `summary.json` does not read (reported on stderr by path; gather goes on);
-//! - `running`: the run's `.lock` is there ([`crate::run_lock`]; the pid may be on another
+//! - `running`: the run's `.lock` is there ([`crate::run::lock`]; the pid may be on another
 //!   node, so it is shown, not checked);
 //! - `failed`: the `failed.json` a sweep task leaves ([`crate::sweep::task::Failure`]), with
 //!   its error;
@@ -27,7 +29,7 @@
 //! gets the paper's table, row by row, above the table of runs ([`paper_rows`]). A run whose
 //! checkpoints CMF-SIM measured (`colorvision convergence --cmf`, [`OVER_CHECKPOINTS_FILE`])
 //! shows there, beside its final figure, the dimensions at those checkpoints and its own end,
-//! and how they read: settled, rising, falling or on the border ([`crate::convergence::verdict`]);
+//! and how they read: settled, rising, falling or on the border ([`science::verdict`]);
 //! a run whose late checkpoints were averaged (`colorvision average`,
 //! [`crate::averaging::averaged_path`]) shows the averaged cortex's figure after them.
 //!
@@ -39,19 +41,25 @@
 pub mod hue_axes;
 pub mod index;
 pub mod paper_rows;
+mod read;
+pub mod readme_table;
+pub mod rows_page;
+pub mod runs_page;
 pub mod settings;
 pub mod stiles_burch;
 pub mod table;
 
+pub use read::OVER_CHECKPOINTS_FILE;
 pub(crate) use settings::run_settings;
 pub use settings::{flatten, CONTINUED_FROM_KEY, RECORD_FILE};
 
 use crate::averaging::Averaged;
-use crate::convergence::{CheckpointCmf, VerdictOverCheckpoints};
-use crate::run::Summary;
-use crate::run_error::RunError;
-use crate::sweep::task::{Failure, Manifest, FAILED_FILE};
+use crate::convergence::VerdictOverCheckpoints;
+use crate::run::error::RunError;
+use crate::sweep::task::Manifest;
 use clap::Args;
+use read::read_run;
+use science::summary::Summary;
 use settings::{comparable, recorded_from};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -61,9 +69,23 @@ use std::path::{Path, PathBuf};
 pub struct GatherOptions {
     /// A sweep folder, or any folder holding run folders (searched recursively).
     pub dir: PathBuf,
-    /// Print only the Markdown table to stdout, and write no file.
-    #[arg(long)]
-    pub markdown: bool,
+    /// Print one Markdown text to stdout, and write no file: `--markdown` (or `=readme`) the
+    /// README's table (with results/paper-rows.toml: the paper's experiments and the tally;
+    /// else every run), `=rows` the page of the paper's rows (docs/results.md), `=runs` the
+    /// page of every run (results/index.md).
+    #[arg(long, value_enum, num_args = 0..=1, require_equals = true, default_missing_value = "readme")]
+    pub markdown: Option<MarkdownPart>,
+}
+
+/// The texts `gather --markdown` prints.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum MarkdownPart {
+    /// The README's table: the paper's rows in brief with their tally, else every run.
+    Readme,
+    /// The page of the paper's rows: one section per row, verdict first, then the evidence.
+    Rows,
+    /// The page of every run: the settings that vary, the figures, the invariants.
+    Runs,
 }
 
 /// Where a run stands.
@@ -123,7 +145,7 @@ pub struct Run {
     /// ([`stiles_burch::TABLE_FILE`]).
     pub stiles_burch: Option<Vec<crate::stiles_burch::Row>>,
     /// CMF-SIM's verdict over its checkpoints, when `colorvision convergence --cmf` measured
-    /// some ([`over_checkpoints`]).
+    /// some ([`OVER_CHECKPOINTS_FILE`]).
     pub over_checkpoints: Option<VerdictOverCheckpoints>,
     /// The figure of its checkpoints' averaged weights, when `colorvision average` measured it
     /// into the run folder ([`crate::averaging::averaged_path`]).
@@ -148,26 +170,42 @@ pub fn command(options: &GatherOptions) -> Result<(), RunError> {
     }
     let first = Manifest::read(dir).map(|m| m.keys).unwrap_or_default();
     let keys = table::varying_keys(&runs, &first);
-    let mut markdown = table::markdown(&runs, &keys);
-    if let Some(rows) = paper_rows::read(dir)? {
-        let path = dir.join(paper_rows::ROWS_FILE);
-        let paper = paper_rows::markdown(&rows, &runs, &path)?;
-        markdown =
-            format!("{paper}\nEvery run, with the settings that vary between runs:\n\n{markdown}");
-    }
-    for table in [stiles_burch::markdown(&runs), hue_axes::markdown(&runs)] {
-        if !table.is_empty() {
-            markdown = format!("{markdown}\n{table}");
+    let rows = paper_rows::read(dir)?;
+    let rows_path = dir.join(paper_rows::ROWS_FILE);
+    let judged = match &rows {
+        Some(rows) => Some(paper_rows::judge(rows, &runs, &rows_path)?),
+        None => None,
+    };
+    let tables = || {
+        let all = [table::markdown(&runs, &keys), extra_tables(&runs)];
+        all.join("")
+    };
+    let text = match (options.markdown, &judged) {
+        (Some(MarkdownPart::Readme), Some(judged)) => readme_table::markdown(judged),
+        (Some(MarkdownPart::Readme), None) => tables(),
+        (Some(MarkdownPart::Rows), Some(judged)) => rows_page::markdown(judged, dir),
+        (Some(MarkdownPart::Rows), None) => {
+            return Err(RunError::Folder {
+                path: rows_path,
+                reason: "not found: --markdown=rows writes the page of the paper's rows it lists"
+                    .into(),
+            })
         }
-    }
-    if options.markdown {
-        print!("{markdown}");
+        (Some(MarkdownPart::Runs), _) => runs_page::markdown(&runs, &keys),
+        (None, Some(judged)) => format!(
+            "{}\nEvery run, with the settings that vary between runs:\n\n{}",
+            readme_table::markdown(judged),
+            tables()
+        ),
+        (None, None) => tables(),
+    };
+    print!("{text}");
+    if options.markdown.is_some() {
         return Ok(());
     }
     crate::io::write_atomic(&dir.join("gather.csv"), table::csv(&runs, &keys).as_bytes())?;
-    crate::io::write_atomic(&dir.join("gather.md"), markdown.as_bytes())?;
+    crate::io::write_atomic(&dir.join("gather.md"), text.as_bytes())?;
     index::write(dir, &runs, &keys)?;
-    print!("{markdown}");
     let mut counts: BTreeMap<&str, usize> = BTreeMap::new();
     for r in &runs {
         *counts.entry(r.status.word()).or_default() += 1;
@@ -180,6 +218,18 @@ pub fn command(options: &GatherOptions) -> Result<(), RunError> {
         dir.display()
     );
     Ok(())
+}
+
+/// The tables below the runs' table, each preceded by a blank line: the colour-matching
+/// functions against Stiles & Burch ([`stiles_burch`]) and the dichromats' hue axes
+/// ([`hue_axes`]), where any run has them.
+pub fn extra_tables(runs: &[Run]) -> String {
+    let tables = [stiles_burch::markdown(runs), hue_axes::markdown(runs)];
+    tables
+        .iter()
+        .filter(|t| !t.is_empty())
+        .map(|t| format!("\n{t}"))
+        .collect()
 }
 
 /// Every run folder under `dir`, sorted by path; unreadable files are reported on stderr.
@@ -239,125 +289,6 @@ fn find_runs(dir: &Path, out: &mut Vec<PathBuf>) -> Result<(), RunError> {
     Ok(())
 }
 
-/// Reads one run folder; a file that does not read is reported by path.
-fn read_run(dir: &Path, folder: String, rows: &BTreeMap<PathBuf, String>) -> Run {
-    let summary_path = dir.join("summary.json");
-    let mut summary = None;
-    let status = if summary_path.is_file() {
-        match Summary::read(&summary_path) {
-            Ok(s) => {
-                summary = Some(s);
-                Status::Done
-            }
-            Err(e) => {
-                eprintln!("colorvision gather: {}: {e}", summary_path.display());
-                Status::Unreadable(e)
-            }
-        }
-    } else if dir.join(crate::run_lock::LOCK_FILE).is_file() {
-        let pid = std::fs::read_to_string(dir.join(crate::run_lock::LOCK_FILE))
-            .ok()
-            .and_then(|t| t.trim().parse().ok());
-        Status::Running(pid)
-    } else if dir.join(FAILED_FILE).is_file() {
-        Status::Failed(read_failure(&dir.join(FAILED_FILE)))
-    } else if newest_checkpoint(dir).is_some() {
-        Status::Stopped
-    } else {
-        Status::Pending
-    };
-    let settings = match &summary {
-        Some(s) => toml::Value::try_from(&s.config).map_err(|e| e.to_string()),
-        None => read_toml(&dir.join("config.toml")),
-    };
-    let settings = settings.unwrap_or_else(|e| {
-        if dir.join("config.toml").is_file() {
-            eprintln!("colorvision gather: {}/config.toml: {e}", dir.display());
-        }
-        toml::Value::Table(Default::default())
-    });
-    let settings = run_settings(dir, &settings, rows);
-    let steps = summary
-        .as_ref()
-        .map(|s| s.steps)
-        .or_else(|| newest_checkpoint(dir));
-    let stiles_burch = stiles_burch::read(dir).and_then(|r| {
-        r.map_err(|e| {
-            let path = dir.join(stiles_burch::TABLE_FILE);
-            eprintln!("colorvision gather: {}: {e}", path.display());
-        })
-        .ok()
-    });
-    let over_checkpoints = over_checkpoints(dir, summary.as_ref());
-    let averaged = averaged(dir);
-    Run {
-        folder,
-        status,
-        steps,
-        summary,
-        settings,
-        stiles_burch,
-        over_checkpoints,
-        averaged,
-    }
-}
-
-/// Where a run folder (and its record) keeps the CMF-SIM of the checkpoints `colorvision
-/// convergence --cmf` measured.
-pub const OVER_CHECKPOINTS_FILE: &str = "convergence/cmf_over_checkpoints.json";
-
-/// CMF-SIM's verdict over the checkpoints measured in `dir` ([`OVER_CHECKPOINTS_FILE`], those
-/// up to the run's steps) and the run's own final measurement; `None` without two such
-/// measurements. A file that does not read is reported on stderr and passed over.
-fn over_checkpoints(dir: &Path, summary: Option<&Summary>) -> Option<VerdictOverCheckpoints> {
-    let path = dir.join(OVER_CHECKPOINTS_FILE);
-    let text = std::fs::read_to_string(&path).ok()?;
-    let points: Vec<CheckpointCmf> = serde_json::from_str(&text)
-        .map_err(|e| eprintln!("colorvision gather: {}: {e}", path.display()))
-        .ok()?;
-    VerdictOverCheckpoints::with_final(points, summary.and_then(CheckpointCmf::final_of))
-}
-
-/// What `colorvision average` measured of `dir`'s checkpoints, when it wrote into `dir`
-/// ([`crate::averaging::averaged_path`]); a file that does not read is reported on stderr and
-/// passed over.
-fn averaged(dir: &Path) -> Option<Averaged> {
-    let path = crate::averaging::averaged_path(dir);
-    if !path.is_file() {
-        return None;
-    }
-    Averaged::read(&path)
-        .map_err(|e| eprintln!("colorvision gather: {}: {e}", path.display()))
-        .ok()
-}
-
-fn read_failure(path: &Path) -> String {
-    match crate::io::read_json::<Failure>(path) {
-        Ok(f) => format!("{} (exit {})", f.error, f.exit_code),
-        Err(e) => format!("{} does not read: {e}", path.display()),
-    }
-}
-
-fn read_toml(path: &Path) -> Result<toml::Value, String> {
-    let text = std::fs::read_to_string(path).map_err(|e| e.to_string())?;
-    toml::from_str(&text).map_err(|e| crate::config::one_line(&e.to_string()))
-}
-
-/// The step of the newest `checkpoints/step_<k>` folder.
-fn newest_checkpoint(dir: &Path) -> Option<u64> {
-    std::fs::read_dir(dir.join("checkpoints"))
-        .ok()?
-        .filter_map(|e| e.ok())
-        .filter_map(|e| {
-            e.file_name()
-                .to_string_lossy()
-                .strip_prefix("step_")?
-                .parse()
-                .ok()
-        })
-        .max()
-}
-
 /// A finished run named `folder` whose summary is the recorded run `results/RECORD`'s, passed
 /// through `edit`, with the setting `cones` (for the tables' tests).
 #[cfg(test)]
@@ -384,58 +315,4 @@ pub(crate) fn recorded_run(
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// The checkpoints measured on the way and the run's own final figure make one verdict;
-    /// a checkpoint past the run's steps (a later continuation measured in the same folder)
-    /// is not the run's, and a file that does not read is passed over.
-    #[test]
-    fn the_verdict_over_checkpoints_joins_the_final_figure() {
-        let dir = std::env::temp_dir().join(format!("cv_gather_over_{}", std::process::id()));
-        std::fs::create_dir_all(dir.join("convergence")).unwrap();
-        let summary = recorded_run("x", "LMS", "LMSQ-humanQ-idealised-40k", |_| {})
-            .summary
-            .unwrap();
-        assert_eq!((summary.steps, summary.dimension), (40_000, 3));
-        let at = |step, dimension, margin| CheckpointCmf {
-            step,
-            dimension,
-            per_k: vec![[dimension as f64, 1.0, margin]],
-        };
-        let points = [at(36_000, 3, 0.84), at(38_000, 4, 0.80), at(44_000, 4, 0.7)];
-        let path = dir.join(OVER_CHECKPOINTS_FILE);
-        std::fs::write(&path, serde_json::to_string(&points).unwrap()).unwrap();
-        let verdict = over_checkpoints(&dir, Some(&summary)).unwrap();
-        assert_eq!(verdict.steps, vec![36_000, 38_000, 40_000]);
-        assert_eq!(verdict.dimensions, vec![3, 4, 3]);
-        let k3 = verdict.per_k.iter().find(|k| k.k == 3).unwrap();
-        assert_eq!((k3.tried, k3.passed), (2, 2), "{verdict:?}");
-        std::fs::write(&path, "[{").unwrap();
-        assert_eq!(over_checkpoints(&dir, Some(&summary)), None);
-        std::fs::remove_dir_all(&dir).ok();
-    }
-
-    /// `average`'s figure in the run folder is read with the run; one that does not read is
-    /// passed over (and reported), not taken for the run's.
-    #[test]
-    fn the_averaged_weights_figure_is_read_with_the_run() {
-        let dir = std::env::temp_dir().join(format!("cv_gather_avg_{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&dir);
-        std::fs::create_dir_all(dir.join(crate::averaging::AVERAGE_DIR)).unwrap();
-        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("results");
-        let record = root.join("LMSQ-humanQ-idealised-48k");
-        std::fs::copy(record.join("summary.json"), dir.join("summary.json")).unwrap();
-        let rows = BTreeMap::new();
-        assert_eq!(read_run(&dir, "x".into(), &rows).averaged, None);
-        let file = crate::averaging::averaged_path(&dir);
-        std::fs::copy(crate::averaging::averaged_path(&record), &file).unwrap();
-        let averaged = read_run(&dir, "x".into(), &rows).averaged.unwrap();
-        assert_eq!((averaged.steps.len(), averaged.dimension), (8, 3));
-        assert_eq!(averaged.steps[0], 34_000);
-        std::fs::write(&file, "{").unwrap();
-        let run = read_run(&dir, "x".into(), &rows);
-        assert_eq!((run.status, run.averaged), (Status::Done, None));
-        std::fs::remove_dir_all(&dir).ok();
-    }
-}
+mod tests;

@@ -157,12 +157,7 @@ pub fn write_json<T: serde::Serialize>(path: &Path, value: &T) -> Result<(), IoE
     write_atomic(path, text.as_bytes())
 }
 
-/// Reads the JSON file `path` as a `T`; the error says why it does not read (the file, or
-/// the field), for the caller to put beside the path.
-pub fn read_json<T: serde::de::DeserializeOwned>(path: &Path) -> Result<T, String> {
-    let text = std::fs::read_to_string(path).map_err(|e| e.to_string())?;
-    serde_json::from_str(&text).map_err(|e| e.to_string())
-}
+pub use science::summary::read_json;
 
 /// Writes a little-endian f32 `.npy` file (NumPy format 1.0, C order) of `shape`.
 #[track_caller]

@@ -11,44 +11,16 @@
 //! - `w_kernel.png` — learned W kernel (7×7 crop of the inverse FFT, left) beside the true DoG;
 //! - `positions.svg` — learned positions P(uv) against the true cone positions.
 
-use crate::config::RunConfig;
-use crate::invariants::Recovery;
 use crate::io::{signed_to_rgb, upscale_rgb, write_atomic, write_png_rgb};
-use crate::run_error::RunError;
-use crate::source::RetinaSource;
+use crate::run::error::RunError;
 use colorimetry::{srgb, ScopeAccumulator};
 use cortex::{Cortex, Trainer};
 use retina::Retina;
-use serde::{Deserialize, Serialize};
+use science::config::RunConfig;
+use science::source::RetinaSource;
+use science::summary::{Invariants, HUE_ERROR_MIN_CHROMA};
 use std::fmt::Write as _;
 use std::path::Path;
-
-/// Learned invariants against the truth and what the Neural Scope reads from the percept.
-#[derive(Clone, Debug, Serialize, Deserialize)]
-pub struct Invariants {
-    /// C, W and P against the eye's truth ([`crate::invariants`]).
-    pub recovery: Recovery,
-    /// RMSE of the Neural Scope on held-out scenes (linear sRGB).
-    pub scope_rmse: f64,
-    /// Hue axis (CIELAB a*b*) of the Neural-Scope colours of the held-out pixels (paper Fig. 5.2:
-    /// one axis for a dichromat).
-    pub scope_hue_axis: Option<colorimetry::HueAxis>,
-    /// The same for the true colours of those pixels (the scenes' own spread, for comparison).
-    pub truth_hue_axis: Option<colorimetry::HueAxis>,
-    /// The known answer for this retina: the hue axis of a Neural Scope fitted on the true
-    /// excitation of every cone class at each pixel — an ideal observer with exactly this eye's
-    /// cone classes (a dichromat's one axis: blue–yellow without L or M, teal–pink without S).
-    #[serde(default)]
-    pub ideal_hue_axis: Option<colorimetry::HueAxis>,
-    /// How far the Neural-Scope hues lie from the true ones over the held-out pixels of
-    /// chroma C*ab ≥ [`HUE_ERROR_MIN_CHROMA`] ([`colorimetry::hue_error`]).
-    #[serde(default)]
-    pub scope_hue_error: Option<colorimetry::HueError>,
-}
-
-/// The chroma (CIELAB C*ab) from which a pixel's hue counts in the hue error: greys have no
-/// hue to get right.
-pub const HUE_ERROR_MIN_CHROMA: f64 = 10.0;
 
 const CLASS_RGB: [[f64; 3]; 4] = [
     [1.0, 0.2, 0.2],
@@ -90,11 +62,11 @@ pub fn write_all(
     write_positions(dir, retina, cortex)?;
     // What the eye hides on the run's fixed held-out scenes (a fresh held-out stream, as
     // `convergence` measures every checkpoint), not on wherever `source` has got to.
-    let mut scenes = crate::run::heldout_source(config, true)?;
-    let recovery = crate::invariants::measure_with_scenes(
+    let mut scenes = science::heldout::heldout_source(config, true)?;
+    let recovery = science::invariants::measure_with_scenes(
         cortex,
         &mut scenes,
-        crate::invariants::HELD_OUT_SCENES,
+        science::invariants::HELD_OUT_SCENES,
     );
     Ok(Invariants {
         recovery,

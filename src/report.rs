@@ -10,8 +10,8 @@
 //! with the invariants' numbers; the optic nerve signal; the loss; the settings
 //! (`config.toml`). Written at the end of a run, after `summary.json`.
 
-use crate::run::Summary;
-use crate::run_error::RunError;
+use crate::run::error::RunError;
+use science::summary::Summary;
 use std::fmt::Write as _;
 use std::path::Path;
 

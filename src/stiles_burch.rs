@@ -10,7 +10,7 @@
 //! - `own_fundamentals`: this eye's own cone fundamentals (its classes, template, lens) as the
 //!   percept, with no mosaic and no noise — the **ceiling** for any cortex on these cones;
 //! - `oracle`: the oracle decoder through the real eye (the true lateral inhibition inverted,
-//!   each class interpolated across the true mosaic; [`crate::observer::oracle`]) — what the
+//!   each class interpolated across the true mosaic; [`science::observer::oracle`]) — what the
 //!   mosaic and the noise leave of the ceiling;
 //! - `trained`: the learned cortex.
 //!
@@ -19,15 +19,15 @@
 //! `own_fundamentals`' r, per channel.
 
 use crate::cli::RunDirOptions;
-use crate::config::RunConfig;
-use crate::ladder::{oracle_decoder, own_fundamentals};
-use crate::measurement_dir::measurement_dir;
-use crate::observer::{Decoder, EyeObserver};
-use crate::run_error::RunError;
+use crate::run::error::RunError;
+use crate::run::measurement_dir::measurement_dir;
 use colorimetry::analytic::ConeObserver;
 use colorimetry::{compare_stiles_burch, ConeTemplate, Observer, StilesBurchSettings};
 use cortex::Cortex;
 use retina::Retina;
+use science::config::RunConfig;
+use science::ladder::{oracle_decoder, own_fundamentals};
+use science::observer::{Decoder, EyeObserver};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
@@ -112,12 +112,12 @@ pub fn markdown(rows: &[Row]) -> String {
 }
 
 /// `colorvision stiles-burch --run DIR`: [`compare`] on the run's last checkpoint, into `--out`
-/// or `DIR/stiles-burch/` ([`crate::measurement_dir`]).
+/// or `DIR/stiles-burch/` ([`crate::run::measurement_dir`]).
 pub fn command(options: &RunDirOptions) -> Result<Vec<Row>, RunError> {
     let out = measurement_dir(&options.run, options.common.out.as_ref(), "stiles-burch")?;
-    let lock = crate::run_lock::RunLock::acquire(&options.run)?;
+    let lock = crate::run::lock::RunLock::acquire(&options.run)?;
     let (config, trainer, _) =
-        crate::run_folder::load_run_step(&options.run, options.checkpoint_step)?;
+        crate::run::folder::load_run_step(&options.run, options.checkpoint_step)?;
     drop(lock);
     let rows = compare(&config, &trainer.cortex, &out)?;
     print!("{}", markdown(&rows));

@@ -17,8 +17,8 @@ pub mod script;
 pub mod spec;
 pub mod task;
 
+use crate::run::error::RunError;
 use crate::run::RunMarker;
-use crate::run_error::RunError;
 use clap::Args;
 use std::path::{Path, PathBuf};
 

@@ -14,9 +14,9 @@
 //!
 //! Output: `DIR/w-dc-gauge/<arm>/` run folders and `DIR/w-dc-gauge/gauge.json`.
 
+use crate::run::error::RunError;
+use crate::run::folder::{load_run, Folder};
 use crate::run::{self, Origin, RunMode};
-use crate::run_error::RunError;
-use crate::run_folder::{load_run, Folder};
 use retina::Retina;
 use std::path::Path;
 
@@ -35,7 +35,7 @@ pub struct GaugeArm {
 
 /// Runs the three arms from the last checkpoint of `run_dir`, `steps` steps each.
 pub fn w_dc_gauge(run_dir: &Path, steps: u64) -> Result<Vec<GaugeArm>, RunError> {
-    let lock = crate::run_lock::RunLock::acquire(run_dir)?;
+    let lock = crate::run::lock::RunLock::acquire(run_dir)?;
     let (mut config, trainer, checkpoint) = load_run(run_dir)?;
     drop(lock);
     let learned = trainer

@@ -15,50 +15,39 @@ fn continued_from(run: &Path) -> String {
     v["continued_from"].as_str().unwrap_or_default().to_string()
 }
 
-#[test]
-fn a_cortex_continues_on_another_eye_from_a_run_or_a_checkpoint() {
-    let dir = std::env::temp_dir().join(format!("cv_continue_from_{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    let ok = |args: &[&str]| {
-        let o = colorvision(&dir, args);
-        assert!(o.status.success(), "{args:?}: {}", text(&o));
-        text(&o)
-    };
-    // `train --preset tiny` of `cones` for `steps` into `out`, from the cortex at `from`.
-    let train_tiny = |cones: &str, steps: &str, out: &str, from: Option<&str>| {
-        let mut args = vec![
-            "train", "--preset", "tiny", "--cones", cones, "--steps", steps, "--out", out,
-        ];
-        args.extend(from.map(|f| ["--continue-from", f]).into_iter().flatten());
-        ok(&args)
-    };
-    train_tiny("MS", "3", "ms", None);
-    let said = train_tiny("MS+L_replace_M", "2", "therapy", Some("ms"));
-    assert!(said.contains("continuing the cortex of"), "{said}");
-    // From the run folder: its newest checkpoint; the step count goes on from 3.
-    assert!(continued_from(&dir.join("therapy")).ends_with("ms/checkpoints/step_00000003"));
-    assert!(dir
-        .join("therapy/checkpoints/step_00000005/meta.json")
-        .is_file());
-    // From a checkpoint folder named directly.
-    train_tiny(
-        "LMSQ",
-        "1",
-        "boost",
-        Some("therapy/checkpoints/step_00000005"),
-    );
-    assert!(continued_from(&dir.join("boost")).ends_with("therapy/checkpoints/step_00000005"));
-    assert!(dir
-        .join("boost/checkpoints/step_00000006/meta.json")
-        .is_file());
+/// `colorvision ARGS` in `dir`, which must succeed; what it printed.
+fn ok(dir: &Path, args: &[&str]) -> String {
+    let o = colorvision(dir, args);
+    assert!(o.status.success(), "{args:?}: {}", text(&o));
+    text(&o)
+}
 
-    // A record of a run (its small files copied elsewhere, as `scripts/record-run.sh` does)
-    // names the folder it was trained in; gather then names a run continued from that folder
-    // by the record's row, not by the training folder's name. A therapy eye trained from
-    // scratch joins them, so that `continued_from` is not redundant with `cones` (gather drops
-    // a column that splits the runs as another does).
-    train_tiny("MS+L_replace_M", "1", "fresh", None);
+/// `train --preset tiny` of `cones` for `steps` into `out`, from the cortex at `from`.
+fn train_tiny(dir: &Path, cones: &str, steps: &str, out: &str, from: Option<&str>) -> String {
+    let mut args = vec![
+        "train", "--preset", "tiny", "--cones", cones, "--steps", steps, "--out", out,
+    ];
+    args.extend(from.map(|f| ["--continue-from", f]).into_iter().flatten());
+    ok(dir, &args)
+}
+
+/// `colorvision ARGS` in `dir` must fail, naming each of `names`, and leave no `out`.
+fn refused(dir: &Path, args: &[&str], out: &str, names: &[&str]) {
+    let o = colorvision(dir, args);
+    assert!(!o.status.success(), "{args:?} ran");
+    for n in names {
+        assert!(text(&o).contains(n), "{args:?}: `{n}` not in {}", text(&o));
+    }
+    assert!(!dir.join(out).exists(), "{args:?} wrote {out}");
+}
+
+/// A record of a run (its small files copied elsewhere, as `scripts/record-run.sh` does)
+/// names the folder it was trained in; gather then names a run continued from that folder by
+/// the record's row, not by the training folder's name. A therapy eye trained from scratch
+/// joins them, so that `continued_from` is not redundant with `cones` (gather drops a column
+/// that splits the runs as another does).
+fn a_record_names_the_run_a_cortex_continued_from(dir: &Path) {
+    train_tiny(dir, "MS+L_replace_M", "1", "fresh", None);
     let records = dir.join("records");
     for (run, record) in [
         ("ms", "MS-3"),
@@ -72,7 +61,7 @@ fn a_cortex_continues_on_another_eye_from_a_run_or_a_checkpoint() {
     }
     let gathered = || {
         text(&colorvision(
-            &dir,
+            dir,
             &["gather", records.to_str().unwrap(), "--markdown"],
         ))
     };
@@ -85,47 +74,47 @@ fn a_cortex_continues_on_another_eye_from_a_run_or_a_checkpoint() {
     .unwrap();
     let table = gathered();
     assert!(table.contains("| MS-3 @ 3 |"), "{table}");
+}
 
-    let refused = |args: &[&str], out: &str, names: &[&str]| {
-        let o = colorvision(&dir, args);
-        assert!(!o.status.success(), "{args:?} ran");
-        for n in names {
-            assert!(text(&o).contains(n), "{args:?}: `{n}` not in {}", text(&o));
-        }
-        assert!(!dir.join(out).exists(), "{args:?} wrote {out}");
-    };
-    refused(
-        &[
-            "train",
-            "--preset",
-            "tiny",
-            "--steps",
-            "1",
-            "--out",
-            "none",
-            "--continue-from",
-            "nowhere",
-        ],
-        "none",
-        &["nowhere", "--continue-from"],
-    );
+#[test]
+fn a_cortex_continues_on_another_eye_from_a_run_or_a_checkpoint() {
+    let dir = std::env::temp_dir().join(format!("cv_continue_from_{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    train_tiny(&dir, "MS", "3", "ms", None);
+    let said = train_tiny(&dir, "MS+L_replace_M", "2", "therapy", Some("ms"));
+    assert!(said.contains("continuing the cortex of"), "{said}");
+    // From the run folder: its newest checkpoint; the step count goes on from 3.
+    assert!(continued_from(&dir.join("therapy")).ends_with("ms/checkpoints/step_00000003"));
+    assert!(dir
+        .join("therapy/checkpoints/step_00000005/meta.json")
+        .is_file());
+    // From a checkpoint folder named directly.
+    let checkpoint = Some("therapy/checkpoints/step_00000005");
+    train_tiny(&dir, "LMSQ", "1", "boost", checkpoint);
+    assert!(continued_from(&dir.join("boost")).ends_with("therapy/checkpoints/step_00000005"));
+    assert!(dir
+        .join("boost/checkpoints/step_00000006/meta.json")
+        .is_file());
+    a_record_names_the_run_a_cortex_continued_from(&dir);
+
+    let tiny = ["train", "--preset", "tiny", "--steps", "1", "--out", "none"];
+    let nowhere = [&tiny[..], &["--continue-from", "nowhere"]].concat();
+    refused(&dir, &nowhere, "none", &["nowhere", "--continue-from"]);
     // The quick cortex's W is 127×127, the tiny checkpoint's 63×63.
-    refused(
-        &[
-            "train",
-            "--preset",
-            "quick",
-            "--cones",
-            "MS",
-            "--steps",
-            "1",
-            "--out",
-            "misfit",
-            "--continue-from",
-            "ms",
-        ],
+    let quick = [
+        "train",
+        "--preset",
+        "quick",
+        "--cones",
+        "MS",
+        "--steps",
+        "1",
+        "--out",
         "misfit",
-        &["params.safetensors", "shape"],
-    );
+        "--continue-from",
+        "ms",
+    ];
+    refused(&dir, &quick, "misfit", &["params.safetensors", "shape"]);
     std::fs::remove_dir_all(&dir).unwrap();
 }

@@ -8,8 +8,8 @@
 //! of the preset's 300: after 300 its percept still differs more between two retinal locations
 //! than it carries colour (CMF-SIM: no colour constancy); after 1 500 and 3 000 it measures 2-D.
 
-use colorvision::config::RunConfig;
 use colorvision::run::{run, RunMode};
+use science::config::RunConfig;
 
 fn emerged_dimension(cones: &str, steps: u64) -> (usize, String) {
     let mut config = RunConfig::preset("tiny", cones).expect("the tiny preset resolves");

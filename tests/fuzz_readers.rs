@@ -3,9 +3,8 @@
 //! get random bytes and random mutations (flipped bytes, truncations, splices) of valid files,
 //! and must return `Ok` or an error. `PROPTEST_CASES` scales the case counts.
 
-use colorvision::cli::CommonOptions;
-use colorvision::config::RunConfig;
 use proptest::prelude::*;
+use science::config::{Overrides, RunConfig};
 use std::path::{Path, PathBuf};
 
 /// Cases per property (the environment's `PROPTEST_CASES` overrides).
@@ -69,9 +68,9 @@ fn mutation() -> impl Strategy<Value = Mutation> {
 }
 
 fn resolve(path: &Path) -> Result<RunConfig, String> {
-    let options = CommonOptions {
+    let options = Overrides {
         config: Some(path.to_path_buf()),
-        ..CommonOptions::default()
+        ..Overrides::default()
     };
     RunConfig::resolve(&options, "tiny").map_err(|e| e.to_string())
 }

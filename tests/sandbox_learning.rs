@@ -7,8 +7,8 @@
 //! 28–30× at 750–900 steps in `colorvision train --preset sandbox --cones LMS --steps 1500`).
 //! Held-out batches come from the same eye looking at scenes the training never drew.
 
-use colorvision::config::RunConfig;
 use colorvision::run::{run, RunMode};
+use science::config::RunConfig;
 
 #[test]
 fn sandbox_cortex_predicts_held_out_frames_five_times_better_than_no_change() {

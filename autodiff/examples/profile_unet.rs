@@ -38,7 +38,7 @@ fn main() {
         let l = tape.mse(y, tv);
         tape.backward(l);
         grads.fill_from_tape(tape);
-        opt.step(&mut ps, &grads).expect("finite gradients");
+        opt.step(1e-3, &mut ps, &grads).expect("finite gradients");
     };
     for _ in 0..3 {
         step(&mut tape);

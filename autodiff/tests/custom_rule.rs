@@ -118,13 +118,13 @@ fn a_rule_from_outside_the_library_trains_and_is_not_backprop() {
         hidden > 1e-3,
         "hidden-layer update equals backprop's ({hidden})"
     );
-    let mut opt = Optimizer::new(Adam::new(0.02));
+    let mut opt = Optimizer::new(Adam::default());
     let first = tape.value(l).item();
     let mut rule: Box<dyn LearningRule<f64>> = Box::new(SignSymmetry);
     for _ in 0..500 {
         let l = loss(&mut tape, &p);
         let g = rule.assign_credit(&mut tape, l.into(), &p);
-        opt.step(&mut p, &g).unwrap();
+        opt.step(0.02, &mut p, &g).unwrap();
     }
     let l = loss(&mut tape, &p);
     let last = tape.value(l).item();

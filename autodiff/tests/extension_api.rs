@@ -232,7 +232,7 @@ fn frozen_parameters_stay_bit_identical_through_adam() {
     );
     params.freeze(w1);
     let before = params.get(w1).clone();
-    let mut opt = Optimizer::new(Adam::new(0.1));
+    let mut opt = Optimizer::new(Adam::default());
     let mut tape = Tape::new();
     let w2_start = params.get(w2).clone();
     for _ in 0..5 {
@@ -249,7 +249,7 @@ fn frozen_parameters_stay_bit_identical_through_adam() {
             grads.get(w1).is_none(),
             "a frozen parameter is a constant on the tape"
         );
-        opt.step(&mut params, &grads).unwrap();
+        opt.step(0.1, &mut params, &grads).unwrap();
     }
     let bits = |t: &Tensor<f32>| t.data().iter().map(|v| v.to_bits()).collect::<Vec<_>>();
     assert_eq!(bits(params.get(w1)), bits(&before));
@@ -305,7 +305,7 @@ impl Regression {
     /// Trains with `rule`; returns (first loss, last loss, hidden-weight gradient at step 0).
     fn train(&self, rule: &mut dyn LearningRule<f32>) -> (f32, f32, Tensor<f32>) {
         let mut p = Self::params();
-        let mut opt = Optimizer::new(Adam::new(0.01));
+        let mut opt = Optimizer::new(Adam::default());
         let mut tape = Tape::new();
         let (mut first, mut last, mut g0) = (0.0, 0.0, None);
         for step in 0..600 {
@@ -316,7 +316,7 @@ impl Regression {
                 first = last;
                 g0 = grads.get(ParamId(0)).cloned();
             }
-            opt.step(&mut p, &grads).unwrap();
+            opt.step(0.01, &mut p, &grads).unwrap();
         }
         (first, last, g0.unwrap())
     }

@@ -90,7 +90,7 @@ impl Regression {
     /// Loss before and after 800 Adam steps under `rule`.
     fn fit(&self, rule: &mut dyn LearningRule<f64>) -> (f64, f64) {
         let mut p = weights(0, 1.0);
-        let mut opt = Optimizer::new(Adam::new(0.01));
+        let mut opt = Optimizer::new(Adam::default());
         let mut tape = Tape::new();
         let mut losses = Vec::new();
         for _ in 0..800 {
@@ -101,7 +101,7 @@ impl Regression {
                 autodiff::learn::Objective::with_output(loss, y),
                 &p,
             );
-            opt.step(&mut p, &g).unwrap();
+            opt.step(0.01, &mut p, &g).unwrap();
         }
         let (loss, _) = self.record(&mut tape, &p);
         (losses[0], tape.value(loss).item())
@@ -257,7 +257,7 @@ impl Labelled {
 fn forward_forward_separates_positive_from_negative_data() {
     let task = Labelled::new();
     let mut p = Labelled::params();
-    let mut opt = Optimizer::new(Adam::new(0.01));
+    let mut opt = Optimizer::new(Adam::default());
     let mut tape = Tape::new();
     let first = {
         let g = task.record(&mut tape, &p);
@@ -267,7 +267,7 @@ fn forward_forward_separates_positive_from_negative_data() {
         let g = task.record(&mut tape, &p);
         let loss = g[0].0; // not used by the rule
         let grads = ForwardForward.assign_credit(&mut tape, loss.into(), &p);
-        opt.step(&mut p, &grads).unwrap();
+        opt.step(0.01, &mut p, &grads).unwrap();
     }
     let g = task.record(&mut tape, &p);
     let last = Labelled::gap(&tape, &g);

@@ -98,10 +98,11 @@ pub struct Trainer {
     pub(crate) last_loss: Option<f64>,
 }
 
+/// Adam with the cortex's β and ε, and W's learning-rate scale. Its learning rate is given at
+/// each step, from [`crate::config::TrainConfig::learning_rate_at`], the one place it is decided.
 pub(crate) fn adam(cortex: &Cortex) -> Optimizer<f32, Adam> {
     let t = &cortex.config.train;
     let mut optim = Optimizer::new(Adam {
-        lr: t.learning_rate,
         beta1: t.adam_beta1,
         beta2: t.adam_beta2,
         eps: t.adam_eps,
@@ -307,9 +308,9 @@ impl Trainer {
             });
         }
         let to = Instant::now();
-        self.optim.rule.lr = self.cortex.config.train.learning_rate_at(self.step);
+        let learning_rate = self.cortex.config.train.learning_rate_at(self.step);
         self.optim
-            .step(&mut self.cortex.params, &self.grads)
+            .step(learning_rate, &mut self.cortex.params, &self.grads)
             .map_err(|e| CortexError::InvalidConfig {
                 field: "optimizer".into(),
                 reason: e.to_string(),

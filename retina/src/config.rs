@@ -164,7 +164,7 @@ impl RetinaConfig {
     /// between `quick` and `paper`. Four times the cones in each CMF-SIM patch let a narrow
     /// dimension clear the instrument's threshold: the oracle decoder's best three primaries
     /// fail by 16.4× the threshold for LMS + human Q through this eye, 5.8× through `quick`,
-    /// 20.2× through `paper` (docs/measurements.md, *Why rows differ from the paper*). Its
+    /// 20.2× through `paper` (docs/notebook/2026-11-27-why-rows-differ-from-the-paper.md). Its
     /// tiles are 320 px (the field and 2 × 15 px of eye motion, rounded up to a multiple of
     /// 64); 16 of them hold 1.6 M pixels, about the quick pool's 32 × 192² (1.2 M).
     pub fn large() -> Self {

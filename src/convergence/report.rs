@@ -3,11 +3,11 @@
 //! `convergence_invariants.svg` / `convergence_measures.svg` (the measures over steps, log x).
 
 use super::{CheckpointCmf, StudyRow, VerdictOverCheckpoints};
-use crate::config::RunConfig;
-use crate::invariants;
 use crate::io::write_atomic;
-use crate::run_error::RunError;
+use crate::run::error::RunError;
 use colorimetry::plot::{LinePlot, Series};
+use science::config::RunConfig;
+use science::invariants;
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -134,7 +134,7 @@ pub(super) fn write_outputs(
     write_atomic(&out.join("convergence.json"), json.as_bytes())?;
     let points = VerdictOverCheckpoints::points_of(rows);
     let json = serde_json::to_string_pretty(&points).expect("plain data");
-    write_atomic(&out.join(super::verdict::CMF_FILE), json.as_bytes())?;
+    write_atomic(&out.join(super::CMF_FILE), json.as_bytes())?;
     write_atomic(
         &out.join("convergence.md"),
         table(config, rows, last).as_bytes(),

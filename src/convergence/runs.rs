@@ -10,7 +10,7 @@
 use super::report::min_of;
 use super::StudyRow;
 use crate::io::write_atomic;
-use crate::run_error::RunError;
+use crate::run::error::RunError;
 use colorimetry::plot::{LinePlot, Series};
 use std::fmt::Write as _;
 use std::path::Path;

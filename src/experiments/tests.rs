@@ -23,7 +23,7 @@ fn an_untrained_baseline_is_a_run_folder_gather_reads_with_the_papers_figure() {
         assert_eq!(summary.dimension_over_steps.len(), 1);
         let train_steps = run.settings.get("cortex.train.steps").map(String::as_str);
         assert_eq!(train_steps, Some("0"), "{}: one step count", run.folder);
-        let reported = crate::paper::reported_for_settings(&run.settings);
+        let reported = science::paper::reported_for_settings(&run.settings);
         assert_eq!(reported.map(|r| r.to_string()).as_deref(), Some(paper));
     }
     std::fs::remove_dir_all(&root).unwrap();

@@ -2,7 +2,7 @@
 //! dichromat's percepts along one hue axis — blue–yellow for LS and MS, teal–pink for LM).
 //!
 //! One row per finished run with two cone classes whose summary holds the Neural Scope's hue axis
-//! ([`crate::pictures::Invariants`]): the axis of the learned percept's colours and, as the known
+//! ([`science::summary::Invariants`]): the axis of the learned percept's colours and, as the known
 //! answer, the axis of an ideal dichromat with the same cone classes (a Neural Scope fitted on the
 //! true excitation of both classes at every pixel, on the same held-out scenes). Angles are CIELAB
 //! hue directions in degrees in [0, 180) ([`colorimetry::HueAxis`]: 90 is yellow–blue, b\*; 0 is

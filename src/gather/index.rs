@@ -9,7 +9,7 @@
 use super::table::{dimension_column, display, emphasise_number};
 use super::Run;
 use crate::report::{base64, escape, REPORT_FILE, STYLE};
-use crate::run_error::RunError;
+use crate::run::error::RunError;
 use std::fmt::Write as _;
 use std::path::Path;
 

@@ -33,7 +33,7 @@ pub const CONTINUED_FROM_KEY: &str = "continued_from";
 /// The settings of the run in `dir` whose resolved config is `config`, flattened to dotted keys
 /// ([`flatten`]), with [`CONTINUED_FROM_KEY`] when its cortex came from another run (named by
 /// its row in `rows` when it is there, [`continued_from`]). What `gather` shows and what the
-/// paper's figure for the run is looked up by ([`crate::paper::reported_for_settings`]: the
+/// paper's figure for the run is looked up by ([`science::paper::reported_for_settings`]: the
 /// paper's figures for a continued run are those of a fresh one).
 pub(crate) fn run_settings(
     dir: &Path,

@@ -7,9 +7,9 @@
 //! against the eye's truth: C recall by nearest class centre and d′ per class, W's surround
 //! correlation and DC gain, P's position error after the affine gauge (cone spacings RMS), and
 //! what the eye hides recovered (per class, the held-out R² of its own signal at the other
-//! classes' cones, [`crate::invariants::hidden`]) and which colour directions the percept
+//! classes' cones, [`science::invariants::hidden`]) and which colour directions the percept
 //! carries (per principal direction of the cone excitations, strongest first, the held-out R²
-//! of its projection, [`crate::invariants::directions`]; empty for runs measured before it).
+//! of its projection, [`science::invariants::directions`]; empty for runs measured before it).
 //! The Markdown cells are formatted as the README's tables; the CSV keeps full precision.
 
 use super::Run;
@@ -20,7 +20,7 @@ use std::collections::{BTreeMap, BTreeSet};
 /// `[retina] cones` follows `cones`). A setting that only together with several kept ones
 /// singles out its runs keeps its column: one run on a larger eye shows its eye size even when
 /// its cones, seed and steps already make its row unique. When a run measures or saves
-/// ([`BOOKKEEPING`]) gets no column unless named in `first`. Candidates are taken in order:
+/// (`schedule.*`, the checkpoint interval) gets no column unless named in `first`. Candidates are taken in order:
 /// `first` (a sweep's grid keys), then shallow keys before nested ones, then by name.
 pub fn varying_keys(runs: &[Run], first: &[String]) -> Vec<String> {
     let rows: Vec<&BTreeMap<String, String>> = runs
@@ -86,7 +86,7 @@ struct Cells {
 
 fn cells(run: &Run) -> Option<Cells> {
     let s = run.summary.as_ref()?;
-    let margins = crate::run::margins_text(&s.converged_ratio_per_k);
+    let margins = science::summary::margins_text(&s.converged_ratio_per_k);
     // 0 is "undefined" when measured (the verdict says why), "not measured" otherwise.
     let measured = !s.dimension_over_steps.is_empty();
     let why = s.verdict.split(':').next().unwrap_or_default();
@@ -105,10 +105,10 @@ fn cells(run: &Run) -> Option<Cells> {
             .heldout_prediction
             .map_or(String::new(), |p| format!("{:.1}", p[2])),
         c_recall: c.map_or(String::new(), |c| {
-            crate::invariants::per_class(&c.recall_nearest_centroid, 2)
+            science::invariants::per_class(&c.recall_nearest_centroid, 2)
         }),
         c_dprime: c.map_or(String::new(), |c| {
-            crate::invariants::per_class(&c.dprime, 1)
+            science::invariants::per_class(&c.dprime, 1)
         }),
         w_surround: w.map_or(String::new(), |w| format!("{:.2}", w.surround_r)),
         w_dc: w.map_or(String::new(), |w| format!("{:.3}", w.dc_gain)),
@@ -118,11 +118,11 @@ fn cells(run: &Run) -> Option<Cells> {
         hidden: rec
             .and_then(|r| r.hidden.as_ref())
             .map_or(String::new(), |h| {
-                crate::invariants::per_class(&h.unique_r2, 2)
+                science::invariants::per_class(&h.unique_r2, 2)
             }),
         directions: rec
             .and_then(|r| r.directions.as_ref())
-            .map_or(String::new(), |d| crate::invariants::per_class(&d.r2, 2)),
+            .map_or(String::new(), |d| science::invariants::per_class(&d.r2, 2)),
         wall: format!("{:.0}", s.wall_seconds),
     })
 }
@@ -155,9 +155,9 @@ pub fn dimension_column(keys: &[String]) -> usize {
     keys.len() + 5
 }
 
-/// The dimension the paper reports for a run's settings ([`crate::paper`]), or "—".
+/// The dimension the paper reports for a run's settings ([`science::paper`]), or "—".
 fn paper_cell(run: &Run) -> String {
-    crate::paper::reported_for_settings(&run.settings).map_or("—".into(), |r| r.to_string())
+    science::paper::reported_for_settings(&run.settings).map_or("—".into(), |r| r.to_string())
 }
 
 /// The readable table (Markdown and HTML): its header and one row of plain-text cells per run.
@@ -300,7 +300,7 @@ pub fn csv(runs: &[Run], keys: &[String]) -> String {
         row.push(run.steps.map_or(String::new(), |s| s.to_string()));
         let s = run.summary.as_ref();
         row.push(num(s.map(|s| s.wall_seconds)));
-        let paper = crate::paper::reported_for_settings(&run.settings);
+        let paper = science::paper::reported_for_settings(&run.settings);
         row.push(paper.map_or(String::new(), |r| r.to_string()));
         row.push(s.map_or(String::new(), |s| s.dimension.to_string()));
         row.push(s.map_or(String::new(), |s| s.verdict.clone()));
@@ -314,10 +314,10 @@ pub fn csv(runs: &[Run], keys: &[String]) -> String {
         let w = rec.and_then(|r| r.w.as_ref());
         row.push(c.map_or(String::new(), |c| c.classes.join("/")));
         row.push(c.map_or(String::new(), |c| {
-            crate::invariants::per_class(&c.recall_nearest_centroid, 4)
+            science::invariants::per_class(&c.recall_nearest_centroid, 4)
         }));
         row.push(c.map_or(String::new(), |c| {
-            crate::invariants::per_class(&c.dprime, 4)
+            science::invariants::per_class(&c.dprime, 4)
         }));
         row.push(num(w.map(|w| w.surround_r)));
         row.push(num(w.map(|w| w.dc_gain)));
@@ -325,12 +325,12 @@ pub fn csv(runs: &[Run], keys: &[String]) -> String {
         row.push(
             rec.and_then(|r| r.hidden.as_ref())
                 .map_or(String::new(), |h| {
-                    crate::invariants::per_class(&h.unique_r2, 4)
+                    science::invariants::per_class(&h.unique_r2, 4)
                 }),
         );
         row.push(
             rec.and_then(|r| r.directions.as_ref())
-                .map_or(String::new(), |d| crate::invariants::per_class(&d.r2, 4)),
+                .map_or(String::new(), |d| science::invariants::per_class(&d.r2, 4)),
         );
         let row: Vec<String> = row.iter().map(|c| csv_field(c)).collect();
         out.push_str(&(row.join(",") + "\n"));

@@ -77,7 +77,7 @@ impl RunState<'_> {
         Ok(summary)
     }
 
-    fn summary(&self, invariants: Option<pictures::Invariants>) -> Summary {
+    fn summary(&self, invariants: Option<science::summary::Invariants>) -> Summary {
         let p = &self.progress;
         let mut first = Vec::new();
         for d in &p.dims {
@@ -187,7 +187,7 @@ pub fn print_outcome(out: &Path, summary: &Summary) {
 }
 
 /// CMF-SIM's verdict of the run in plain words, beside what the paper reports for the same
-/// retina ([`crate::paper`]); `None` when the run measured no dimension.
+/// retina ([`science::paper`]); `None` when the run measured no dimension.
 pub fn in_words(out: &Path, summary: &Summary) -> Option<String> {
     if summary.dimension_over_steps.is_empty() {
         return None;
@@ -212,7 +212,7 @@ pub fn in_words(out: &Path, summary: &Summary) -> Option<String> {
     };
     let config = toml::Value::try_from(&summary.config).ok()?;
     let settings = crate::gather::run_settings(out, &config, &Default::default());
-    let paper = match crate::paper::reported_for_settings(&settings) {
+    let paper = match science::paper::reported_for_settings(&settings) {
         None => "The paper has no figure for this retina.".to_string(),
         Some(p) if p.agrees_with(d) => {
             format!("The paper reports {p} for this retina too.")
@@ -220,7 +220,7 @@ pub fn in_words(out: &Path, summary: &Summary) -> Option<String> {
         Some(p) => format!(
             "The paper reports {p} for this retina, for a cortex trained about 100 000 steps \
              on an eye of 256×256 cones; this one trained {} steps on an eye of {n}×{n} cones \
-             (docs/measurements.md: how the dimension changes with training and eye size).",
+             (docs/results.md: how the dimension changes with training and eye size).",
             grouped(summary.steps),
             n = summary.config.retina.cones_per_side
         ),
@@ -243,20 +243,7 @@ const WORDS_WIDTH: usize = 96;
 /// `n` with its digits in groups of three, joined by no-break spaces so that [`wrap`] keeps
 /// the number on one line: `80 000`, as the docs write step counts.
 fn grouped(n: u64) -> String {
-    digits_grouped(n, '\u{a0}')
-}
-
-/// `n` with its digits in groups of three joined by `separator`: `80 000`.
-pub fn digits_grouped(n: u64, separator: char) -> String {
-    let digits = n.to_string();
-    let mut out = String::new();
-    for (i, c) in digits.chars().enumerate() {
-        if i > 0 && (digits.len() - i).is_multiple_of(3) {
-            out.push(separator);
-        }
-        out.push(c);
-    }
-    out
+    science::summary::digits_grouped(n, '\u{a0}')
 }
 
 /// `text` broken at spaces (U+0020; a no-break space holds) into lines of at most `width`

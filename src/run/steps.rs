@@ -135,7 +135,7 @@ impl RunState<'_> {
             let measured = LastMeasurement::of(k, &r);
             // The margins say how far from the border the verdict is; an undefined one says why.
             let mut said = vec![
-                super::margins_text(&measured.converged_ratio_per_k),
+                margins_text(&measured.converged_ratio_per_k),
                 format!("{:.0} s", r.seconds),
                 format!(
                     "{} λ, {} sets/K",
@@ -247,39 +247,4 @@ pub fn measure(
 ) -> Result<CmfSimResult, RunError> {
     let observer = EyeObserver::cortex(retina, &trainer.cortex, config.observer.clone());
     Ok(run_cmf_sim(&observer, settings)?)
-}
-
-/// Held-out prediction error `[model MSE, next = current MSE, ratio]` over `batches` batches.
-pub fn heldout_error(
-    trainer: &mut Trainer,
-    heldout: &mut RetinaSource,
-    bs: usize,
-    batches: usize,
-) -> Result<[f64; 3], RunError> {
-    let (mut model, mut identity) = (0.0, 0.0);
-    for _ in 0..batches.max(1) {
-        let b = heldout.next_batch(bs);
-        let e = trainer.prediction_error(&b)?;
-        model += e.model_mse;
-        identity += e.identity_mse;
-    }
-    Ok([model, identity, identity / model.max(1e-30)])
-}
-
-/// Mean distance (ONS pixels) of the cortex's motion estimate from the true motion over
-/// `batches` held-out batches (evaluation: the batches carry the oracle motion).
-pub fn heldout_motion_error(
-    trainer: &mut Trainer,
-    heldout: &mut RetinaSource,
-    bs: usize,
-    batches: usize,
-) -> Result<f64, RunError> {
-    let mut total = 0.0;
-    for _ in 0..batches.max(1) {
-        let b = heldout.next_batch(bs);
-        if let Some(e) = trainer.motion_error_ons_px(&b)? {
-            total += e.mean_px;
-        }
-    }
-    Ok(total / batches.max(1) as f64)
 }

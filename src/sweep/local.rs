@@ -8,7 +8,7 @@
 //! same command continues.
 
 use super::task::Manifest;
-use crate::run_error::RunError;
+use crate::run::error::RunError;
 use std::fs::OpenOptions;
 use std::path::Path;
 use std::process::{Command, Stdio};

@@ -12,7 +12,7 @@
 //! has one request). Logs go to `DIR/logs/task-<index>.log`, appended across requeues.
 
 use super::spec::{spec_error, Job};
-use crate::config::{ConfigError, RunConfig};
+use science::config::{ConfigError, RunConfig};
 use serde::{Deserialize, Serialize};
 use std::fmt::Write as _;
 use std::path::Path;

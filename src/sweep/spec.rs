@@ -25,8 +25,7 @@
 //! of the wrong type or out of range is an error naming the spec file and the grid key.
 
 use super::script::SlurmSettings;
-use crate::cli::CommonOptions;
-use crate::config::{one_line, ConfigError, RunConfig};
+use science::config::{one_line, set_dotted, ConfigError, Overrides, RunConfig};
 use serde::Deserialize;
 use std::path::Path;
 
@@ -261,23 +260,11 @@ fn resolve(
     for (key, value) in settings {
         set_dotted(&mut file, key, value.clone());
     }
-    let options = CommonOptions::default();
-    RunConfig::resolve_value(&options, Some((path.display().to_string(), file)), "quick")
-}
-
-/// Sets `key` (dotted) in the table `root`, creating the tables on its way.
-fn set_dotted(root: &mut toml::Value, key: &str, value: toml::Value) {
-    let mut slot = root;
-    for part in key.split('.') {
-        if !slot.is_table() {
-            *slot = toml::Value::Table(toml::Table::new());
-        }
-        let table = slot.as_table_mut().expect("made a table above");
-        slot = table
-            .entry(part)
-            .or_insert_with(|| toml::Value::Table(toml::Table::new()));
-    }
-    *slot = value;
+    RunConfig::resolve_value(
+        &Overrides::default(),
+        Some((path.display().to_string(), file)),
+        "quick",
+    )
 }
 
 /// Prefixes the spec location `what` to a resolution error (which names the setting).

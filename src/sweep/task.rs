@@ -9,7 +9,7 @@
 //! checkpointed; exit code 130).
 
 use crate::cli::ResumeOptions;
-use crate::run_error::RunError;
+use crate::run::error::RunError;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};

@@ -264,6 +264,30 @@ pub const CASES: &[Case] = &[
     case("steps negative", None, &["--steps", "-3"], &["-3"]),
     case("preset", None, &["--preset", "huge"], &["preset", "huge"]),
     case(
+        "set unknown key",
+        None,
+        &["--set", "cortex.train.learning_rat=3e-4"],
+        &["--set", "learning_rat"],
+    ),
+    case(
+        "set wrong type",
+        None,
+        &["--set", "cortex.train.batch_size=many"],
+        &["--set", "batch_size"],
+    ),
+    case(
+        "set out of range",
+        None,
+        &["--set", "cortex.train.learning_rate=-1"],
+        &["--set cortex.train.learning_rate", "positive"],
+    ),
+    case(
+        "set no value",
+        None,
+        &["--set", "steps"],
+        &["--set", "KEY=VALUE"],
+    ),
+    case(
         "config missing",
         None,
         &["--config", "nowhere.toml"],

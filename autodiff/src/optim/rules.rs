@@ -1,7 +1,8 @@
 //! The built-in update rules: [`Sgd`] (with optional momentum) and [`Adam`].
 //!
-//! Each is a pure per-parameter rule: given the parameter, its gradient, its state slots and
-//! the 1-based step count of *this parameter*, update the parameter in place. Arithmetic is in
+//! Each is a pure per-parameter rule: given the parameter, its gradient, its state slots, the
+//! 1-based step count of *this parameter* and the learning rate of this step, update the
+//! parameter in place. Arithmetic is in
 //! the parameter's float type; Adam's bias corrections are computed in f64.
 
 use super::UpdateRule;
@@ -9,19 +10,10 @@ use crate::{Float, Tensor};
 
 /// Stochastic gradient descent: `v ← μ·v + g`, `θ ← θ − lr·v` (PyTorch's form; with `μ = 0`
 /// this is `θ ← θ − lr·g` and keeps no state).
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, Default)]
 pub struct Sgd {
-    /// Learning rate.
-    pub lr: f64,
-    /// Momentum `μ` (0: none).
+    /// Momentum `μ` (0, the default: none).
     pub momentum: f64,
-}
-
-impl Sgd {
-    /// Plain SGD with learning rate `lr`.
-    pub fn new(lr: f64) -> Self {
-        Sgd { lr, momentum: 0.0 }
-    }
 }
 
 impl<T: Float> UpdateRule<T> for Sgd {
@@ -35,8 +27,8 @@ impl<T: Float> UpdateRule<T> for Sgd {
             &[]
         }
     }
-    fn update(&self, p: &mut [T], g: &[T], slots: &mut [Tensor<T>], _step: u64, lr_scale: f64) {
-        let lr = T::of(self.lr * lr_scale);
+    fn update(&self, p: &mut [T], g: &[T], slots: &mut [Tensor<T>], _step: u64, lr: f64) {
+        let lr = T::of(lr);
         match slots {
             [v] => {
                 let mu = T::of(self.momentum);
@@ -54,12 +46,10 @@ impl<T: Float> UpdateRule<T> for Sgd {
 /// `m ← β₁m + (1−β₁)g`, `v ← β₂v + (1−β₂)g²`,
 /// `θ ← θ − lr · (m / (1−β₁ᵗ)) / (√(v / (1−β₂ᵗ)) + ε)`.
 ///
-/// Defaults are the paper's and the authors' code's (docs/references.md#training: lr 1e-3,
-/// β (0.9, 0.999), ε 1e-8, no weight decay).
+/// Defaults are the paper's and the authors' code's (docs/references.md#training: β (0.9,
+/// 0.999), ε 1e-8, no weight decay; their learning rate, 1e-3, is the caller's to give).
 #[derive(Clone, Copy, Debug)]
 pub struct Adam {
-    /// Learning rate.
-    pub lr: f64,
     /// Decay of the first-moment average.
     pub beta1: f64,
     /// Decay of the second-moment average.
@@ -71,20 +61,9 @@ pub struct Adam {
 impl Default for Adam {
     fn default() -> Self {
         Adam {
-            lr: 1e-3,
             beta1: 0.9,
             beta2: 0.999,
             eps: 1e-8,
-        }
-    }
-}
-
-impl Adam {
-    /// Default Adam with learning rate `lr`.
-    pub fn new(lr: f64) -> Self {
-        Adam {
-            lr,
-            ..Adam::default()
         }
     }
 }
@@ -96,7 +75,7 @@ impl<T: Float> UpdateRule<T> for Adam {
     fn slots(&self) -> &'static [&'static str] {
         &["m", "v"]
     }
-    fn update(&self, p: &mut [T], g: &[T], slots: &mut [Tensor<T>], step: u64, lr_scale: f64) {
+    fn update(&self, p: &mut [T], g: &[T], slots: &mut [Tensor<T>], step: u64, lr: f64) {
         let [m, v] = slots else {
             panic!("adam: expects slots m, v")
         };
@@ -104,7 +83,7 @@ impl<T: Float> UpdateRule<T> for Adam {
         let bc1 = 1.0 - self.beta1.powi(t);
         let bc2 = 1.0 - self.beta2.powi(t);
         // θ −= (lr/bc1) · m / (√v / √bc2 + ε), PyTorch's arrangement.
-        let step_size = T::of(self.lr * lr_scale / bc1);
+        let step_size = T::of(lr / bc1);
         let inv_sqrt_bc2 = T::of(1.0 / bc2.sqrt());
         let (b1, b2, eps) = (T::of(self.beta1), T::of(self.beta2), T::of(self.eps));
         let (c1, c2) = (T::one() - b1, T::one() - b2);
@@ -123,11 +102,11 @@ mod tests {
     #[test]
     fn adam_first_step_moves_by_lr_times_sign() {
         // With m̂ = g and v̂ = g² on step 1, the update is lr·g/(|g| + ε) ≈ lr·sign(g).
-        let rule = Adam::new(0.01);
+        let rule = Adam::default();
         let mut p = vec![1.0f64, 1.0, 1.0];
         let g = [3.0, -0.5, 1e-3];
         let mut slots = vec![Tensor::zeros([3]), Tensor::zeros([3])];
-        rule.update(&mut p, &g, &mut slots, 1, 1.0);
+        rule.update(&mut p, &g, &mut slots, 1, 0.01);
         for (i, &gi) in g.iter().enumerate() {
             let want = 1.0 - 0.01 * gi / (gi.abs() + 1e-8);
             assert!((p[i] - want).abs() < 1e-12, "{i}: {} vs {want}", p[i]);
@@ -141,8 +120,8 @@ mod tests {
         let rule = Adam::default();
         let mut p = vec![0.5f64];
         let mut s = vec![Tensor::zeros([1]), Tensor::zeros([1])];
-        rule.update(&mut p, &[2.0], &mut s, 1, 1.0);
-        rule.update(&mut p, &[-1.0], &mut s, 2, 1.0);
+        rule.update(&mut p, &[2.0], &mut s, 1, 1e-3);
+        rule.update(&mut p, &[-1.0], &mut s, 2, 1e-3);
         let (m, v) = (0.9 * 0.2 - 0.1, 0.999 * 0.004 + 0.001 * 1.0);
         let (mh, vh) = (m / (1.0 - 0.81), v / (1.0 - 0.999f64.powi(2)));
         let p1 = 0.5 - 1e-3 * 2.0 / (2.0 + 1e-8); // step 1: m̂ = 2, v̂ = 4
@@ -151,33 +130,30 @@ mod tests {
     }
 
     #[test]
-    fn lr_scale_multiplies_the_step() {
+    fn the_step_scales_with_the_learning_rate() {
         let rule = Adam::default();
         let (mut a, mut b) = (vec![0.5f64], vec![0.5f64]);
         let mut sa = vec![Tensor::zeros([1]), Tensor::zeros([1])];
         let mut sb = vec![Tensor::zeros([1]), Tensor::zeros([1])];
         for (step, g) in [(1, 2.0), (2, -1.0), (3, 0.5)] {
-            rule.update(&mut a, &[g], &mut sa, step, 1.0);
-            rule.update(&mut b, &[g], &mut sb, step, 10.0);
+            rule.update(&mut a, &[g], &mut sa, step, 1e-3);
+            rule.update(&mut b, &[g], &mut sb, step, 1e-2);
         }
         assert!(((b[0] - 0.5) - 10.0 * (a[0] - 0.5)).abs() < 1e-12);
-        let sgd = Sgd::new(0.1);
+        let sgd = Sgd::default();
         let mut p = vec![0.0f64];
-        sgd.update(&mut p, &[1.0], &mut [], 1, 3.0);
+        sgd.update(&mut p, &[1.0], &mut [], 1, 0.3);
         assert!((p[0] + 0.3).abs() < 1e-12);
     }
 
     #[test]
     fn sgd_momentum_accumulates_velocity() {
-        let rule = Sgd {
-            lr: 0.1,
-            momentum: 0.9,
-        };
+        let rule = Sgd { momentum: 0.9 };
         let mut p = vec![0.0f32];
         let mut s = vec![Tensor::zeros([1])];
         assert_eq!(<Sgd as UpdateRule<f32>>::slots(&rule), &["velocity"]);
-        rule.update(&mut p, &[1.0], &mut s, 1, 1.0);
-        rule.update(&mut p, &[1.0], &mut s, 2, 1.0);
+        rule.update(&mut p, &[1.0], &mut s, 1, 0.1);
+        rule.update(&mut p, &[1.0], &mut s, 2, 0.1);
         // v: 1, 1.9; p: -0.1, -0.29
         assert!((p[0] + 0.29).abs() < 1e-6);
     }

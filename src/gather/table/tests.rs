@@ -115,10 +115,10 @@ fn the_directions_column_reads_each_direction_s_r2_and_is_empty_when_not_measure
         env!("CARGO_MANIFEST_DIR"),
         "/results/LMS-quick-6k/summary.json"
     );
-    let mut summary = crate::run::Summary::read(std::path::Path::new(path))
+    let mut summary = science::summary::Summary::read(std::path::Path::new(path))
         .expect("the quick run's record reads");
     let recovery = &mut summary.invariants.as_mut().unwrap().recovery;
-    recovery.directions = Some(crate::invariants::directions::DirectionRecovery {
+    recovery.directions = Some(science::invariants::directions::DirectionRecovery {
         classes: vec!["L".into(), "M".into(), "S".into()],
         weights: vec![vec![1.0, 0.0, 0.0]; 3],
         share: vec![0.6, 0.3, 0.1],

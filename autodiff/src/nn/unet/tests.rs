@@ -127,7 +127,7 @@ fn learns_to_demosaic_smooth_images() {
         seed: 3,
     };
     let net = UNet::new(&mut ps, "d", cfg);
-    let mut opt = Optimizer::new(Adam::new(3e-3));
+    let mut opt = Optimizer::new(Adam::default());
     let (test_x, test_y) = mosaic_batch(&mut rng, &pattern, 8, s);
     let mut tape = Tape::<f32>::new();
     let eval = |tape: &mut Tape<f32>, ps: &ParamStore<f32>| {
@@ -148,7 +148,7 @@ fn learns_to_demosaic_smooth_images() {
         let l = tape.mse(out, y);
         tape.backward(l);
         grads.fill_from_tape(&tape);
-        opt.step(&mut ps, &grads).unwrap();
+        opt.step(3e-3, &mut ps, &grads).unwrap();
     }
     let after = eval(&mut tape, &ps);
     eprintln!(

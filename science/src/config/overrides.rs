@@ -1,0 +1,166 @@
+//! Settings given on top of a preset and a config file ([`Overrides`]): the command line's
+//! `--preset`, `--cones`, `--seed`, `--steps`, `--config FILE`, `--scene FILE` and
+//! `--set KEY=VALUE`.
+//!
+//! `--set` reaches any key of a `--config` file, dotted (`cortex.train.learning_rate=3e-4`,
+//! `retina.scenes.tetra.fraction=0.3`). The value is read as a TOML value (`3e-4`, `true`,
+//! `"LMS"`, `[1, 2]`); one that is not TOML is taken as a string (`cones=LMSQ,Q:506`). The
+//! settings given are laid over the file's as if they were written in it, the last given
+//! winning, and validated as the file is: an unknown key or a value of the wrong type is an
+//! error naming `--set` and the key, and a value out of range names `--set KEY`. The resolved
+//! settings, and so every value given, are what a run writes into its `config.toml`.
+
+use super::{one_line, ConfigError, RunConfig};
+use std::path::PathBuf;
+
+/// What is given on top of a preset, each optional; [`RunConfig::resolve`] applies them.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Overrides {
+    /// The preset (else the file's `preset`, else the caller's default).
+    pub preset: Option<String>,
+    /// The cone types (else the file's `cones`, else `LMS`).
+    pub cones: Option<String>,
+    /// The seed every component's seed derives from.
+    pub seed: Option<u64>,
+    /// Training steps.
+    pub steps: Option<u64>,
+    /// A TOML file of settings (any subset of a run's `config.toml`).
+    pub config: Option<PathBuf>,
+    /// Scenes from this file, folder or pattern (`[retina.scenes] files = [scene]`).
+    pub scene: Option<PathBuf>,
+    /// `KEY=VALUE` settings laid over the file's, in order (module docs).
+    pub set: Vec<String>,
+}
+
+/// One `KEY=VALUE`, read: the dotted key and its value (module docs); an error names `--set`.
+pub fn parse_setting(item: &str) -> Result<(String, toml::Value), ConfigError> {
+    let bad = |message: String| ConfigError::Parse {
+        path: "--set".into(),
+        message,
+    };
+    let (key, raw) = item
+        .split_once('=')
+        .ok_or_else(|| bad(format!("`{item}`: expected KEY=VALUE, e.g. steps=2000")))?;
+    let key = key.trim();
+    let well_formed = |part: &str| {
+        !part.is_empty()
+            && part
+                .chars()
+                .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
+    };
+    if !key.split('.').all(well_formed) {
+        return Err(bad(format!(
+            "`{item}`: `{key}` is not a setting's dotted name (e.g. cortex.train.learning_rate)"
+        )));
+    }
+    let raw = raw.trim();
+    let value = toml::from_str::<toml::Table>(&format!("value = {raw}"))
+        .ok()
+        .and_then(|mut t| t.remove("value"))
+        .unwrap_or_else(|| toml::Value::String(raw.to_string()));
+    Ok((key.to_string(), value))
+}
+
+/// Sets `key` (dotted) to `value` in the table `root`, creating the tables on its way.
+pub fn set_dotted(root: &mut toml::Value, key: &str, value: toml::Value) {
+    let mut slot = root;
+    for part in key.split('.') {
+        if !slot.is_table() {
+            *slot = toml::Value::Table(toml::Table::new());
+        }
+        let table = slot.as_table_mut().expect("made a table above");
+        slot = table
+            .entry(part)
+            .or_insert_with(|| toml::Value::Table(toml::Table::new()));
+    }
+    *slot = value;
+}
+
+impl Overrides {
+    /// The `--set` settings laid over `file` (a config file's name and settings, or none),
+    /// in order; `None` when neither is given.
+    pub(super) fn lay_settings_over(
+        &self,
+        file: Option<(String, toml::Value)>,
+    ) -> Result<Option<(String, toml::Value)>, ConfigError> {
+        if self.set.is_empty() {
+            return Ok(file);
+        }
+        let (name, mut value) =
+            file.unwrap_or_else(|| ("--set".into(), toml::Value::Table(toml::Table::new())));
+        for item in &self.set {
+            let (key, setting) = parse_setting(item)?;
+            set_dotted(&mut value, &key, setting);
+        }
+        Ok(Some((name, value)))
+    }
+
+    /// Checks every `--set` setting alone over `base` (the preset), so that an unknown key or
+    /// a value of the wrong type names `--set` and the key rather than the file.
+    pub(super) fn check_settings_alone(&self, base: &RunConfig) -> Result<(), ConfigError> {
+        for item in &self.set {
+            let (key, setting) = parse_setting(item)?;
+            let mut alone = toml::Value::try_from(base).expect("a RunConfig serialises to TOML");
+            set_dotted(&mut alone, &key, setting);
+            alone
+                .try_into::<RunConfig>()
+                .map_err(|e| ConfigError::Parse {
+                    path: format!("--set {item}"),
+                    message: one_line(&e.to_string()),
+                })?;
+        }
+        Ok(())
+    }
+
+    /// The `--set` key that gave `field` (a setting's dotted name), if one did.
+    pub(super) fn set_key_of(&self, field: &str) -> Option<String> {
+        self.set.iter().rev().find_map(|item| {
+            let (key, _) = parse_setting(item).ok()?;
+            let gave = field == key || field.starts_with(&format!("{key}."));
+            gave.then_some(key)
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_setting_is_read_as_toml_and_else_as_a_string() {
+        let read = |s: &str| parse_setting(s).unwrap();
+        assert_eq!(
+            read("cortex.train.learning_rate=3e-4"),
+            (
+                "cortex.train.learning_rate".into(),
+                toml::Value::Float(3e-4)
+            )
+        );
+        assert_eq!(
+            read("steps = 200"),
+            ("steps".into(), toml::Value::Integer(200))
+        );
+        assert_eq!(read("oracle_motion=false").1, toml::Value::Boolean(false));
+        assert_eq!(
+            read("cones=LMSQ,Q:506").1,
+            toml::Value::String("LMSQ,Q:506".into())
+        );
+        assert_eq!(read("cones=\"LM\"").1, toml::Value::String("LM".into()));
+        for bad in ["steps", "=3", "cortex..train=1", "a b=1"] {
+            let e = parse_setting(bad).unwrap_err().to_string();
+            assert!(
+                e.starts_with("--set: ") && e.contains(bad.trim()),
+                "{bad}: {e}"
+            );
+        }
+    }
+
+    #[test]
+    fn a_dotted_key_makes_the_tables_on_its_way() {
+        let mut root = toml::Value::Table(toml::Table::new());
+        set_dotted(&mut root, "a.b.c", toml::Value::Integer(1));
+        set_dotted(&mut root, "a.d", toml::Value::Integer(2));
+        assert_eq!(root["a"]["b"]["c"].as_integer(), Some(1));
+        assert_eq!(root["a"]["d"].as_integer(), Some(2));
+    }
+}

@@ -1,0 +1,161 @@
+use super::*;
+
+fn options(config: Option<PathBuf>) -> Overrides {
+    Overrides {
+        config,
+        ..Overrides::default()
+    }
+}
+
+#[test]
+fn the_checkpoint_budget_applies_during_training_only() {
+    let c = RunConfig::preset("quick", "LMS").unwrap();
+    let during = c.cmf_settings(false);
+    let last = c.cmf_settings(true);
+    assert_eq!(
+        last, c.cmf_sim,
+        "the final measurement uses the full budget"
+    );
+    assert_eq!(
+        (
+            during.sets_per_k,
+            during.n_test_wavelengths,
+            during.location_pairs
+        ),
+        (
+            c.schedule.checkpoint_cmf_sets_per_k,
+            c.schedule.checkpoint_cmf_wavelengths,
+            c.schedule.checkpoint_cmf_location_pairs
+        )
+    );
+    assert!(during.sets_per_k < last.sets_per_k);
+    let tiny = RunConfig::preset("tiny", "LMS").unwrap();
+    assert_eq!(tiny.cmf_settings(false), tiny.cmf_sim, "0 means as cmf_sim");
+}
+
+#[test]
+fn a_typo_in_a_config_file_names_the_file_and_the_field() {
+    let dir = std::env::temp_dir().join(format!("cv_cfg_{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("typo.toml");
+    std::fs::write(
+        &path,
+        "preset = \"tiny\"\n[cortex.train]\nlearning_rat = 0.01\n",
+    )
+    .unwrap();
+    let err = RunConfig::resolve(&options(Some(path.clone())), "quick")
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("typo.toml") && err.contains("learning_rat"),
+        "{err}"
+    );
+    std::fs::write(
+        &path,
+        "preset = \"tiny\"\nsteps = 7\n[cortex.train]\nlearning_rate = 0.01\n",
+    )
+    .unwrap();
+    let c = RunConfig::resolve(&options(Some(path)), "quick").unwrap();
+    assert_eq!(
+        (c.steps, c.cortex.train.learning_rate, c.preset.as_str()),
+        (7, 0.01, "tiny")
+    );
+    std::fs::remove_dir_all(dir).ok();
+}
+
+#[test]
+fn command_line_overrides_the_file_and_mismatched_sizes_are_rejected() {
+    let mut o = options(None);
+    o.preset = Some("tiny".into());
+    o.cones = Some("LM".into());
+    o.steps = Some(5);
+    let c = RunConfig::resolve(&o, "quick").unwrap();
+    assert_eq!(
+        (c.cones.as_str(), c.retina.cones.as_str(), c.steps),
+        ("LM", "LM", 5)
+    );
+    let mut bad = c.clone();
+    bad.cortex.ons_size_px = 64;
+    assert!(bad
+        .validate()
+        .unwrap_err()
+        .to_string()
+        .contains("ons_size_px"));
+}
+
+#[test]
+fn every_seed_resolves_to_a_config_that_serialises() {
+    for seed in [1, 2, 3, 12345, i64::MAX as u64] {
+        let mut o = options(None);
+        o.preset = Some("tiny".into());
+        o.seed = Some(seed);
+        let c = RunConfig::resolve(&o, "quick").unwrap();
+        let back: RunConfig = toml::from_str(&c.to_toml()).unwrap();
+        assert_eq!(back, c, "seed {seed}");
+    }
+    let mut o = options(None);
+    o.seed = Some(u64::MAX);
+    let e = RunConfig::resolve(&o, "quick").unwrap_err().to_string();
+    assert!(e.contains("seed"), "{e}");
+}
+
+#[test]
+fn a_setting_given_with_set_is_laid_over_the_file_and_recorded() {
+    let dir = std::env::temp_dir().join(format!("cv_cfg_set_{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = "preset = \"tiny\"\n[cortex.train]\nlearning_rate = 0.01\n";
+    std::fs::write(dir.join("base.toml"), file).unwrap();
+    let mut o = options(Some(dir.join("base.toml")));
+    o.set = vec![
+        "cortex.train.learning_rate=3e-4".into(),
+        "retina.scenes.tiles=5".into(),
+    ];
+    let c = RunConfig::resolve(&o, "quick").unwrap();
+    assert_eq!(
+        (c.cortex.train.learning_rate, c.preset.as_str()),
+        (3e-4, "tiny")
+    );
+    assert_eq!(c.retina.scenes.tiles, 5);
+    let written: RunConfig = toml::from_str(&c.to_toml()).unwrap();
+    assert_eq!(
+        written.cortex.train.learning_rate, 3e-4,
+        "config.toml holds it"
+    );
+    // Without a file, and the last of two settings of one key wins.
+    let o = Overrides {
+        set: vec!["preset=tiny".into(), "steps=9".into(), "steps=7".into()],
+        ..Overrides::default()
+    };
+    let c = RunConfig::resolve(&o, "quick").unwrap();
+    assert_eq!(
+        (c.preset.as_str(), c.steps, c.cortex.train.steps),
+        ("tiny", 7, 7)
+    );
+    std::fs::remove_dir_all(dir).ok();
+}
+
+#[test]
+fn a_wrong_setting_given_with_set_names_set_and_the_key() {
+    let resolve = |items: &[&str]| {
+        let o = Overrides {
+            preset: Some("tiny".into()),
+            set: items.iter().map(|s| s.to_string()).collect(),
+            ..Overrides::default()
+        };
+        RunConfig::resolve(&o, "quick").unwrap_err().to_string()
+    };
+    let e = resolve(&["cortex.train.learning_rat=3e-4"]);
+    assert!(
+        e.starts_with("--set cortex.train.learning_rat=3e-4: ") && e.contains("learning_rat"),
+        "{e}"
+    );
+    let e = resolve(&["steps=many"]);
+    assert!(e.starts_with("--set steps=many: "), "{e}");
+    let e = resolve(&["cortex.train.learning_rate=-1"]);
+    assert!(e.contains("--set cortex.train.learning_rate"), "{e}");
+    let e = resolve(&["learning_rate"]);
+    assert!(
+        e.starts_with("--set: `learning_rate`: expected KEY=VALUE"),
+        "{e}"
+    );
+}

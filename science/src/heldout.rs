@@ -1,0 +1,62 @@
+//! Held-out evaluation of a cortex: a held-out eye (the run's mosaic and layout, other scenes)
+//! and its batches, the same sequence on every call, and the prediction and motion errors a run
+//! reports on them. Evaluation only: with `true_motion` the batches carry the eye's motion, which
+//! the errors compare against; nothing here feeds learning.
+
+use crate::config::RunConfig;
+use crate::source::RetinaSource;
+use crate::Error;
+use cortex::{DataSource, Trainer};
+use retina::Retina;
+
+/// A held-out eye: the same mosaic and layout, different scenes.
+fn heldout_retina(config: &RunConfig) -> Result<Retina, Error> {
+    let mut c = config.retina.clone();
+    c.scene_seed = c.scene_seed.wrapping_add(0x005E_ED0F_0E1D);
+    Ok(Retina::new(c)?)
+}
+
+/// The run's held-out batches (the held-out eye, its own batch seed), the same sequence on
+/// every call; with `true_motion` each batch carries the eye's motion for evaluation.
+pub fn heldout_source(config: &RunConfig, true_motion: bool) -> Result<RetinaSource, Error> {
+    Ok(RetinaSource::new(
+        heldout_retina(config)?,
+        config.seed ^ 0xA5A5,
+        true_motion,
+    ))
+}
+
+/// Held-out prediction error `[model MSE, next = current MSE, ratio]` over `batches` batches.
+pub fn heldout_error(
+    trainer: &mut Trainer,
+    heldout: &mut RetinaSource,
+    bs: usize,
+    batches: usize,
+) -> Result<[f64; 3], Error> {
+    let (mut model, mut identity) = (0.0, 0.0);
+    for _ in 0..batches.max(1) {
+        let b = heldout.next_batch(bs);
+        let e = trainer.prediction_error(&b)?;
+        model += e.model_mse;
+        identity += e.identity_mse;
+    }
+    Ok([model, identity, identity / model.max(1e-30)])
+}
+
+/// Mean distance (ONS pixels) of the cortex's motion estimate from the true motion over
+/// `batches` held-out batches (evaluation: the batches carry the oracle motion).
+pub fn heldout_motion_error(
+    trainer: &mut Trainer,
+    heldout: &mut RetinaSource,
+    bs: usize,
+    batches: usize,
+) -> Result<f64, Error> {
+    let mut total = 0.0;
+    for _ in 0..batches.max(1) {
+        let b = heldout.next_batch(bs);
+        if let Some(e) = trainer.motion_error_ons_px(&b)? {
+            total += e.mean_px;
+        }
+    }
+    Ok(total / batches.max(1) as f64)
+}

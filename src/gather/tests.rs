@@ -1,0 +1,57 @@
+//! Reading a run folder: the verdict over its checkpoints and its averaged weights.
+
+use super::read::{over_checkpoints, read_run};
+use super::*;
+use crate::convergence::CheckpointCmf;
+
+/// The checkpoints measured on the way and the run's own final figure make one verdict;
+/// a checkpoint past the run's steps (a later continuation measured in the same folder)
+/// is not the run's, and a file that does not read is passed over.
+#[test]
+fn the_verdict_over_checkpoints_joins_the_final_figure() {
+    let dir = std::env::temp_dir().join(format!("cv_gather_over_{}", std::process::id()));
+    std::fs::create_dir_all(dir.join("convergence")).unwrap();
+    let summary = recorded_run("x", "LMS", "LMSQ-humanQ-idealised-40k", |_| {})
+        .summary
+        .unwrap();
+    assert_eq!((summary.steps, summary.dimension), (40_000, 3));
+    let at = |step, dimension, margin| CheckpointCmf {
+        step,
+        dimension,
+        per_k: vec![[dimension as f64, 1.0, margin]],
+    };
+    let points = [at(36_000, 3, 0.84), at(38_000, 4, 0.80), at(44_000, 4, 0.7)];
+    let path = dir.join(OVER_CHECKPOINTS_FILE);
+    std::fs::write(&path, serde_json::to_string(&points).unwrap()).unwrap();
+    let verdict = over_checkpoints(&dir, Some(&summary)).unwrap();
+    assert_eq!(verdict.steps, vec![36_000, 38_000, 40_000]);
+    assert_eq!(verdict.dimensions, vec![3, 4, 3]);
+    let k3 = verdict.per_k.iter().find(|k| k.k == 3).unwrap();
+    assert_eq!((k3.tried, k3.passed), (2, 2), "{verdict:?}");
+    std::fs::write(&path, "[{").unwrap();
+    assert_eq!(over_checkpoints(&dir, Some(&summary)), None);
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// `average`'s figure in the run folder is read with the run; one that does not read is
+/// passed over (and reported), not taken for the run's.
+#[test]
+fn the_averaged_weights_figure_is_read_with_the_run() {
+    let dir = std::env::temp_dir().join(format!("cv_gather_avg_{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(dir.join(crate::averaging::AVERAGE_DIR)).unwrap();
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("results");
+    let record = root.join("LMSQ-humanQ-idealised-48k");
+    std::fs::copy(record.join("summary.json"), dir.join("summary.json")).unwrap();
+    let rows = BTreeMap::new();
+    assert_eq!(read_run(&dir, "x".into(), &rows).averaged, None);
+    let file = crate::averaging::averaged_path(&dir);
+    std::fs::copy(crate::averaging::averaged_path(&record), &file).unwrap();
+    let averaged = read_run(&dir, "x".into(), &rows).averaged.unwrap();
+    assert_eq!((averaged.steps.len(), averaged.dimension), (8, 3));
+    assert_eq!(averaged.steps[0], 34_000);
+    std::fs::write(&file, "{").unwrap();
+    let run = read_run(&dir, "x".into(), &rows);
+    assert_eq!((run.status, run.averaged), (Status::Done, None));
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -1,0 +1,228 @@
+//! A run: simulate an eye, train the cortex on its optic nerve signal alone, measure the colour
+//! dimensionality with CMF-SIM at checkpoints, and leave a run folder.
+//!
+//! Run folder layout:
+//! - `config.toml` — the resolved settings (repeat with `--config DIR/config.toml`);
+//! - `metrics.csv` — per step: loss, step time; per evaluation: held-out prediction error;
+//! - `checkpoints/` — safetensors + JSON metadata with checksums, every
+//!   `checkpoint_every_steps`, at each CMF-SIM measurement, at the last step and when the run
+//!   is stopped by SIGINT/SIGTERM (`--resume` continues from the newest one that verifies);
+//! - `cmf_sim/step_<k>/cmf_sim.json` and `.svg` — CMF-SIM at step k; the last one also at the
+//!   top level (`cmf_sim.json`, with the integer field `dimension`);
+//! - `pictures/` — see [`crate::pictures`];
+//! - `summary.json` — `dimension`, `steps`, `wall_seconds`, the config, the dimension over steps.
+//! - `report.html` — every result above on one self-contained page ([`crate::report`]).
+//!
+//! Resume is exact: a checkpoint holds, besides the cortex's own state, the run's state
+//! ([`Progress`]: the held-out stream, the measurements so far), and `metrics.csv` is written
+//! before each checkpoint, so a resumed run ends with the same parameters, metrics and
+//! CMF-SIM schedule as one that never stopped (same seed, same thread count; the checkpoint
+//! records the count, and a resume with another one says so before its first step).
+
+use crate::interrupt;
+use crate::pictures;
+use colorimetry::cmf_sim::CmfSimSettings;
+use colorimetry::plot::{LinePlot, Scale, Series};
+use colorimetry::{run_cmf_sim, CmfSimResult};
+use cortex::{DataSource, Trainer};
+use folder::{Folder, Opened};
+use indicatif::{ProgressBar, ProgressStyle};
+use retina::Retina;
+use science::config::RunConfig;
+use science::heldout::{heldout_error, heldout_motion_error, heldout_source};
+use science::observer::EyeObserver;
+use science::source::RetinaSource;
+use science::summary::{margins_text, DimensionPoint, LastMeasurement, Summary};
+use serde::{Deserialize, Serialize};
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+pub mod error;
+mod finish;
+pub mod folder;
+pub mod lock;
+pub mod measurement_dir;
+mod open;
+mod steps;
+
+pub use error::RunError;
+pub use finish::{in_words, out_dir, print_outcome};
+pub use open::start_w_at_the_eyes_kernel;
+pub use steps::measure;
+
+/// What a run does besides training.
+#[derive(Clone, Copy, Debug)]
+pub struct RunMode {
+    /// Measure the dimension with CMF-SIM on the schedule and at the end.
+    pub cmf_sim: bool,
+    /// Draw pictures on the schedule and at the end.
+    pub pictures: bool,
+    /// Show a progress bar (hidden automatically when not a terminal).
+    pub progress: bool,
+}
+
+impl RunMode {
+    /// CMF-SIM, pictures and a progress bar: what `colorvision run` and the experiments do.
+    pub const FULL: RunMode = RunMode {
+        cmf_sim: true,
+        pictures: true,
+        progress: true,
+    };
+}
+
+/// The run's own state at a checkpoint (stored in its `meta.json` as `run_state`), restored
+/// on resume so the continued run is the uninterrupted one.
+#[derive(Clone, Debug, Default, Serialize, Deserialize)]
+pub struct Progress {
+    /// Whether the measurements of the checkpoint's step (CMF-SIM, pictures) are done.
+    pub measured: bool,
+    /// State of the held-out stream (evaluation batches, pictures).
+    pub heldout_state: Option<serde_json::Value>,
+    /// CMF-SIM measurements so far.
+    pub dims: Vec<DimensionPoint>,
+    /// The last CMF-SIM measurement.
+    pub last_cmf: Option<LastMeasurement>,
+    /// The last held-out prediction error.
+    pub last_eval: Option<[f64; 3]>,
+    /// The last held-out motion error.
+    pub last_motion_error: Option<f64>,
+    /// Sum of the step times, ms.
+    pub step_ms_total: f64,
+    /// Wall time of the run so far, s.
+    pub wall_seconds: f64,
+    /// Steps the run was resumed at before.
+    pub resumed_at_steps: Vec<u64>,
+    /// Worker threads (`RAYON_NUM_THREADS`) when the checkpoint was written; `None` in
+    /// checkpoints written before the count was recorded.
+    #[serde(default)]
+    pub threads: Option<usize>,
+}
+
+/// `run.json`: what the run does besides training and where its cortex came from, so
+/// `colorvision resume DIR` can continue it without its command line.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct RunMarker {
+    /// CMF-SIM on the schedule (`run`) or not (`train`).
+    pub cmf_sim: bool,
+    /// Pictures on the schedule.
+    pub pictures: bool,
+    /// The checkpoint a continued run (gene therapy, boosting) started from.
+    pub continued_from: Option<PathBuf>,
+}
+
+/// Where a run's cortex comes from.
+#[derive(Clone, Copy, Debug)]
+pub enum Origin<'a> {
+    /// A fresh cortex.
+    New,
+    /// The cortex of another run's checkpoint, with Adam recreated and the step count
+    /// continued (gene therapy, dimensionality boosting; authors' code, docs/references.md#training).
+    Continue(&'a Path),
+}
+
+/// Trains a fresh cortex, measures and writes the run folder `out`, which must be new or
+/// empty.
+pub fn run(config: &RunConfig, out: &Path, mode: RunMode) -> Result<Summary, RunError> {
+    run_in(config, out, mode, Folder::New, Origin::New)
+}
+
+/// Continues training the cortex of `checkpoint` on the (changed) eye of `config` for
+/// `config.steps` more steps (gene therapy, dimensionality boosting; authors' code, docs/references.md#training: Adam is
+/// recreated, the step count continues).
+pub fn run_continued(
+    config: &RunConfig,
+    out: &Path,
+    checkpoint: &Path,
+    folder: Folder,
+) -> Result<Summary, RunError> {
+    run_in(
+        config,
+        out,
+        RunMode::FULL,
+        folder,
+        Origin::Continue(checkpoint),
+    )
+}
+
+/// A run in `out` as `folder` allows (new, resumed from its newest valid checkpoint, or
+/// replaced); a finished run returns its summary. The run holds the folder's lock
+/// ([`crate::run::lock`]) until it returns, so no other process trains into `out` meanwhile.
+pub fn run_in(
+    config: &RunConfig,
+    out: &Path,
+    mode: RunMode,
+    folder: Folder,
+    origin: Origin<'_>,
+) -> Result<Summary, RunError> {
+    folder::refuse_file(out)?;
+    let _lock = lock::RunLock::acquire(out)?;
+    let opened = folder::open(out, config, folder)?;
+    if opened == Opened::Finished {
+        println!(
+            "colorvision: {} holds this run, finished; its summary.json stands",
+            out.display()
+        );
+        let path = out.join("summary.json");
+        return Summary::read(&path).map_err(|e| RunError::Folder {
+            path: path.clone(),
+            reason: format!("invalid summary: {e}; --force runs it again"),
+        });
+    }
+    // The eye is built (its scene files read) before the folder is touched: bad input stops
+    // the run with nothing written.
+    let retina = crate::scene_bar::retina(config.retina.clone())?;
+    let source = RetinaSource::new(retina, config.seed, config.oracle_motion);
+    // Held-out batches carry the true motion for evaluation (the estimator's error); the
+    // cortex reads it only when the run itself uses the oracle.
+    let heldout = heldout_source(config, true)?;
+    std::fs::create_dir_all(out).map_err(crate::io::fs_err(out))?;
+    for p in crate::io::clean_stale_temps(out)? {
+        println!(
+            "  removed a temporary left by a stopped run: {}",
+            p.display()
+        );
+    }
+    for line in cortex::checkpoint::recover(&out.join("checkpoints"))? {
+        println!("  checkpoints: {line}");
+    }
+    if opened == Opened::Fresh {
+        crate::io::write_atomic(&out.join("config.toml"), config.to_toml().as_bytes())?;
+        let marker = RunMarker {
+            cmf_sim: mode.cmf_sim,
+            pictures: mode.pictures,
+            continued_from: match origin {
+                Origin::New => None,
+                Origin::Continue(p) => Some(std::path::absolute(p).unwrap_or(p.to_path_buf())),
+            },
+        };
+        crate::io::write_json(&out.join("run.json"), &marker)?;
+    }
+    let streams = (source, heldout);
+    let state = RunState::open(config, out, mode, opened == Opened::Resume, origin, streams)?;
+    state.drive()
+}
+
+/// Everything the training loop carries from step to step.
+struct RunState<'a> {
+    config: &'a RunConfig,
+    out: &'a Path,
+    mode: RunMode,
+    trainer: Trainer,
+    source: RetinaSource,
+    heldout: RetinaSource,
+    /// The training batch, refilled every step.
+    batch: cortex::OnsBatch,
+    progress: Progress,
+    /// Finished rows of `metrics.csv` (header included).
+    metrics: String,
+    /// The row of the last step until its measurements add the dimension.
+    pending_row: Option<String>,
+    losses: (Vec<f64>, Vec<f64>),
+    started: Instant,
+    bar: ProgressBar,
+    /// The checkpoint written last: step and whether it was after the step's measurements.
+    saved: Option<(u64, bool, PathBuf)>,
+}
+
+const METRICS_HEADER: &str = "step,loss,main_loss,step_ms,heldout_model_mse,heldout_identity_mse,improvement,motion_error_px,dimension\n";
