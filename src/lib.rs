@@ -5,6 +5,7 @@
 //! dimensionality that emerges. This crate implements the black-box observer CMF-SIM probes
 //! (retina + learned cortex), the command line, and the run folders.
 
+pub mod alignment_plot;
 pub mod averaging;
 pub mod cli;
 pub mod commands;
@@ -21,6 +22,7 @@ pub mod measurement_dir;
 pub mod observer;
 pub mod paper;
 pub mod pictures;
+pub mod program;
 pub mod report;
 pub mod run;
 pub mod run_error;
