@@ -15,7 +15,7 @@
 //! of its own shape; loss `mean (y − t)²`; each layer is a scope and each hidden output is
 //! tagged.
 
-use autodiff::learn::feedback::sign;
+use autodiff::learn::feedback::{sign, KolenPollackOptimizer};
 use autodiff::learn::{
     AlignmentMeter, Backprop, DirectFeedbackAlignment, FeedbackAlignment, FeedbackScheme,
     LearningRule, Objective, ParamGrads, RuleState,
@@ -182,6 +182,7 @@ fn schemes() -> Vec<(&'static str, FeedbackScheme)> {
             FeedbackScheme::KolenPollack {
                 learning_rate: 0.01,
                 weight_decay: 0.1,
+                optimizer: KolenPollackOptimizer::Adam,
             },
         ),
     ]
@@ -335,6 +336,7 @@ fn kolen_pollack_aligns_b_with_w_and_resumes_bit_identically_from_its_state() {
     let scheme = FeedbackScheme::KolenPollack {
         learning_rate: eta,
         weight_decay: decay,
+        optimizer: KolenPollackOptimizer::Sgd,
     };
     let rule = || FeedbackAlignment::new(8).with_scheme(scheme);
     let cosine = |a: &Tensor<f64>, b: &Tensor<f64>| {

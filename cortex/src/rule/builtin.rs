@@ -3,6 +3,7 @@
 
 use super::{RuleContext, RuleEntry};
 use crate::model::{bucket_of_scope, Bucket, BUCKET_NAMES};
+use autodiff::learn::feedback::KolenPollackOptimizer;
 use autodiff::learn::{
     Backprop, DirectFeedbackAlignment, FeedbackAlignment, FeedbackScheme, ForwardForward,
     LearningRule,
@@ -51,13 +52,27 @@ pub struct FeedbackSettings {
     pub feedback_seed: Option<u64>,
 }
 
+/// How `kolen-pollack` trains `B`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum KpOptimizer {
+    /// Adam with moments of its own, as the cortex trains `W`.
+    #[default]
+    Adam,
+    /// Plain SGD (exact Kolen–Pollack under SGD).
+    Sgd,
+}
+
 /// `kolen-pollack`'s settings.
 #[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct KolenPollackSettings {
-    /// `η` of `B`'s update (default 1e-3).
+    /// `η` of `B`'s update (default 1e-3, the cortex's Adam rate).
     #[serde(default = "kp_learning_rate")]
     pub learning_rate: f64,
+    /// How `B` is trained: `adam` (default) or `sgd`.
+    #[serde(default)]
+    pub optimizer: KpOptimizer,
     /// `λ` on `W` and `B` (default 1e-4).
     #[serde(default = "kp_weight_decay")]
     pub weight_decay: f64,
@@ -187,6 +202,10 @@ fn kolen_pollack(s: KolenPollackSettings, ctx: &RuleContext<'_>) -> Box<dyn Lear
     let scheme = FeedbackScheme::KolenPollack {
         learning_rate: s.learning_rate,
         weight_decay: s.weight_decay,
+        optimizer: match s.optimizer {
+            KpOptimizer::Adam => KolenPollackOptimizer::Adam,
+            KpOptimizer::Sgd => KolenPollackOptimizer::Sgd,
+        },
     };
     let rule = FeedbackAlignment::scaled_to(ctx.draw_seed(s.feedback_seed), ctx.start)
         .with_scheme(scheme)
@@ -215,7 +234,8 @@ pub(super) fn entries() -> Vec<RuleEntry> {
         ),
         RuleEntry::new(
             "kolen-pollack",
-            "feedback alignment whose B learns from W's update with weight decay on both",
+            "feedback alignment whose B learns from W's gradient by its own optimiser (Adam by \
+             default), with weight decay on both",
             kolen_pollack,
         ),
         RuleEntry::new(

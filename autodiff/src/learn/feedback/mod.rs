@@ -29,12 +29,14 @@
 //!
 //! [`Op::weight_inputs`]: crate::Op::weight_inputs
 
+pub mod kolen_pollack;
 pub mod scheme;
 
 use super::{LearningRule, Objective, ParamGrads, RuleState, RuleStateError};
 use crate::scopes::ScopeFilter;
 use crate::tape::{BackwardHooks, NodeKind, NodeView};
 use crate::{Float, GradSlots, ParamId, ParamStore, Tape, Tensor};
+pub use kolen_pollack::{KolenPollackOptimizer, Moments};
 pub use scheme::{sign, FeedbackScheme};
 use std::collections::BTreeMap;
 
@@ -51,6 +53,8 @@ pub struct FeedbackAlignment<T: Float = f32> {
     magnitudes: BTreeMap<ParamId, Tensor<T>>,
     /// `B` of each parameter as used in the last backward.
     current: BTreeMap<ParamId, Tensor<T>>,
+    /// Adam's moments of each learned `B` (Kolen–Pollack with Adam).
+    moments: BTreeMap<ParamId, Moments<T>>,
     /// Steps done (brSF redraws per step).
     steps: u64,
 }
@@ -68,6 +72,7 @@ impl<T: Float> FeedbackAlignment<T> {
             scales: BTreeMap::new(),
             magnitudes: BTreeMap::new(),
             current: BTreeMap::new(),
+            moments: BTreeMap::new(),
             steps: 0,
         }
     }
@@ -160,6 +165,7 @@ impl<T: Float> FeedbackAlignment<T> {
         let FeedbackScheme::KolenPollack {
             learning_rate,
             weight_decay,
+            optimizer,
         } = self.scheme
         else {
             return;
@@ -168,7 +174,8 @@ impl<T: Float> FeedbackAlignment<T> {
             let (Some(g), Some(b)) = (grads.get_mut(id), self.magnitudes.get_mut(&id)) else {
                 continue;
             };
-            scheme::kolen_pollack_step(b, g, learning_rate, weight_decay);
+            let moments = self.moments.entry(id).or_insert_with(|| Moments::zeros(b));
+            kolen_pollack::step(optimizer, b, g, moments, learning_rate, weight_decay);
             let decay = T::of(weight_decay);
             for (g, &w) in g.data_mut().iter_mut().zip(params.get(id).data()) {
                 *g += decay * w;
@@ -250,6 +257,13 @@ impl<T: Float> LearningRule<T> for FeedbackAlignment<T> {
             s.tensors
                 .insert(format!("feedback.{}", params.name(id)), m.clone());
         }
+        for (&id, m) in &self.moments {
+            let name = params.name(id);
+            s.tensors.insert(format!("adam_m.{name}"), m.m.clone());
+            s.tensors.insert(format!("adam_v.{name}"), m.v.clone());
+            s.metadata
+                .insert(format!("adam_steps.{name}"), m.steps.to_string());
+        }
         s.metadata
             .insert("scheme".into(), self.scheme.name().into());
         s.metadata.insert("steps".into(), self.steps.to_string());
@@ -271,19 +285,31 @@ impl<T: Float> LearningRule<T> for FeedbackAlignment<T> {
                 ),
             });
         }
-        let mut magnitudes = BTreeMap::new();
-        for (key, m) in &state.tensors {
-            let id = key
-                .strip_prefix("feedback.")
-                .and_then(|name| params.find(name))
+        let (mut magnitudes, mut moments) = (BTreeMap::new(), BTreeMap::new());
+        for (key, t) in &state.tensors {
+            let (kind, name) = key.split_once('.').unwrap_or((key, ""));
+            let id = params
+                .find(name)
+                .filter(|_| matches!(kind, "feedback" | "adam_m" | "adam_v"))
                 .ok_or_else(|| RuleStateError::Unexpected {
                     key: key.clone(),
-                    reason: "no parameter of that name".into(),
+                    reason: "not the feedback or Adam moment of a parameter".into(),
                 })?;
-            magnitudes.insert(id, m.clone());
+            if kind == "feedback" {
+                magnitudes.insert(id, t.clone());
+                continue;
+            }
+            let entry = moments.entry(id).or_insert_with(|| Moments::zeros(t));
+            entry.steps = state.counter(&format!("adam_steps.{name}"))?;
+            if kind == "adam_m" {
+                entry.m = t.clone();
+            } else {
+                entry.v = t.clone();
+            }
         }
         self.steps = state.counter("steps")?;
         self.magnitudes = magnitudes;
+        self.moments = moments;
         self.current.clear();
         Ok(())
     }

@@ -10,7 +10,7 @@
 //! | [`FeedbackScheme::UniformSign`] (uSF) | `σ` (one number) | `σ·sign(W)` | Liao, Leibo & Poggio 2016, AAAI ("sign symmetry") |
 //! | [`FeedbackScheme::BatchRandomSign`] (brSF) | `σ` | `|R_t| ⊙ sign(W)`, `R_t ~ N(0, σ²)` redrawn every step | Liao et al. 2016 |
 //! | [`FeedbackScheme::FixedRandomSign`] (frSF) | `|R|` | `|R| ⊙ sign(W)` | Liao et al. 2016 |
-//! | [`FeedbackScheme::KolenPollack`] | `B`, learned | `B` | Kolen & Pollack 1994; Akrout et al. 2019, NeurIPS |
+//! | [`FeedbackScheme::KolenPollack`] | `B`, learned ([`super::kolen_pollack`]) | `B` | Kolen & Pollack 1994; Akrout et al. 2019, NeurIPS |
 //!
 //! `sign(0) = 0`, so sign-concordant feedback has `sign(B) = sign(W)` at every element, a
 //! zero weight included (it sends nothing back). `σ` is the scale of the weight: the RMS of
@@ -25,12 +25,8 @@
 //! step to `‖B‖_F = ‖W‖_F` (the current `W`; nothing is sent back through an all-zero `W`),
 //! and a *sign flip* sends `−B` (a control: feedback that points the wrong way).
 //!
-//! Kolen–Pollack learns `B` from the same local signal as `W`: with `g = ∂L/∂W` as this rule
-//! computes it, `B ← (1 − ηλ)·B − η·g`, and the rule returns `g + λ·W` for `W`, so that under
-//! SGD with learning rate `η` both weights receive the same update and the same decay and
-//! `W − B` shrinks by `(1 − ηλ)` per step (Akrout et al. 2019, eq. 2–3). Under Adam, `W`
-//! follows Adam's step of `g + λ·W` while `B` follows the plain SGD step above: `B` still
-//! accumulates the gradients `W` is trained by, but `W − B` no longer decays exactly.
+//! Kolen–Pollack learns `B` from `W`'s own update with weight decay on both: see
+//! [`super::kolen_pollack`].
 
 use crate::{Float, ParamId, Tensor};
 use rand::rngs::StdRng;
@@ -49,12 +45,14 @@ pub enum FeedbackScheme {
     BatchRandomSign,
     /// `|R| ⊙ sign(W)`, `R` fixed (frSF).
     FixedRandomSign,
-    /// `B` learned by the update of `W` with weight decay (module docs).
+    /// `B` learned by the update of `W` with weight decay ([`super::kolen_pollack`]).
     KolenPollack {
         /// `η` of `B`'s update.
         learning_rate: f64,
         /// `λ`, applied to both `W` and `B`.
         weight_decay: f64,
+        /// How `B` is trained.
+        optimizer: super::kolen_pollack::KolenPollackOptimizer,
     },
 }
 
@@ -182,18 +180,4 @@ pub(super) fn match_norm<T: Float>(b: &mut Tensor<T>, w: &Tensor<T>) {
     let (nb, nw) = (b.sum_sq().sqrt(), w.sum_sq().sqrt());
     let c = if nb > 0.0 { T::of(nw / nb) } else { T::zero() };
     b.data_mut().iter_mut().for_each(|v| *v *= c);
-}
-
-/// Kolen–Pollack's step of `B` (module docs): `B ← (1 − ηλ)·B − η·g`.
-pub(super) fn kolen_pollack_step<T: Float>(
-    b: &mut Tensor<T>,
-    g: &Tensor<T>,
-    learning_rate: f64,
-    weight_decay: f64,
-) {
-    let keep = T::of(1.0 - learning_rate * weight_decay);
-    let eta = T::of(learning_rate);
-    for (b, &g) in b.data_mut().iter_mut().zip(g.data()) {
-        *b = keep * *b - eta * g;
-    }
 }

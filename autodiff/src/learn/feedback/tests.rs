@@ -157,6 +157,7 @@ fn kolen_pollack_moves_the_feedback_with_the_weight_and_decays_both() {
     let scheme = FeedbackScheme::KolenPollack {
         learning_rate: eta,
         weight_decay: decay,
+        optimizer: KolenPollackOptimizer::Sgd,
     };
     let mut kp = FeedbackAlignment::new(4).with_scheme(scheme);
     let mut fa = FeedbackAlignment::new(4);
@@ -188,6 +189,12 @@ fn a_restored_state_gives_the_same_feedback_as_the_rule_that_saved_it() {
         FeedbackScheme::KolenPollack {
             learning_rate: 0.1,
             weight_decay: 0.1,
+            optimizer: KolenPollackOptimizer::Sgd,
+        },
+        FeedbackScheme::KolenPollack {
+            learning_rate: 0.1,
+            weight_decay: 0.1,
+            optimizer: KolenPollackOptimizer::Adam,
         },
     ] {
         let mut a = FeedbackAlignment::new(5).with_scheme(scheme);
