@@ -223,32 +223,35 @@ fn direct_feedback(s: DirectFeedbackSettings, ctx: &RuleContext<'_>) -> Box<dyn 
 /// The built-in entries, in the order of the module table.
 pub(super) fn entries() -> Vec<RuleEntry> {
     vec![
-        RuleEntry::new("backprop", "exact gradients", |_: NoSettings, _| {
-            Box::new(Backprop)
-        }),
+        RuleEntry::new(
+            "backprop",
+            "backprop: exact gradients",
+            |_: NoSettings, _| Box::new(Backprop),
+        ),
         RuleEntry::new(
             "feedback-alignment",
-            "errors sent back through backward weights B instead of W (random, or \
-             sign-concordant uSF/brSF/frSF), in the buckets named (default D and P)",
+            "feedback alignment (Lillicrap et al. 2016): errors sent back through backward \
+             weights B instead of W (random, or sign-concordant uSF/brSF/frSF), in the buckets \
+             named (default D and P)",
             feedback_alignment,
         ),
         RuleEntry::new(
             "kolen-pollack",
-            "feedback alignment whose B learns from W's gradient by its own optimiser (Adam by \
-             default), with weight decay on both",
+            "Kolen-Pollack (Akrout et al. 2019): feedback alignment whose B learns from W's \
+             gradient by its own optimiser (Adam by default), with weight decay on both",
             kolen_pollack,
         ),
         RuleEntry::new(
             "direct-feedback-alignment",
-            "the prediction error sent to every layer of decode by a fixed random k×k \
-             convolution per layer",
+            "direct feedback alignment (Nøkland 2016): the prediction error sent to every layer \
+             of decode by a fixed random k×k convolution per layer",
             direct_feedback,
         ),
         RuleEntry::new(
             "forward-forward",
-            "layer-local objectives per bucket and per U-Net block (right against wrong eye \
-             motion) and a local prediction objective for the re-encoder; no gradient between \
-             layers",
+            "forward-forward (Hinton 2022): layer-local objectives per bucket and per U-Net \
+             block (right against wrong eye motion) and a local prediction objective for the \
+             re-encoder; no gradient between layers",
             |_: NoSettings, _| Box::new(ForwardForward),
         ),
     ]
