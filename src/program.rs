@@ -3,10 +3,8 @@
 //! same subcommands, `--config` files that name its rules, sweeps that run it for every job.
 //!
 //! ```no_run
-//! fn main() {
-//!     // cortex::rule::register(...) for each rule of this binary, then:
-//!     colorvision::program::main()
-//! }
+//! // in the binary's `main`: `cortex::rule::register(…)` for each rule of its own, then
+//! colorvision::program::main();
 //! ```
 
 use crate::cli::{Cli, Command, RunOptions};

@@ -87,9 +87,9 @@ pub(super) fn dense<T: Float>(b: &Tensor<T>, e: &Tensor<T>, grad: &mut Tensor<T>
 pub(super) fn resample<T: Float>(tag: &str, e: &Tensor<T>, h: usize, w: usize) -> Tensor<T> {
     let d = e.dims();
     let (batch, ce, he, we) = (d[0], d[1], d[2], d[3]);
-    let coarser = he % h == 0 && we % w == 0;
+    let coarser = he.is_multiple_of(h) && we.is_multiple_of(w);
     assert!(
-        coarser || (h % he == 0 && w % we == 0),
+        coarser || (h.is_multiple_of(he) && w.is_multiple_of(we)),
         "DirectFeedbackAlignment: tag {tag}: activation grid {h}×{w} and output grid \
          {he}×{we} are not integer multiples"
     );
