@@ -52,7 +52,8 @@ def label(config):
         parts.append(f"draw {settings['feedback_seed']}")
     for key in ("scheme", "flip_sign"):
         if key in settings:
-            parts.append(f"{key} {settings[key]}")
+            value = settings[key]
+            parts.append(f"{key} {str(value).lower() if isinstance(value, bool) else value}")
     d = config.get("cortex", {}).get("train", {}).get("per_bucket", {}).get("d", {})
     if d.get("learning_rate_scale", 1.0) == 0.0:
         parts.append("D frozen")
@@ -104,6 +105,7 @@ def row(run_dir, times):
         for d in summary.get("dimension_over_steps", [])
     )
     margins = ", ".join(f"K{k} {r:.2f}" for k, r in summary.get("converged_ratio_per_k", []))
+    margins = margins or "no margin (undefined)"
     rel = "—"
     if rule in times and "backprop" in times:
         rel = f"{times[rule] / times['backprop']:.2f}×"
@@ -128,7 +130,9 @@ def main():
     ]
     print("| " + " | ".join(header) + " |")
     print("|" + "---|" * len(header))
-    for sweep in sorted(os.listdir(out)):
+    order = ["seeds", "fa-draws", "dfa-draws", "d-frozen", "sign-flip"]
+    sweeps = sorted(os.listdir(out), key=lambda n: (order.index(n) if n in order else len(order), n))
+    for sweep in sweeps:
         manifest = read_json(os.path.join(out, sweep, "sweep.json"))
         if not manifest:
             continue
