@@ -8,7 +8,7 @@
 //! with block-matching motion, the quick preset with the oracle motion (what the default run
 //! uses) and the sandbox preset, **interleaved step by step** so that the three see the same
 //! machine load (a shared VM's speed can drift by tens of per cent over minutes). `rules` runs
-//! the default quick step (oracle motion) under each learning rule (`cortex::RuleKind`),
+//! the default quick step (oracle motion) under each learning rule (`cortex::rule::BUILT_IN`),
 //! interleaved the same way, and prints each rule's cortex step relative to backprop's (only when
 //! named: `cargo bench --bench cortex_step -- rules`). `paper` runs the
 //! paper cortex on a synthetic batch (its retina is benchmarked in `benches/retina.rs`).
@@ -24,7 +24,7 @@
 use cortex::config::{CortexConfig, MMode};
 use cortex::model::{BUCKETS, BUCKET_NAMES};
 use cortex::synthetic::{SyntheticConfig, SyntheticSource};
-use cortex::{DataSource, OnsBatch, RuleKind, StepStats, Trainer};
+use cortex::{DataSource, OnsBatch, StepStats, Trainer};
 use retina::Retina;
 use science::source::RetinaSource;
 
@@ -73,10 +73,14 @@ impl Case {
         }
     }
 
-    /// The same case trained by `rule` (random state from seed 1).
-    fn with_rule(mut self, rule: RuleKind) -> Self {
-        let built = rule.build(1, &self.trainer.cortex.params);
-        self.trainer.set_learning_rule(built);
+    /// The same case trained by the built-in rule `rule` with its default settings (random
+    /// state from seed 1).
+    fn with_rule(mut self, rule: &str) -> Self {
+        let built = cortex::rule::with_defaults(rule, 1, &self.trainer.cortex.params)
+            .expect("a built-in rule");
+        self.trainer
+            .set_learning_rule(built)
+            .expect("a fresh trainer");
         self
     }
 
@@ -201,16 +205,10 @@ fn main() {
     if args.iter().any(|a| a == "rules") {
         let mut oracle = CortexConfig::quick();
         oracle.m.mode = MMode::Oracle;
-        let mut cases: Vec<Case> = RuleKind::ALL
+        let mut cases: Vec<Case> = cortex::rule::BUILT_IN
             .iter()
             .map(|&rule| {
-                Case::new(
-                    rule.name(),
-                    oracle.clone(),
-                    retina_source("quick", true),
-                    true,
-                )
-                .with_rule(rule)
+                Case::new(rule, oracle.clone(), retina_source("quick", true), true).with_rule(rule)
             })
             .collect();
         for k in 0..3 + 20 {

@@ -3,7 +3,7 @@
 //!
 //! `learning_rule_step/<rule>`: the default run's step — the `quick` cortex with the oracle
 //! eye motion — on one fixed batch of 8 drawn from the quick LMS retina, under backprop,
-//! feedback alignment, direct feedback alignment and forward-forward (`cortex::RuleKind`):
+//! feedback alignment, direct feedback alignment and forward-forward (`cortex::rule::BUILT_IN`):
 //! motion, forward, the rule's gradients, Adam. The batch is drawn once, so only the cortex
 //! step is timed. Each rule's cost relative to backprop is the ratio of the medians (criterion
 //! writes them to `target/criterion/learning_rule_step/*/new/estimates.json`).
@@ -15,7 +15,7 @@
 //! interleaved `cargo bench --bench cortex_step -- rules`.
 
 use cortex::config::{CortexConfig, MMode};
-use cortex::{DataSource, OnsBatch, RuleKind, Trainer};
+use cortex::{DataSource, OnsBatch, Trainer};
 use criterion::{criterion_group, criterion_main, Criterion};
 use retina::Retina;
 use science::source::RetinaSource;
@@ -23,12 +23,12 @@ use std::time::{Duration, Instant};
 
 /// The default run's cortex (quick, oracle motion) trained by `rule` (its random state from
 /// seed 1).
-fn trainer(rule: RuleKind) -> Trainer {
+fn trainer(rule: &str) -> Trainer {
     let mut config = CortexConfig::quick();
     config.m.mode = MMode::Oracle;
     let mut trainer = Trainer::new(config).expect("the quick preset is valid");
-    let built = rule.build(1, &trainer.cortex.params);
-    trainer.set_learning_rule(built);
+    let built = cortex::rule::with_defaults(rule, 1, &trainer.cortex.params).expect("a rule");
+    trainer.set_learning_rule(built).expect("a fresh trainer");
     trainer
 }
 
@@ -45,9 +45,9 @@ fn learning_rule_step(c: &mut Criterion) {
         .warm_up_time(Duration::from_secs(3))
         .measurement_time(Duration::from_secs(20));
     let batch = batch(CortexConfig::quick().train.batch_size);
-    for rule in RuleKind::ALL {
+    for rule in cortex::rule::BUILT_IN {
         let mut t = trainer(rule);
-        group.bench_function(rule.name(), |b| {
+        group.bench_function(rule, |b| {
             b.iter_custom(|iters| {
                 let mut timed = Duration::ZERO;
                 for _ in 0..iters {

@@ -7,6 +7,7 @@
 //! experiments ([`experiments`]), sweeps ([`sweep`]), gathers recorded runs into tables
 //! ([`gather`]) and writes pictures and reports.
 
+pub mod alignment_plot;
 pub mod averaging;
 pub mod cli;
 pub mod commands;
@@ -16,6 +17,7 @@ pub mod gather;
 pub mod interrupt;
 pub mod io;
 pub mod pictures;
+pub mod program;
 pub mod report;
 pub mod run;
 pub mod scene_bar;

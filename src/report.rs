@@ -7,7 +7,8 @@
 //! dimension over training (`dimension.svg`, paper Fig. 3.3); CMF-SIM's error curves with the
 //! threshold (`cmf_sim_errors.svg`); Neural Scope beside the true colour (`pictures/scope.png`);
 //! learned C beside the true mosaic, W beside the true DoG, P against the true positions,
-//! with the invariants' numbers; the optic nerve signal; the loss; the settings
+//! with the invariants' numbers; the optic nerve signal; the loss; the learning rule's update
+//! against backprop's gradient per bucket (`alignment.svg`); the settings
 //! (`config.toml`). Written at the end of a run, after `summary.json`.
 
 use crate::run::error::RunError;
@@ -245,6 +246,24 @@ pub fn render(out: &Path, s: &Summary) -> String {
     html.push_str("<h2>Optic nerve signal and loss</h2>\n");
     html.push_str(&figure(out, "pictures/ons.png", "what the cortex receives"));
     html.push_str(&figure(out, "loss.svg", "training loss"));
+    let cosines = crate::alignment_plot::cosines(&out.join("metrics.csv"));
+    if !cosines.is_empty() {
+        let means = crate::alignment_plot::mean_cosines(&cosines);
+        let said: Vec<String> = (crate::alignment_plot::BUCKETS.iter().zip(means))
+            .filter_map(|(b, m)| Some(format!("{b} {:.2}", m?)))
+            .collect();
+        html.push_str("<h2>The learning rule against backprop</h2>\n");
+        html.push_str(&figure(
+            out,
+            "alignment.svg",
+            &format!(
+                "cosine of the rule's update with backprop's gradient per bucket, {} \
+                 measurements (metrics.csv); mean {}",
+                cosines.len(),
+                said.join(", ")
+            ),
+        ));
+    }
     html.push_str("<h2>Settings</h2>\n<pre>");
     html.push_str(&escape(&c.to_toml()));
     html.push_str("</pre>\n</body></html>\n");

@@ -4,6 +4,8 @@
 //! Run folder layout:
 //! - `config.toml` — the resolved settings (repeat with `--config DIR/config.toml`);
 //! - `metrics.csv` — per step: loss, step time; per evaluation: held-out prediction error;
+//!   per alignment measurement: the learning rule against backprop, per bucket
+//!   ([`crate::alignment_plot`]);
 //! - `checkpoints/` — safetensors + JSON metadata with checksums, every
 //!   `checkpoint_every_steps`, at each CMF-SIM measurement, at the last step and when the run
 //!   is stopped by SIGINT/SIGTERM (`--resume` continues from the newest one that verifies);
@@ -225,4 +227,13 @@ struct RunState<'a> {
     saved: Option<(u64, bool, PathBuf)>,
 }
 
-const METRICS_HEADER: &str = "step,loss,main_loss,step_ms,heldout_model_mse,heldout_identity_mse,improvement,motion_error_px,dimension\n";
+/// `metrics.csv`'s header: the step's loss and time, the held-out evaluation, the learning
+/// rule against backprop ([`crate::alignment_plot`]), the CMF-SIM dimension (always last).
+const METRICS_HEADER: &str = concat!(
+    "step,loss,main_loss,step_ms,heldout_model_mse,heldout_identity_mse,improvement,",
+    "motion_error_px,",
+    "align_cos_W,align_cos_C,align_cos_D,align_cos_P,",
+    "rule_norm_W,rule_norm_C,rule_norm_D,rule_norm_P,",
+    "backprop_norm_W,backprop_norm_C,backprop_norm_D,backprop_norm_P,",
+    "dimension\n"
+);

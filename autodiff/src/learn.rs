@@ -9,12 +9,16 @@
 //! [`Optimizer`](crate::optim::Optimizer) applies it. Swapping the rule leaves model and
 //! optimiser untouched.
 //!
-//! | rule | reads | credit |
-//! |---|---|---|
-//! | [`Backprop`] | loss | exact `∂L/∂θ` |
-//! | [`FeedbackAlignment`] | loss | errors sent back through fixed random weights |
-//! | [`DirectFeedbackAlignment`] | loss, output, tags | output error projected to every tagged layer |
-//! | [`ForwardForward`] | local losses, scopes | each scope's own objective, nothing across scopes |
+//! | rule | reads | credit | state |
+//! |---|---|---|---|
+//! | [`Backprop`] | loss | exact `∂L/∂θ` | none |
+//! | [`FeedbackAlignment`] | loss, scopes | errors sent back through backward weights `B` ([`FeedbackScheme`]: random, sign-concordant, norm-matched, Kolen–Pollack) | `B`'s magnitudes, steps |
+//! | [`DirectFeedbackAlignment`] | loss, output, tags, scopes | the output error sent by a fixed random projection to every tagged layer | the projections |
+//! | [`ForwardForward`] | local losses, scopes | each scope's own objective, nothing across scopes | none |
+//!
+//! How close a rule's credit is to backprop's is a measurement, not a belief:
+//! [`alignment`] runs one more backprop sweep on the same tape and compares, per group of
+//! parameters (the cortex: per bucket), the cosine and the norms.
 //!
 //! A rule that needs local losses says so ([`LearningRule::needs_local_losses`]); a model
 //! records them only then, so other rules pay nothing for them. Backward time per scope is
@@ -44,18 +48,23 @@
 //!
 //! Sign convention: what a rule returns is used like `∂L/∂θ`: optimisers *subtract* it.
 //! Rules that keep state (fixed feedback weights, traces) own it; `assign_credit` takes
-//! `&mut self`. Rules that change individual VJPs do so through
+//! `&mut self`, and [`LearningRule::state`] / [`LearningRule::load_state`] hand it to a
+//! checkpoint and back ([`RuleState`]), so that a resumed run is the run that never stopped. Rules that change individual VJPs do so through
 //! [`BackwardHooks`](crate::BackwardHooks), so the model's ops need not know about them.
 
-mod direct_feedback;
-mod feedback;
+pub mod alignment;
+pub mod direct_feedback;
+pub mod feedback;
 mod forward_forward;
 mod grads;
+mod state;
 
+pub use alignment::{AlignmentMeter, GroupAlignment};
 pub use direct_feedback::DirectFeedbackAlignment;
-pub use feedback::FeedbackAlignment;
+pub use feedback::{FeedbackAlignment, FeedbackScheme};
 pub use forward_forward::{pairwise_goodness_loss, threshold_goodness_loss, ForwardForward};
 pub use grads::ParamGrads;
+pub use state::{RuleState, RuleStateError};
 
 use crate::{Float, ParamStore, Tape, Var};
 
@@ -101,6 +110,26 @@ pub trait LearningRule<T: Float> {
     /// rule; models record them only when asked.
     fn needs_local_losses(&self) -> bool {
         false
+    }
+
+    /// The rule's state for a checkpoint (see [`RuleState`]); empty for a rule that keeps
+    /// none.
+    fn state(&self, _params: &ParamStore<T>) -> RuleState<T> {
+        RuleState::new()
+    }
+
+    /// Restores a state written by [`LearningRule::state`] of the same rule for the same
+    /// parameters. A rule that keeps no state accepts only an empty one.
+    fn load_state(
+        &mut self,
+        state: &RuleState<T>,
+        _params: &ParamStore<T>,
+    ) -> Result<(), RuleStateError> {
+        if state.is_empty() {
+            Ok(())
+        } else {
+            Err(state.unexpected("this rule"))
+        }
     }
 
     /// Like [`LearningRule::assign_credit_into`], into a fresh [`ParamGrads`].

@@ -11,13 +11,65 @@
 //! - A **local loss** is a scalar a model declares for one scope, for rules that train layers
 //!   from their own objectives, such as forward-forward ([`crate::learn::ForwardForward`]).
 //!
+//! - A **scope filter** ([`ScopeFilter`]) names the scopes a learning rule acts in; a name
+//!   covers its sub-scopes too (`"D"` covers `"D.inc"`), so a model may split a bucket into
+//!   blocks and still be addressed by bucket.
+//!
+//! Scope and tag names are `&'static str`; a model that builds them at run time (one per
+//! layer of a network of configurable depth) gets them from [`intern`], which keeps one copy
+//! of each distinct name for the life of the process.
+//!
 //! Forward time per scope is wall clock between scope entries (ops run as they are recorded);
 //! backward time per scope is the wall clock of each reverse-loop iteration, hooks included,
 //! charged to the node's scope, summed over every sweep since the last `clear()`. Units: ms.
 //! Everything here is forgotten by [`Tape::clear`](crate::Tape::clear).
 
 use crate::Var;
+use std::collections::BTreeSet;
+use std::sync::Mutex;
 use std::time::Instant;
+
+/// A `&'static str` equal to `name`, one allocation per distinct name for the whole process
+/// (names of scopes and tags built at run time, e.g. `"d.down1.conv0"`).
+pub fn intern(name: &str) -> &'static str {
+    static NAMES: Mutex<BTreeSet<&'static str>> = Mutex::new(BTreeSet::new());
+    let mut names = NAMES.lock().unwrap_or_else(|e| e.into_inner());
+    if let Some(&known) = names.get(name) {
+        return known;
+    }
+    let leaked: &'static str = Box::leak(name.to_string().into_boxed_str());
+    names.insert(leaked);
+    leaked
+}
+
+/// The scopes a learning rule acts in (see the module docs).
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub enum ScopeFilter {
+    /// Every node, in a scope or not.
+    #[default]
+    All,
+    /// Nodes recorded in one of these scopes or their sub-scopes (`name` or `name.…`).
+    Only(Vec<String>),
+}
+
+impl ScopeFilter {
+    /// The filter covering `names` (and their sub-scopes).
+    pub fn only<S: Into<String>>(names: impl IntoIterator<Item = S>) -> Self {
+        ScopeFilter::Only(names.into_iter().map(Into::into).collect())
+    }
+
+    /// Whether a node recorded in `scope` is covered.
+    pub fn covers(&self, scope: Option<&str>) -> bool {
+        match (self, scope) {
+            (ScopeFilter::All, _) => true,
+            (ScopeFilter::Only(_), None) => false,
+            (ScopeFilter::Only(names), Some(s)) => names.iter().any(|n| {
+                s.strip_prefix(n.as_str())
+                    .is_some_and(|rest| rest.is_empty() || rest.starts_with('.'))
+            }),
+        }
+    }
+}
 
 /// Scopes, tags and local losses of one recording (see the module docs).
 #[derive(Debug, Default)]
@@ -125,7 +177,19 @@ impl Scopes {
 
 #[cfg(test)]
 mod tests {
+    use super::{intern, ScopeFilter};
     use crate::{Tape, Tensor};
+
+    #[test]
+    fn a_filter_covers_its_scopes_and_their_sub_scopes_only() {
+        let f = ScopeFilter::only(["D", "P"]);
+        assert!(f.covers(Some("D")) && f.covers(Some("D.inc")) && f.covers(Some("P")));
+        assert!(!f.covers(Some("Dx")) && !f.covers(Some("W")) && !f.covers(None));
+        assert!(ScopeFilter::All.covers(None) && ScopeFilter::All.covers(Some("W")));
+        let a = intern(&format!("{}.{}", "d", "inc"));
+        assert_eq!(a, "d.inc");
+        assert!(std::ptr::eq(a, intern("d.inc")), "one copy per name");
+    }
 
     #[test]
     fn nodes_belong_to_the_scope_they_were_recorded_in() {

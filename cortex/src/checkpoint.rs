@@ -4,6 +4,8 @@
 //! - `params.safetensors` — every parameter (`w.response`, `c.raw`, `d.*`, `p.*`), opens in
 //!   PyTorch/NumPy;
 //! - `optim.safetensors` — Adam's `m`, `v` per parameter and its step counts;
+//! - `rule.safetensors` — the learning rule's state (`autodiff::learn::RuleState`: feedback
+//!   matrices, counters; empty for backprop), keyed by parameter names;
 //! - `meta.json` — [`CheckpointMeta`]: step, the full config, the trainer's RNG state, the data
 //!   source's state and the caller's run state (for exact resume), the last loss, the SHA-256
 //!   of both safetensors files (`sha256sum` prints the same) and of `meta.json` itself.
@@ -20,6 +22,7 @@
 use crate::config::CortexConfig;
 use crate::rng::CortexRng;
 use crate::CortexError;
+use autodiff::learn::RuleState;
 use autodiff::optim::{Adam, Optimizer};
 use autodiff::ParamStore;
 use serde::{Deserialize, Serialize};
@@ -33,11 +36,24 @@ mod folder;
 pub use folder::{latest_checkpoint, latest_valid, newest_first, recover, Valid};
 
 /// Version of the checkpoint layout: 2 adds the checksums and the run state (format 1 still
-/// loads, unverified).
-pub const CHECKPOINT_FORMAT: u32 = 2;
+/// loads, unverified); 3 adds the learning rule's state (format 2 loads without it).
+pub const CHECKPOINT_FORMAT: u32 = 3;
 
 /// Files of a checkpoint besides `meta.json`, each with its SHA-256 in the metadata.
-pub const CHECKPOINT_FILES: [&str; 2] = ["params.safetensors", "optim.safetensors"];
+pub const CHECKPOINT_FILES: [&str; 3] = [
+    "params.safetensors",
+    "optim.safetensors",
+    "rule.safetensors",
+];
+
+/// The files a checkpoint of `format` holds besides `meta.json`.
+fn files_of(format: u32) -> &'static [&'static str] {
+    match format {
+        0..=1 => &[],
+        2 => &CHECKPOINT_FILES[..2],
+        _ => &CHECKPOINT_FILES,
+    }
+}
 
 /// `meta.json` of a checkpoint. Field order is fixed and every map is ordered, so the same
 /// state always gives the same bytes.
@@ -139,12 +155,22 @@ fn sync(path: &Path) -> Result<(), CortexError> {
     Ok(())
 }
 
+/// What a checkpoint holds besides its metadata.
+pub struct CheckpointState<'a> {
+    /// The parameters.
+    pub params: &'a ParamStore<f32>,
+    /// Adam and its state.
+    pub optim: &'a Optimizer<f32, Adam>,
+    /// The learning rule's state.
+    pub rule: &'a RuleState<f32>,
+}
+
 fn write_files(
     tmp: &Path,
     meta: &CheckpointMeta,
-    params: &ParamStore<f32>,
-    optim: &Optimizer<f32, Adam>,
+    state: &CheckpointState<'_>,
 ) -> Result<(), CortexError> {
+    let (params, optim) = (state.params, state.optim);
     let mut st_meta = BTreeMap::new();
     st_meta.insert("step".to_string(), meta.step.to_string());
     let p = tmp.join(CHECKPOINT_FILES[0]);
@@ -156,8 +182,13 @@ fn write_files(
     optim
         .save_safetensors(&o, params)
         .map_err(|e| bad(&o, e.to_string()))?;
+    let r = tmp.join(CHECKPOINT_FILES[2]);
+    state
+        .rule
+        .save_safetensors(&r)
+        .map_err(|e| bad(&r, e.to_string()))?;
     let mut meta = meta.clone();
-    for f in CHECKPOINT_FILES {
+    for f in files_of(meta.format) {
         let path = tmp.join(f);
         let bytes = std::fs::read(&path).map_err(io(&path))?;
         meta.files_sha256.insert(f.to_string(), sha256_hex(&bytes));
@@ -173,8 +204,7 @@ fn write_files(
 pub fn write_checkpoint(
     dir: &Path,
     meta: &CheckpointMeta,
-    params: &ParamStore<f32>,
-    optim: &Optimizer<f32, Adam>,
+    state: &CheckpointState<'_>,
 ) -> Result<PathBuf, CortexError> {
     std::fs::create_dir_all(dir).map_err(io(dir))?;
     let name = checkpoint_name(meta.step);
@@ -184,7 +214,7 @@ pub fn write_checkpoint(
         std::fs::remove_dir_all(&tmp).map_err(io(&tmp))?;
     }
     std::fs::create_dir(&tmp).map_err(io(&tmp))?;
-    if let Err(e) = write_files(&tmp, meta, params, optim) {
+    if let Err(e) = write_files(&tmp, meta, state) {
         let _ = std::fs::remove_dir_all(&tmp);
         return Err(e);
     }
@@ -254,12 +284,9 @@ pub fn verify(path: &Path) -> Result<CheckpointMeta, CortexError> {
             format!("field `step` is {} but the folder is {folder}", meta.step),
         ));
     }
-    if meta.format < 2 {
-        return Ok(meta);
-    }
-    for f in CHECKPOINT_FILES {
+    for f in files_of(meta.format) {
         let file = path.join(f);
-        let want = meta.files_sha256.get(f).ok_or_else(|| {
+        let want = meta.files_sha256.get(*f).ok_or_else(|| {
             bad(
                 &path.join("meta.json"),
                 format!("no `files_sha256` for {f}"),
@@ -282,6 +309,21 @@ pub fn load_params(path: &Path, params: &mut ParamStore<f32>) -> Result<(), Cort
     let p = path.join(CHECKPOINT_FILES[0]);
     params.load_into(&p).map_err(|e| bad(&p, e.to_string()))?;
     Ok(())
+}
+
+/// The learning rule's state of the checkpoint at `path` (`None` for a checkpoint written
+/// before the state was saved, format < 3).
+pub fn load_rule_state(
+    path: &Path,
+    meta: &CheckpointMeta,
+) -> Result<Option<RuleState<f32>>, CortexError> {
+    if meta.format < 3 {
+        return Ok(None);
+    }
+    let r = path.join(CHECKPOINT_FILES[2]);
+    RuleState::load_safetensors(&r)
+        .map(Some)
+        .map_err(|e| bad(&r, e.to_string()))
 }
 
 /// Loads the optimiser state of the checkpoint at `path`.

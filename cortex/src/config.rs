@@ -15,8 +15,11 @@
 //!   integer shifts, oracle motion, U-Net 16/32/64.
 //! - `paper`: official everything (authors' code, docs/references.md#cortex-pipeline): 256×256, U-Net 16/32/64/128, block matching.
 
+mod per_bucket;
 mod presets;
 mod validate;
+
+pub use per_bucket::{BucketTrain, PerBucketTrain};
 
 use serde::{Deserialize, Serialize};
 
@@ -220,6 +223,18 @@ pub struct TrainConfig {
     /// Learning rate at the last step as a fraction of `learning_rate` (cosine schedule only).
     #[serde(default = "default_final_lr_fraction")]
     pub final_lr_fraction: f64,
+    /// Largest Frobenius norm of the whole update a learning rule returns, before Adam
+    /// (absent: no clipping, as the authors' code; see [`per_bucket`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub clip_global_norm: Option<f64>,
+    /// Steps between measurements of the rule's update against backprop's gradient (one more
+    /// backprop sweep on the step's tape; cosine and norms per bucket in the step's
+    /// [`crate::StepStats`]); 0: never.
+    #[serde(default)]
+    pub alignment_every_steps: u64,
+    /// Learning-rate factor and clipping per bucket ([`per_bucket`]).
+    #[serde(default)]
+    pub per_bucket: PerBucketTrain,
 }
 
 fn unit_scale() -> f64 {

@@ -1,45 +1,58 @@
 //! Forward-forward for the cortex: the layer-local objectives the cortex declares when its
-//! learning rule asks for them (`autodiff::learn::ForwardForward`; Hinton 2022,
-//! arXiv:2212.13345).
+//! learning rule asks for them (`autodiff::learn::ForwardForward`; Hinton 2022, *The
+//! Forward-Forward Algorithm: Some Preliminary Investigations*, arXiv:2212.13345).
 //!
-//! Forward-forward needs, per layer, a *goodness* that is high on positive and low on
-//! negative data, computed from that layer's own activity. The cortex does not classify: it
-//! predicts the next ONS frame from this one and the eye motion. Every choice below, and why:
+//! Hinton's algorithm, and where this one departs (and why):
 //!
-//! - **Positive data**: the real triple `(O_t, O_{t+1}, d̂)`. **Negative data**: the same two
-//!   frames with a *wrong motion*, sample `b` paired with the motion of sample `b+1` of the
-//!   batch (drawn from the same distribution, so only the pairing is wrong; with a batch of
-//!   one, `−d̂`). A wrong motion rather than a mismatched frame: a mismatched frame differs
-//!   in content statistics a layer could detect without knowing the motion; a wrong motion
-//!   can only be told from a right one by a representation that moves with the eye, which is
-//!   what the cortex's buckets are for (paper §4).
-//! - **Layers**: the buckets, each a scope of the tape. W (its decode `pa = Φ_W(O)`), C (its
-//!   injection `X = pa·C`), D (the U-Net percept `V = D(X)`) and P (the warp). A layer's
-//!   representation of a frame is its output; both frames pass through the same layers.
-//! - **Goodness of a layer on a pair**: how well its representation of `O_t`, moved by the
-//!   motion, matches its representation of `O_{t+1}`:
-//!   `G = −Σ m·(warp(h_t) − h_{t+1})² / Σ m·(warp(h_t)² + h_{t+1}²)` per sample (`m` the warp's
-//!   validity mask). Normalised so that shrinking or inflating a layer's output cannot raise
-//!   it (`−2 ≤ G ≤ 0`); Hinton's sum of squares would reward scale alone here, because there is
-//!   no label in the input to separate positive from negative.
-//! - **Objective**: paired, `mean_b softplus(β·(G⁻_b − G⁺_b))` with `β =` [`GOODNESS_SHARPNESS`]
-//!   (`autodiff::learn::pairwise_goodness_loss`): each sample is its own positive and
-//!   negative, so comparing them needs no threshold to tune.
-//! - **No backward pass between layers**: the rule cuts every gradient that would leave a
-//!   scope, so W learns from W's objective only, C from C's, D from D's. Inside D the U-Net is
-//!   one layer: its blocks are trained by backprop within the bucket (forward-forward between
-//!   buckets, not between the U-Net's convolutions).
-//! - **Warps**: W's, C's and D's objectives move `h_t` through P's current sampling grid, which
-//!   is P's output and gets no gradient from them. P's own objective warps the percept `V_t`
-//!   (D's output, no gradient into D) and trains the flow's positions through the grid.
+//! - **Layers.** Hinton: every layer has its own objective and no error travels between
+//!   layers. Here a layer is a scope of the tape, and no gradient crosses a scope: W's decode
+//!   (`pa = Φ_W(O)`), C's injection (`X = pa·C`), each block of D's U-Net (`D.inc`,
+//!   `D.down1`, …, `D.up2`, the last with the 1×1 output conv: its output is the percept V),
+//!   P (the warp's positions), and the re-encoder (below). Inside a U-Net block — two 3×3
+//!   convolutions, plus the transposed conv of an up block — the gradient is exact: the block
+//!   is the U-Net's unit, and a single ReLU convolution of a block has no representation of
+//!   its own to score. A block's input (the block below, or the skip connection) gets nothing.
+//! - **Positive and negative data.** Hinton: positive data are real (an image with its right
+//!   label), negative data are made to differ only in what the network should learn (the
+//!   wrong label; hybrid images; for sequences, the network's own predictions). Here the
+//!   positive datum is the real triple `(O_t, O_{t+1}, d̂)`; the negative one is the same two
+//!   frames with a *wrong motion*, sample `b` paired with the motion of sample `b+1` (drawn
+//!   from the same distribution, so only the pairing is wrong; with a batch of one, `−d̂`). A
+//!   wrong motion rather than a mismatched frame: a mismatched frame differs in content
+//!   statistics a layer could detect without knowing the motion; a wrong motion can only be
+//!   told from a right one by a representation that moves with the eye, which is what the
+//!   cortex's buckets are for (paper §4).
+//! - **Goodness.** Hinton: the sum of squared activities of the layer, high for positive data
+//!   (or its negative, low for positive data). The cortex's input carries no label: the size
+//!   of a layer's activity cannot tell a right motion from a wrong one. So the goodness of a
+//!   layer on a pair is the negative sum of squares of *mismatch* units — its representation
+//!   of `O_t` moved by the motion against its representation of `O_{t+1}`:
+//!   `G = −Σ m·(warp(h_t) − h_{t+1})² / Σ m·(warp(h_t)² + h_{t+1}²)` per sample (`m` the
+//!   warp's validity mask). A coarser block is warped through P's grid averaged over its
+//!   cells. The normalisation (`−2 ≤ G ≤ 0`) stands where Hinton normalises each layer's
+//!   activity vector before the next layer: shrinking or inflating a layer cannot raise its
+//!   goodness. (The model is the same under every rule, so no normalisation is inserted
+//!   between blocks.)
+//! - **Objective.** Hinton: `σ(G − θ)` is the probability that a datum is positive, high on
+//!   positive and low on negative data, with a threshold `θ`. Here each sample is its own
+//!   positive and negative, so the two are compared directly, `mean_b softplus(β·(G⁻_b −
+//!   G⁺_b))` (`autodiff::learn::pairwise_goodness_loss`, `β =` [`GOODNESS_SHARPNESS`]), and
+//!   no threshold needs tuning.
+//! - **The re-encoder.** Hinton reads a classification out of the layers' normalised
+//!   activities with a softmax layer trained on its own error, without backpropagating into
+//!   the layers (§3.3). The cortex's read-out is the re-encoder Ψ: `Ô_{t+1} =
+//!   Ψ_W(⟨V̂_{t+1}, C⟩)`, W's forward filter applied to C's sampling of the warped percept. Its
+//!   local objective is its own prediction error, the masked squared error of the global loss,
+//!   recorded in the scope [`REENCODE_SCOPE`] with its own copies of W's response and of C, so
+//!   it trains W's and C's parameters (shared with decode, which also train from their own
+//!   goodness) and nothing below the warped percept.
+//! - **Warps.** W's, C's and D's objectives move `h_t` through P's current sampling grid,
+//!   which is P's output and gets no gradient from them. P's own objective warps the percept
+//!   `V_t` (D's output, no gradient into D) and trains the flow's positions through the grid.
 //!
-//! What forward-forward cannot train here, honestly: the re-encoding Ψ. The prediction
-//! `Ô_{t+1} = Ψ_W(⟨V̂_{t+1}, C⟩)` uses W's forward filter and C's sampling, which no local
-//! objective contains; W and C are shared parameters, trained only by their decode-side
-//! objectives, so the prediction error (what backprop minimises) is not what this rule
-//! minimises, and the held-out prediction gain measures a by-product. The motion M is not
-//! learned under this rule (its blurred objective belongs to the global loss). CMF-SIM and
-//! Neural Scope read the percept `V = D(C·Φ_W(O))`, which every objective above shapes.
+//! What this rule leaves untrained: the motion M (its blurred objective belongs to the global
+//! loss). CMF-SIM and Neural Scope read the percept `V = D(C·Φ_W(O))`, which every decode
+//! objective above shapes.
 
 use crate::buckets::p::{PBucket, Sampling};
 use crate::model::{Bucket, Cortex, MotionOut, Prediction, BUCKET_NAMES};
@@ -50,6 +63,9 @@ use autodiff::{Tape, Var};
 /// of 0.1 between a pair's two goodnesses is a logit of 1.
 pub const GOODNESS_SHARPNESS: f64 = 10.0;
 
+/// The scope of the re-encoder's local objective.
+pub const REENCODE_SCOPE: &str = "reencode";
+
 /// The motion of the negative data: sample `b` takes the motion of sample `b+1` (a batch of
 /// one takes `−d̂`).
 pub fn wrong_motion(motion: &[[f64; 2]]) -> Vec<[f64; 2]> {
@@ -58,6 +74,29 @@ pub fn wrong_motion(motion: &[[f64; 2]]) -> Vec<[f64; 2]> {
         return vec![[-motion[0][0], -motion[0][1]]];
     }
     (0..b).map(|i| motion[(i + 1) % b]).collect()
+}
+
+/// `sampling` of an `n × n` layer, for a layer `f` times coarser: P's grid averaged over
+/// each `f × f` cell and rescaled to the coarse grid's align-corners coordinates
+/// (`u_c = u·(n − 1)/(n − f)`), or whole-pixel shifts divided by `f` and rounded.
+pub fn coarse_sampling(tape: &mut Tape<f32>, sampling: &Sampling, n: usize, f: usize) -> Sampling {
+    match sampling {
+        _ if f == 1 => sampling.clone(),
+        Sampling::Grid(grid) => {
+            let b = tape.shape(*grid).dim(0);
+            let (m, k) = (n / f, f);
+            let cells = tape.reshape(*grid, [b, m, k, m, k, 2]);
+            let mean = tape.mean_axes(cells, &[2, 4], false);
+            let scaled = tape.scale(mean, (n as f64 - 1.0) / (n - f) as f64);
+            Sampling::Grid(scaled)
+        }
+        Sampling::Shift(shifts) => Sampling::Shift(
+            shifts
+                .iter()
+                .map(|s| s.map(|v| (v as f64 / f as f64).round() as i64))
+                .collect(),
+        ),
+    }
 }
 
 /// Goodness `G` per sample, `(B)`, of moving `h_t` by `sampling` onto `h_{t+1}` (module docs).
@@ -76,9 +115,39 @@ fn goodness(tape: &mut Tape<f32>, sampling: &Sampling, h_t: Var, h_t1: Var) -> V
     tape.neg(ratio)
 }
 
-/// Declares one local loss per trained bucket for the pair `O_t`, `o2 = O_{t+1}`
-/// `(B, 1, n, n)` whose (positive) motion is `motion`, on the tape that recorded `prediction`
-/// ([`Cortex::record_prediction`]; its decode of `O_t` is reused).
+/// The layers with a goodness objective: `(scope, h_t, h_{t+1})` (module docs).
+fn layers(
+    cortex: &Cortex,
+    t: &crate::model::Decoded,
+    t1: &crate::model::Decoded,
+    warped_by_p: bool,
+) -> Vec<(&'static str, Var, Var)> {
+    let mut out = Vec::new();
+    if cortex.w.response.is_some() {
+        out.push((
+            BUCKET_NAMES[Bucket::W as usize],
+            t.activations,
+            t1.activations,
+        ));
+    }
+    if cortex.c.is_some() {
+        out.push((BUCKET_NAMES[Bucket::C as usize], t.injected, t1.injected));
+        if let crate::buckets::d::DBucket::UNet(net) = &cortex.d {
+            let scopes = net.block_scopes().unwrap_or(&[]);
+            for ((&scope, &h), &h1) in scopes.iter().zip(&t.blocks).zip(&t1.blocks) {
+                out.push((scope, h, h1));
+            }
+        }
+    }
+    if warped_by_p {
+        out.push((BUCKET_NAMES[Bucket::P as usize], t.percept, t1.percept));
+    }
+    out
+}
+
+/// Declares one local loss per layer for the pair `O_t`, `o2 = O_{t+1}` `(B, 1, n, n)`
+/// whose (positive) motion is `motion`, and the re-encoder's, on the tape that recorded
+/// `prediction` ([`Cortex::record_prediction`]; its decode of `O_t` is reused).
 pub fn record_local_losses(
     cortex: &Cortex,
     tape: &mut Tape<f32>,
@@ -87,42 +156,48 @@ pub fn record_local_losses(
     motion: &MotionOut,
 ) {
     let wrong = wrong_motion(&motion.motion);
-    let (t, t1) = (prediction.decoded, cortex.record_decode(tape, o2));
+    let t1 = cortex.record_decode(tape, o2);
+    let n = cortex.n();
     tape.enter_scope(BUCKET_NAMES[Bucket::P as usize]);
     let pos = cortex.p.sampling(tape, &cortex.params, &motion.motion);
     let neg = cortex.p.sampling(tape, &cortex.params, &wrong);
-    let mut stages = vec![(Bucket::W, t.activations, t1.activations)];
-    if cortex.c.is_some() {
-        stages.push((Bucket::C, t.injected, t1.injected));
-        if matches!(cortex.d, crate::buckets::d::DBucket::UNet(_)) {
-            stages.push((Bucket::D, t.percept, t1.percept));
-        }
-    }
-    if matches!(pos, Sampling::Grid(_)) {
-        stages.push((Bucket::P, t.percept, t1.percept));
-    }
-    for (bucket, h_t, h_t1) in stages {
-        if bucket == Bucket::W && cortex.w.response.is_none() {
-            continue;
-        }
-        let scope = BUCKET_NAMES[bucket as usize];
+    let warped_by_p = matches!(pos, Sampling::Grid(_));
+    for (scope, h_t, h_t1) in layers(cortex, &prediction.decoded, &t1, warped_by_p) {
         tape.enter_scope(scope);
-        let g_pos = goodness(tape, &pos, h_t, h_t1);
-        let g_neg = goodness(tape, &neg, h_t, h_t1);
+        let f = n / tape.shape(h_t).dim(2);
+        let (p, q) = (
+            coarse_sampling(tape, &pos, n, f),
+            coarse_sampling(tape, &neg, n, f),
+        );
+        let g_pos = goodness(tape, &p, h_t, h_t1);
+        let g_neg = goodness(tape, &q, h_t, h_t1);
         let loss = pairwise_goodness_loss(tape, g_pos, g_neg, GOODNESS_SHARPNESS);
         tape.declare_local_loss(scope, loss);
     }
+    record_reencode_loss(cortex, tape, prediction, o2);
     tape.close_scope();
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn the_wrong_motion_is_another_samples() {
-        let m = [[1.0, 0.0], [0.0, 2.0], [3.0, 3.0]];
-        assert_eq!(wrong_motion(&m), vec![[0.0, 2.0], [3.0, 3.0], [1.0, 0.0]]);
-        assert_eq!(wrong_motion(&[[1.0, -2.0]]), vec![[-1.0, 2.0]]);
+/// The re-encoder's local objective: its prediction of `o2` from the warped percept, with its
+/// own copies of W's response and C (module docs). Nothing to declare when neither is learned.
+fn record_reencode_loss(cortex: &Cortex, tape: &mut Tape<f32>, prediction: &Prediction, o2: Var) {
+    if cortex.w.response.is_none() && cortex.c.is_none() {
+        return;
     }
+    tape.enter_scope(REENCODE_SCOPE);
+    let r = cortex.w.record(tape, &cortex.params);
+    let pa = match &cortex.c {
+        Some(cb) => {
+            let c = cb.record(tape, &cortex.params);
+            cb.sample(tape, c, prediction.warped)
+        }
+        None => prediction.warped,
+    };
+    let predicted = cortex.w.encode(tape, r, pa);
+    let border = cortex.config.loss.border_px;
+    let loss = tape.masked_sq_error(predicted, o2, prediction.mask, border);
+    tape.declare_local_loss(REENCODE_SCOPE, loss);
 }
+
+#[cfg(test)]
+mod tests;

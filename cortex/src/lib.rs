@@ -25,6 +25,7 @@
 pub mod buckets;
 pub mod checkpoint;
 pub mod config;
+pub mod credit;
 pub mod data;
 pub mod error;
 pub mod eval;
@@ -41,5 +42,5 @@ pub use data::{DataSource, OnsBatch};
 pub use error::CortexError;
 pub use eval::MotionError;
 pub use model::Cortex;
-pub use rule::RuleKind;
+pub use rule::{RuleContext, RuleEntry, RuleName, RuleSettings};
 pub use trainer::{PredictionError, StepStats, Trainer};

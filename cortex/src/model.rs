@@ -16,17 +16,17 @@
 //! Baselines (paper S-05): `identity_percept` skips W, C and D (the percept is the ONS);
 //! `no_demosaicker` uses D = identity; `cone_activations_as_ons` changes only the data.
 //!
-//! Every stretch of the tape is a scope named after its [`Bucket`] (`BUCKET_NAMES`), so the
-//! trainer times forward and backward per bucket under any learning rule, and a layer-local
-//! rule knows which bucket recorded each node. The hidden layers of decode Φ are tagged
-//! (`TAGS`) for rules that act on layers: `pa` (W), `X` (C), `V_t` (D), and the U-Net tags its
-//! blocks. The prediction `Ô_{t+1}` is the output whose error such rules use; translate and
-//! re-encode Ψ∘Ω (P's warp, C's sampling, W's forward filter) form the output mapping and are
-//! not tagged: under direct feedback alignment they take the true error, as the output layer
-//! does in Nøkland (2016). On the quick cortex with seed 0's feedback draw the loss runs away
-//! within 50 steps (150 → 1e14) whether or not `V̂_{t+1}` and `⟨V̂, C⟩` are tagged too; with
-//! another draw it falls: C's sampling and W's encode, unit-norm and shared with decode, are a
-//! poor output layer to align with a feedback of the wrong sign.
+//! Every stretch of the tape is a scope named after its [`Bucket`] (`BUCKET_NAMES`); the
+//! U-Net records each of its blocks in a sub-scope `D.inc`, `D.down1`, …, `D.up2`
+//! ([`bucket_of_scope`] maps a scope to its bucket). So the trainer times forward and
+//! backward per bucket under any learning rule, a rule can be told which buckets to act in,
+//! and a layer-local rule knows which block recorded each node. Every hidden layer of decode
+//! Φ is tagged for rules that act on layers: `pa` (W, [`TAGS`]), `X` (C), and each layer of
+//! the U-Net by its parameter name (`d.inc.conv0`, …, `d.up1.up`, …, `d.outc`, the percept).
+//! The prediction `Ô_{t+1}` is the output whose error such rules use; translate and re-encode
+//! Ψ∘Ω (P's warp, C's sampling, W's forward filter) form the output mapping and are not
+//! tagged: under direct feedback alignment they take the true error, as the output layer
+//! does in Nøkland (2016).
 
 use crate::buckets::m::block_matching::{BlockMatcher, DewarpGrid};
 use crate::buckets::m::gauge::record_gauge_term;
@@ -53,16 +53,50 @@ pub const BUCKETS: usize = 6;
 /// Names of the buckets, indexed by `Bucket as usize`.
 pub const BUCKET_NAMES: [&str; BUCKETS] = ["W", "C", "D", "P", "M", "loss"];
 
-/// Tags of decode Φ's bucket outputs, in forward order: decoded activations, injected
-/// colour, percept.
-pub const TAGS: [&str; 3] = ["cortex.w.decoded", "cortex.c.injected", "cortex.d.percept"];
+/// Tags of decode Φ's W and C outputs, in forward order: decoded activations, injected
+/// colour (the U-Net tags its own layers, the percept included).
+pub const TAGS: [&str; 2] = ["cortex.w.decoded", "cortex.c.injected"];
+
+/// The bucket a scope belongs to: the part of its name before the first `.` (`D.inc` → D),
+/// when that is a bucket's name.
+pub fn bucket_of_scope(scope: &str) -> Option<Bucket> {
+    let head = scope.split('.').next().unwrap_or(scope);
+    BUCKET_NAMES
+        .iter()
+        .position(|&b| b == head)
+        .map(|i| BUCKETS_IN_ORDER[i])
+}
+
+/// The learned bucket a parameter belongs to, from its name (`w.response` → W, `d.…` → D).
+pub fn bucket_of_param(name: &str) -> Option<Bucket> {
+    match name.split('.').next() {
+        Some("w") => Some(Bucket::W),
+        Some("c") => Some(Bucket::C),
+        Some("d") => Some(Bucket::D),
+        Some("p") => Some(Bucket::P),
+        _ => None,
+    }
+}
+
+/// The buckets in index order.
+pub const BUCKETS_IN_ORDER: [Bucket; BUCKETS] = [
+    Bucket::W,
+    Bucket::C,
+    Bucket::D,
+    Bucket::P,
+    Bucket::M,
+    Bucket::Loss,
+];
+
+/// The buckets that hold parameters, in order.
+pub const LEARNED_BUCKETS: [Bucket; 4] = [Bucket::W, Bucket::C, Bucket::D, Bucket::P];
 
 fn enter(tape: &mut Tape<f32>, b: Bucket) {
     tape.enter_scope(BUCKET_NAMES[b as usize]);
 }
 
 /// What decode Φ leaves on the tape.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Debug)]
 pub struct Decoded {
     /// The cone activations `pa = Φ_W(O)`, `(B, 1, n, n)`.
     pub activations: Var,
@@ -70,6 +104,9 @@ pub struct Decoded {
     pub injected: Var,
     /// The percept `V = D(X)`, `(B, N, n, n)`.
     pub percept: Var,
+    /// The output of each of D's blocks, in forward order (empty when D is the identity);
+    /// the last is the percept.
+    pub blocks: Vec<Var>,
     /// W's response, when learned.
     pub w: Option<Var>,
     /// The effective C, when present.
@@ -77,7 +114,7 @@ pub struct Decoded {
 }
 
 /// What one recorded prediction leaves on the tape.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Debug)]
 pub struct Prediction {
     /// The training loss (main + blurred objective when M is learned).
     pub loss: Var,
@@ -89,6 +126,8 @@ pub struct Prediction {
     pub predicted: Var,
     /// The warp's validity mask, `(B, 1, n, n)`.
     pub mask: Var,
+    /// The translated percept `V̂_{t+1}`, `(B, N, n, n)`, what re-encode Ψ reads.
+    pub warped: Var,
     /// Decode Φ of `O_t`.
     pub decoded: Decoded,
 }
@@ -175,6 +214,7 @@ impl Cortex {
                 activations: pa,
                 injected: pa,
                 percept: pa,
+                blocks: Vec::new(),
                 w: r,
                 c: None,
             };
@@ -184,12 +224,12 @@ impl Cortex {
         let x = cb.inject(tape, c, pa);
         tape.tag(x, TAGS[1]);
         enter(tape, Bucket::D);
-        let v = self.d.forward(tape, &self.params, x);
-        tape.tag(v, TAGS[2]);
+        let (v, blocks) = self.d.forward_blocks(tape, &self.params, x);
         Decoded {
             activations: pa,
             injected: x,
             percept: v,
+            blocks,
             w: r,
             c: Some(c),
         }
@@ -248,12 +288,7 @@ impl Cortex {
     ) -> Prediction {
         let (b, _, n, _) = tape.shape(o1).bchw("Cortex::record_prediction");
         let decoded = self.record_decode(tape, o1);
-        let Decoded {
-            percept: v1,
-            w: r,
-            c,
-            ..
-        } = decoded;
+        let (v1, r, c) = (decoded.percept, decoded.w, decoded.c);
         enter(tape, Bucket::P);
         let extra: Vec<Var> = match &motion.blurred {
             Some((b1, _)) => vec![tape.constant_from([b, 1, n, n], b1)],
@@ -306,6 +341,7 @@ impl Cortex {
             percept: v1,
             predicted: pred,
             mask,
+            warped: v2,
             decoded,
         }
     }

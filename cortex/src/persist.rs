@@ -54,15 +54,23 @@ impl Trainer {
     ) -> Result<PathBuf, CortexError> {
         let mut meta = self.checkpoint_meta(source);
         meta.run_state = run_state;
-        let path = checkpoint::write_checkpoint(dir, &meta, &self.cortex.params, &self.optim)?;
+        let rule = self.rule.state(&self.cortex.params);
+        let state = checkpoint::CheckpointState {
+            params: &self.cortex.params,
+            optim: &self.optim,
+            rule: &rule,
+        };
+        let path = checkpoint::write_checkpoint(dir, &meta, &state)?;
         self.last_checkpoint = Some(path.clone());
         Ok(path)
     }
 
     /// Rebuilds the trainer of the checkpoint at `path`: parameters, Adam state, step, RNG; and
-    /// restores `source`'s state when the checkpoint holds one. Continuing from here gives
-    /// bit-identical parameters to a run that never stopped (same thread count). Every
-    /// checksum is verified first ([`checkpoint::verify`]).
+    /// restores `source`'s state when the checkpoint holds one. The learning rule's state is
+    /// kept and handed to the rule given next to [`Trainer::set_learning_rule`] (the trainer
+    /// starts with backprop, which keeps none). Continuing from here gives bit-identical
+    /// parameters to a run that never stopped (same thread count). Every checksum is verified
+    /// first ([`checkpoint::verify`]).
     pub fn resume(
         path: &Path,
         source: Option<&mut dyn DataSource>,
@@ -81,6 +89,7 @@ impl Trainer {
         let mut t = Trainer::new(meta.config.clone())?;
         checkpoint::load_params(path, &mut t.cortex.params)?;
         checkpoint::load_optim(path, &mut t.optim, &t.cortex.params)?;
+        t.pending_rule_state = checkpoint::load_rule_state(path, &meta)?;
         t.step = meta.step;
         t.rng = meta.rng.clone();
         t.continued_from_step = meta.continued_from_step;

@@ -2,26 +2,32 @@
 //! and the tape; [`Trainer::step`] turns one [`OnsBatch`] into one gradient update.
 //!
 //! - Credit assignment goes through `autodiff::learn::LearningRule` (backprop by default;
-//!   [`Trainer::set_learning_rule`] swaps in any rule: [`crate::RuleKind`] or a user's). The
-//!   rule receives the recorded prediction (loss, output `Ô_{t+1}`, the tape's bucket scopes
-//!   and tags) and, when it asks, the cortex's local objectives
+//!   [`Trainer::set_learning_rule`] swaps in any rule: one of [`crate::rule`]'s registry or a
+//!   user's own). The rule receives the recorded prediction (loss, output `Ô_{t+1}`, the
+//!   tape's bucket scopes and tags) and, when it asks, the cortex's local objectives
 //!   ([`crate::forward_forward`]). Forward and backward time per bucket come from the tape's
 //!   scopes, whatever the rule.
+//! - Between the rule and Adam ([`crate::credit`]): every `train.alignment_every_steps` the
+//!   rule's update is measured against backprop's gradient on the same tape (per bucket, in
+//!   [`StepStats::alignment`]); then it is clipped per bucket and as a whole when the config
+//!   says so; Adam applies it with a learning-rate factor per bucket.
 //! - A non-finite loss or gradient stops with [`CortexError::NonFiniteLoss`] *before* the update,
 //!   so the parameters stay those of the last good step and checkpoints on disk are untouched.
-//! - Checkpoints ([`crate::checkpoint`]) hold parameters, Adam state, step, config, RNG and the
-//!   data source's state; [`Trainer::resume`] continues bit-identically (same seed, same
-//!   thread count). [`Trainer::continue_from`] keeps the cortex and recreates Adam, as the
+//! - Checkpoints ([`crate::checkpoint`]) hold parameters, Adam state, the learning rule's
+//!   state, step, config, RNG and the data source's state; [`Trainer::resume`] continues
+//!   bit-identically (same seed, same thread count) once the run's rule is set again. [`Trainer::continue_from`] keeps the cortex and recreates Adam, as the
 //!   official dimensionality boosting / gene therapy does (authors' code, docs/references.md#training).
 //! - Neural Scope stays outside: with [`Trainer::set_keep_percept`] the trainer keeps a detached
 //!   copy of the last percept for the caller to fit; nothing flows back.
 
 use crate::config::CortexConfig;
+use crate::credit::{learned_bucket_of_params, Alignment};
 use crate::data::OnsBatch;
-use crate::model::{Bucket, Cortex, MotionOut, Prediction, BUCKETS, BUCKET_NAMES};
+use crate::model::{bucket_of_scope, Cortex, MotionOut, Prediction, BUCKETS, BUCKET_NAMES};
+use crate::model::{Bucket, LEARNED_BUCKETS};
 use crate::rng::CortexRng;
 use crate::CortexError;
-use autodiff::learn::{Backprop, LearningRule, Objective, ParamGrads};
+use autodiff::learn::{AlignmentMeter, Backprop, LearningRule, Objective, ParamGrads, RuleState};
 use autodiff::optim::{Adam, Optimizer};
 use autodiff::{Tape, Var};
 use std::path::{Path, PathBuf};
@@ -46,6 +52,9 @@ pub struct StepStats {
     pub optimizer_ms: f64,
     /// Everything in `step`.
     pub total_ms: f64,
+    /// The rule's update against backprop's gradient per bucket, when measured this step
+    /// ([`crate::credit`]).
+    pub alignment: Option<Alignment>,
 }
 
 impl StepStats {
@@ -96,6 +105,9 @@ pub struct Trainer {
     pub(crate) last_checkpoint: Option<PathBuf>,
     pub(crate) continued_from_step: Option<u64>,
     pub(crate) last_loss: Option<f64>,
+    /// The rule state of the checkpoint this trainer was resumed from, for the rule set next.
+    pub(crate) pending_rule_state: Option<RuleState<f32>>,
+    pub(crate) meter: AlignmentMeter<f32>,
 }
 
 /// Adam with the cortex's β and ε, and W's learning-rate scale. Its learning rate is given at
@@ -107,8 +119,11 @@ pub(crate) fn adam(cortex: &Cortex) -> Optimizer<f32, Adam> {
         beta2: t.adam_beta2,
         eps: t.adam_eps,
     });
-    if let Some(w) = cortex.w.response {
-        optim.set_lr_scale(w, t.w_learning_rate_scale);
+    let buckets = learned_bucket_of_params(&cortex.params);
+    for (id, bucket) in cortex.params.ids().zip(buckets) {
+        if let Some(k) = bucket {
+            optim.set_lr_scale(id, t.learning_rate_scale(LEARNED_BUCKETS[k]));
+        }
     }
     optim
 }
@@ -134,6 +149,8 @@ impl Trainer {
             last_checkpoint: None,
             continued_from_step: None,
             last_loss: None,
+            pending_rule_state: None,
+            meter: AlignmentMeter::new(),
         })
     }
 
@@ -153,9 +170,32 @@ impl Trainer {
         &mut self.rng
     }
 
-    /// Replaces the credit-assignment rule (backprop at start).
-    pub fn set_learning_rule(&mut self, rule: Box<dyn LearningRule<f32>>) {
+    /// Replaces the credit-assignment rule (backprop at start). A trainer resumed from a
+    /// checkpoint hands the rule the state saved there (its feedback matrices, counters), so
+    /// the resumed run assigns exactly the credit of the run that never stopped; an error
+    /// when that state is not this rule's.
+    pub fn set_learning_rule(
+        &mut self,
+        mut rule: Box<dyn LearningRule<f32>>,
+    ) -> Result<(), CortexError> {
+        if let Some(state) = self.pending_rule_state.take().filter(|s| !s.is_empty()) {
+            rule.load_state(&state, &self.cortex.params)
+                .map_err(|e| CortexError::Checkpoint {
+                    path: self
+                        .last_checkpoint
+                        .clone()
+                        .unwrap_or_default()
+                        .join(crate::checkpoint::CHECKPOINT_FILES[2]),
+                    reason: format!("the learning rule's state does not fit the rule: {e}"),
+                })?;
+        }
         self.rule = rule;
+        Ok(())
+    }
+
+    /// The learning rule's state now (what a checkpoint saves).
+    pub fn learning_rule_state(&self) -> RuleState<f32> {
+        self.rule.state(&self.cortex.params)
     }
 
     /// Turns the training tape's per-op profile on or off (see `autodiff::profile`).
@@ -262,6 +302,7 @@ impl Trainer {
                 &motion,
             );
         }
+        let measure = self.alignment_due();
         let loss = self.tape.value(pred.loss).item() as f64;
         let main_loss = self.tape.value(pred.main_loss).item() as f64;
         if !loss.is_finite() {
@@ -289,10 +330,15 @@ impl Trainer {
         let credit_ms = tc.elapsed().as_secs_f64() * 1e3;
         let times = self.tape.scope_times();
         let mut bwd = [0.0; BUCKETS];
-        for (i, name) in BUCKET_NAMES.iter().enumerate() {
-            fwd[i] += times.forward(name);
-            bwd[i] = times.backward(name);
-        }
+        let by_bucket = |list: &[(&'static str, f64)], into: &mut [f64; BUCKETS]| {
+            for &(scope, ms) in list {
+                if let Some(b) = bucket_of_scope(scope) {
+                    into[b as usize] += ms;
+                }
+            }
+        };
+        by_bucket(&times.forward_ms, &mut fwd);
+        by_bucket(&times.backward_ms, &mut bwd);
         let bad = self
             .grads
             .iter()
@@ -307,6 +353,8 @@ impl Trainer {
                 last_checkpoint: self.last_checkpoint.clone(),
             });
         }
+        let alignment = measure.then(|| self.measure_alignment(pred.loss));
+        self.clip_update();
         let to = Instant::now();
         let learning_rate = self.cortex.config.train.learning_rate_at(self.step);
         self.optim
@@ -328,6 +376,7 @@ impl Trainer {
             credit_ms,
             optimizer_ms,
             total_ms: t0.elapsed().as_secs_f64() * 1e3,
+            alignment,
         })
     }
 }

@@ -107,9 +107,13 @@ pub struct RunConfig {
     /// `cortex.train.w_learning_rate_scale = 0` W is held there. Said in the run's output.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub oracle_w_start: bool,
-    /// Credit assignment: `backprop` (default), `feedback-alignment`,
-    /// `direct-feedback-alignment` or `forward-forward` (`cortex::rule`).
-    pub learning_rule: cortex::RuleKind,
+    /// Credit assignment: a rule of the registry (`cortex::rule`): `backprop` (default),
+    /// `feedback-alignment`, `kolen-pollack`, `direct-feedback-alignment`,
+    /// `forward-forward`, or one the running binary registered.
+    pub learning_rule: cortex::RuleName,
+    /// The learning rule's settings (`[rule]`; each rule lists its own in `cortex::rule`).
+    #[serde(default, skip_serializing_if = "serde_json::Map::is_empty")]
+    pub rule: cortex::RuleSettings,
     /// The eye.
     pub retina: RetinaConfig,
     /// The cortex.

@@ -21,6 +21,7 @@ impl RunState<'_> {
             std::mem::take(&mut self.losses.1),
         ));
         crate::io::write_atomic(&out.join("loss.svg"), loss_plot.to_svg().as_bytes())?;
+        crate::alignment_plot::write_plot(out)?;
         let dims = &self.progress.dims;
         if !dims.is_empty() {
             let mut p = LinePlot::new(

@@ -16,6 +16,7 @@ pub const RUN_RECORD: &[&str] = &[
     "cmf_sim.json",
     "cmf_sim_errors.svg",
     "loss.svg",
+    "alignment.svg",
     "dimension.svg",
     "checkpoints",
     "pictures",

@@ -39,9 +39,9 @@ impl<'a> RunState<'a> {
                 (new_trainer(config, origin)?, Progress::default())
             }
         };
-        if config.learning_rule != cortex::RuleKind::Backprop {
+        if !config.learning_rule.is_backprop() {
             let rule = learning_rule(config, &trainer, was_resumed, origin)?;
-            trainer.set_learning_rule(rule);
+            trainer.set_learning_rule(rule)?;
         }
         let mut state = RunState {
             config,
@@ -158,8 +158,11 @@ impl<'a> RunState<'a> {
                 mix.environment.describe()
             );
         }
-        if c.learning_rule != cortex::RuleKind::Backprop {
-            println!("  learning rule: {}", c.learning_rule.describe());
+        if !c.learning_rule.is_backprop() {
+            println!(
+                "  learning rule: {}",
+                cortex::rule::describe(&c.learning_rule, &c.rule)
+            );
         }
         let retina = &self.source.retina;
         println!(
@@ -229,22 +232,30 @@ pub fn start_w_at_the_eyes_kernel(
     Ok(())
 }
 
-/// The run's learning rule, its random state drawn from the run's seed and fitted to the
-/// parameters the run started from (`cortex::RuleKind::build`). A resumed run rebuilds that
-/// start ([`new_trainer`]: the seeded initialisation, or the checkpoint it continued), so it
-/// draws the backward weights of the run that never stopped.
+/// The run's learning rule from the registry (`cortex::rule::build`), its random state drawn
+/// from the run's seed (or the rule's `feedback_seed`) and fitted to the parameters the run
+/// started from. A resumed run rebuilds that start ([`new_trainer`]: the seeded
+/// initialisation, or the checkpoint it continued), so it draws the backward weights of the
+/// run that never stopped; the state saved in the checkpoint is then restored over it
+/// (`cortex::Trainer::set_learning_rule`).
 fn learning_rule(
     config: &RunConfig,
     trainer: &Trainer,
     resumed: bool,
     origin: Origin<'_>,
 ) -> Result<Box<dyn autodiff::learn::LearningRule<f32>>, RunError> {
-    let seed = config.seed ^ 0xFA;
+    let build = |start: &autodiff::ParamStore<f32>| {
+        let ctx = cortex::RuleContext {
+            seed: config.seed,
+            start,
+        };
+        cortex::rule::build(&config.learning_rule, &config.rule, &ctx)
+    };
     Ok(if resumed {
         let start = new_trainer(config, origin)?;
-        config.learning_rule.build(seed, &start.cortex.params)
+        build(&start.cortex.params)?
     } else {
-        config.learning_rule.build(seed, &trainer.cortex.params)
+        build(&trainer.cortex.params)?
     })
 }
 

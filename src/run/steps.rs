@@ -102,6 +102,7 @@ impl RunState<'_> {
         } else {
             row.push_str(",,,,");
         }
+        row.push_str(&crate::alignment_plot::cells(stats.alignment.as_ref()));
         self.pending_row = Some(row);
         self.bar.set_position(k);
         self.bar.set_message(format!(

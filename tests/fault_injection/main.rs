@@ -245,6 +245,12 @@ fn a_direct_feedback_alignment_run_killed_between_steps_resumes_bit_identically(
 }
 
 #[test]
+fn a_kolen_pollack_run_killed_between_steps_resumes_bit_identically() {
+    // B is learned: the resumed run must read it (and its Adam moments) from the checkpoint.
+    a_rule_run_resumes_bit_identically("kolen-pollack", "Kolen-Pollack");
+}
+
+#[test]
 fn a_forward_forward_run_killed_between_steps_resumes_bit_identically() {
     // The wrong motions of the negative data come from the batch: the data stream's resume.
     a_rule_run_resumes_bit_identically("forward-forward", "forward-forward");

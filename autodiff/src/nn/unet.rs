@@ -19,10 +19,19 @@
 //! `up{i}.up.weight`, `up{i}.up.bias`, `up{i}.conv{0,1}.weight`, `outc.weight`, `outc.bias`;
 //! `i` counts from 1, `up1` being the deepest.
 //!
-//! Tags ([`crate::scopes`]): each DoubleConv's output is tagged `unet.inc`, `unet.down` or
-//! `unet.up`, the hidden layers a layer-wise learning rule acts on.
+//! Layers and blocks, for learning rules that act on them ([`crate::scopes`]):
+//! - every layer's output is tagged with the layer's parameter name without `.weight`:
+//!   `{prefix}.inc.conv0`, `{prefix}.down1.conv1`, `{prefix}.up1.up` (the transposed conv),
+//!   `{prefix}.outc` — one tag per layer, so a rule such as direct feedback alignment gives
+//!   each its own feedback;
+//! - with [`UNet::with_block_scopes`], each block is recorded in a scope of its own:
+//!   `{bucket}.inc`, `{bucket}.down{i}`, `{bucket}.up{i}` (an up block holds its transposed
+//!   conv, the concatenation and its DoubleConv; the last one also the 1×1 output conv), so a
+//!   layer-local rule such as forward-forward keeps each block's learning inside it.
+//!   [`UNet::forward_blocks`] returns every block's output.
 
 use crate::ops::conv::Padding;
+use crate::scopes::intern;
 use crate::{Float, ParamId, ParamStore, Tape, Tensor, Var};
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
@@ -64,6 +73,8 @@ impl UNetConfig {
 #[derive(Clone, Debug)]
 struct DoubleConv {
     w: [ParamId; 2],
+    /// The tags of the two layers' outputs.
+    tags: [&'static str; 2],
 }
 
 /// One decoder stage: transposed conv up (with bias), skip concat, DoubleConv.
@@ -71,6 +82,8 @@ struct DoubleConv {
 struct Up {
     weight: ParamId,
     bias: ParamId,
+    /// The tag of the transposed conv's output.
+    tag: &'static str,
     conv: DoubleConv,
 }
 
@@ -83,6 +96,19 @@ pub struct UNet {
     ups: Vec<Up>,
     out_weight: ParamId,
     out_bias: ParamId,
+    out_tag: &'static str,
+    /// Scope of each block (inc, downs, ups), when recorded in scopes of their own.
+    block_scopes: Option<Vec<&'static str>>,
+}
+
+/// What [`UNet::forward_blocks`] leaves on the tape.
+#[derive(Clone, Debug)]
+pub struct UNetActivations {
+    /// The network's output `(B, out_channels, H, W)`.
+    pub output: Var,
+    /// Each block's output in forward order (inc, downs, ups); the last block ends with the
+    /// 1×1 output conv, so its entry is `output`.
+    pub blocks: Vec<Var>,
 }
 
 /// How a forward pass turns a parameter id into a tape variable.
@@ -107,14 +133,16 @@ impl DoubleConv {
         };
         DoubleConv {
             w: [conv(0, cin), conv(1, cout)],
+            tags: [0, 1].map(|i| intern(&format!("{name}.conv{i}"))),
         }
     }
 
     fn forward<T: Float>(&self, tape: &mut Tape<T>, param: &mut ParamFn<'_, T>, mut x: Var) -> Var {
-        for &id in &self.w {
+        for (&id, &tag) in self.w.iter().zip(&self.tags) {
             let w = param(tape, id);
             // One fused op: relu(conv2d(x, w)).
             x = tape.conv2d_relu(x, w, Padding::Reflect);
+            tape.tag(x, tag);
         }
         x
     }
@@ -158,7 +186,13 @@ impl UNet {
                 );
                 let bias = params.add(format!("{name}.up.bias"), uniform(&mut rng, &[cout], bound));
                 let conv = DoubleConv::new(params, &mut rng, &name, 2 * cout, cout);
-                Up { weight, bias, conv }
+                let tag = intern(&format!("{name}.up"));
+                Up {
+                    weight,
+                    bias,
+                    tag,
+                    conv,
+                }
             })
             .collect();
         let bound = 1.0 / (ws[0] as f64).sqrt();
@@ -177,7 +211,24 @@ impl UNet {
             ups,
             out_weight,
             out_bias,
+            out_tag: intern(&format!("{prefix}.outc")),
+            block_scopes: None,
         }
+    }
+
+    /// The same network recording each block in a scope of its own, `{bucket}.inc`,
+    /// `{bucket}.down{i}`, `{bucket}.up{i}` (module docs).
+    pub fn with_block_scopes(mut self, bucket: &str) -> Self {
+        let mut names = vec![intern(&format!("{bucket}.inc"))];
+        names.extend((1..=self.downs.len()).map(|i| intern(&format!("{bucket}.down{i}"))));
+        names.extend((1..=self.ups.len()).map(|i| intern(&format!("{bucket}.up{i}"))));
+        self.block_scopes = Some(names);
+        self
+    }
+
+    /// The scopes of the blocks, in forward order, when recorded in scopes of their own.
+    pub fn block_scopes(&self) -> Option<&[&'static str]> {
+        self.block_scopes.as_deref()
     }
 
     /// The configuration it was built with.
@@ -220,7 +271,34 @@ impl UNet {
         x: Var,
         mut param: impl FnMut(&mut Tape<T>, ParamId) -> Var,
     ) -> Var {
-        let param: &mut ParamFn<'_, T> = &mut param;
+        self.record(tape, x, &mut param).output
+    }
+
+    /// Like [`UNet::forward`], returning every block's output too.
+    #[track_caller]
+    pub fn forward_blocks<T: Float>(
+        &self,
+        tape: &mut Tape<T>,
+        params: &ParamStore<T>,
+        x: Var,
+    ) -> UNetActivations {
+        self.record(tape, x, &mut |t, id| params.var(t, id))
+    }
+
+    /// Enters the scope of block `k`, when blocks have scopes.
+    fn enter_block<T: Float>(&self, tape: &mut Tape<T>, k: usize) {
+        if let Some(names) = &self.block_scopes {
+            tape.enter_scope(names[k]);
+        }
+    }
+
+    #[track_caller]
+    fn record<T: Float>(
+        &self,
+        tape: &mut Tape<T>,
+        x: Var,
+        param: &mut ParamFn<'_, T>,
+    ) -> UNetActivations {
         let s = tape.shape(x);
         let (_, c, h, w) = s.bchw("UNet");
         let m = 1 << self.downs.len();
@@ -230,25 +308,33 @@ impl UNet {
             self.config.in_channels
         );
         let mut skips = Vec::with_capacity(self.downs.len());
+        let mut blocks = Vec::with_capacity(1 + 2 * self.downs.len());
+        self.enter_block(tape, 0);
         let mut h = self.inc.forward(tape, param, x);
-        tape.tag(h, "unet.inc");
-        for down in &self.downs {
+        blocks.push(h);
+        for (k, down) in self.downs.iter().enumerate() {
             skips.push(h);
+            self.enter_block(tape, 1 + k);
             let p = tape.max_pool2x2(h);
             h = down.forward(tape, param, p);
-            tape.tag(h, "unet.down");
+            blocks.push(h);
         }
-        for (up, skip) in self.ups.iter().zip(skips.into_iter().rev()) {
+        for (k, (up, skip)) in self.ups.iter().zip(skips.into_iter().rev()).enumerate() {
+            self.enter_block(tape, 1 + self.downs.len() + k);
             let (wt, bt) = (param(tape, up.weight), param(tape, up.bias));
             // One fused op: conv_transpose2x2(h, wt) + bt per channel.
             let u = tape.conv_transpose2x2_bias(h, wt, bt);
+            tape.tag(u, up.tag);
             let cat = tape.concat(&[skip, u]);
             h = up.conv.forward(tape, param, cat);
-            tape.tag(h, "unet.up");
+            blocks.push(h);
         }
         let (wo, bo) = (param(tape, self.out_weight), param(tape, self.out_bias));
         let y = tape.conv2d(h, wo, Padding::Zero);
-        tape.add_channel_bias(y, bo)
+        let output = tape.add_channel_bias(y, bo);
+        tape.tag(output, self.out_tag);
+        *blocks.last_mut().expect("the inc block") = output;
+        UNetActivations { output, blocks }
     }
 }
 

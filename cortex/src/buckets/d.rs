@@ -2,7 +2,9 @@
 //! `autodiff::nn::unet`, N channels in and out, no residual; or the identity (the S-05 baseline
 //! "no demosaicker").
 //!
-//! Shapes: `(B, N, n, n) → (B, N, n, n)`. Parameters under `d.` (see the U-Net docs).
+//! Shapes: `(B, N, n, n) → (B, N, n, n)`. Parameters under `d.` (see the U-Net docs); each
+//! block of the U-Net is recorded in its own scope under D (`D.inc`, `D.down1`, …), each
+//! layer tagged by its parameter name.
 
 use crate::config::{CortexConfig, DMode};
 use autodiff::nn::unet::{UNet, UNetConfig};
@@ -30,16 +32,29 @@ impl DBucket {
                     widths: cfg.d.widths.clone(),
                     seed: cfg.train.seed,
                 };
-                DBucket::UNet(UNet::new(params, "d", uc))
+                DBucket::UNet(UNet::new(params, "d", uc).with_block_scopes("D"))
             }
         }
     }
 
     /// Records D on the tape.
     pub fn forward<T: Float>(&self, tape: &mut Tape<T>, params: &ParamStore<T>, x: Var) -> Var {
+        self.forward_blocks(tape, params, x).0
+    }
+
+    /// Records D on the tape; returns its output and each block's (none for the identity).
+    pub fn forward_blocks<T: Float>(
+        &self,
+        tape: &mut Tape<T>,
+        params: &ParamStore<T>,
+        x: Var,
+    ) -> (Var, Vec<Var>) {
         match self {
-            DBucket::UNet(net) => net.forward(tape, params, x),
-            DBucket::Identity => x,
+            DBucket::UNet(net) => {
+                let a = net.forward_blocks(tape, params, x);
+                (a.output, a.blocks)
+            }
+            DBucket::Identity => (x, Vec::new()),
         }
     }
 }

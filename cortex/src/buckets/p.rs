@@ -152,6 +152,7 @@ impl PBucket {
 }
 
 /// How a warp samples: P's grid `(B, n, n, 2)` on the tape, or whole-pixel shifts per sample.
+#[derive(Clone, Debug)]
 pub enum Sampling {
     /// The flow's sampling grid (align-corners coordinates).
     Grid(Var),

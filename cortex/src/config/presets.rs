@@ -56,6 +56,9 @@ impl CortexConfig {
                 w_learning_rate_scale: 1.0,
                 lr_schedule: LrSchedule::Constant,
                 final_lr_fraction: default_final_lr_fraction(),
+                clip_global_norm: None,
+                alignment_every_steps: 100,
+                per_bucket: PerBucketTrain::default(),
             },
         }
     }

@@ -110,6 +110,9 @@ impl CortexConfig {
                 format!("{w_scale} must be finite and ≥ 0 (0 holds W fixed)"),
             );
         }
+        if let Err((field, reason)) = self.train.validate_per_bucket() {
+            return invalid(&field, reason);
+        }
         let floor = self.train.final_lr_fraction;
         if !(floor.is_finite() && floor > 0.0 && floor <= 1.0) {
             return invalid(

@@ -32,6 +32,10 @@ impl RunConfig {
             }
             other => invalid("cortex", other.to_string()),
         })?;
+        cortex::rule::check(&self.learning_rule, &self.rule).map_err(|e| match e {
+            cortex::CortexError::InvalidConfig { field, reason } => invalid(&field, reason),
+            other => invalid("learning_rule", other.to_string()),
+        })?;
         if self.steps == 0 {
             return Err(invalid("steps", "must be at least 1".into()));
         }

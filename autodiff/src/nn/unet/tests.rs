@@ -71,6 +71,48 @@ fn forward_shape_and_gradient_of_a_tiny_net() {
 }
 
 #[test]
+fn every_layer_is_tagged_and_every_block_has_its_scope() {
+    let mut ps = ParamStore::<f32>::new();
+    let net = UNet::new(&mut ps, "d", UNetConfig::quick()).with_block_scopes("D");
+    let mut t = Tape::<f32>::new();
+    let x = t.constant(Tensor::zeros([1, 8, 8, 8]));
+    let a = net.forward_blocks(&mut t, &ps, x);
+    let tags: Vec<&str> = t.tags().iter().map(|x| x.0).collect();
+    let layers = [
+        "d.inc.conv0",
+        "d.inc.conv1",
+        "d.down1.conv0",
+        "d.down1.conv1",
+        "d.down2.conv0",
+        "d.down2.conv1",
+        "d.up1.up",
+        "d.up1.conv0",
+        "d.up1.conv1",
+        "d.up2.up",
+        "d.up2.conv0",
+        "d.up2.conv1",
+        "d.outc",
+    ];
+    assert_eq!(tags, layers);
+    for tag in layers {
+        assert!(ps.find(&format!("{tag}.weight")).is_some(), "{tag}");
+    }
+    let scopes: Vec<_> = a.blocks.iter().map(|&b| t.scope_of(b).unwrap()).collect();
+    assert_eq!(scopes, ["D.inc", "D.down1", "D.down2", "D.up1", "D.up2"]);
+    assert_eq!(net.block_scopes().unwrap(), scopes.as_slice());
+    assert_eq!(*a.blocks.last().unwrap(), a.output);
+    let (_, _, h, _) = t.shape(a.blocks[2]).bchw("test");
+    assert_eq!(h, 2, "the deepest block is 4× coarser");
+    // without block scopes nothing is entered
+    let mut ps = ParamStore::<f32>::new();
+    let plain = UNet::new(&mut ps, "d", UNetConfig::quick());
+    let mut t = Tape::<f32>::new();
+    let x = t.constant(Tensor::zeros([1, 8, 8, 8]));
+    let y = plain.forward(&mut t, &ps, x);
+    assert_eq!(t.scope_of(y), None);
+}
+
+#[test]
 #[should_panic(
     expected = "UNet: input (1, 8, 12, 16) does not fit (want 8 channels, H and W divisible by 8)"
 )]

@@ -177,6 +177,11 @@ impl<T: Float> Op<T> for ComplexBinary<T> {
     fn overwrites_output(&self) -> bool {
         true
     }
+    /// `b`, the broadcast operand, is the weight: the frequency response of a learned filter
+    /// (the cortex's W). Feedback alignment may send errors back through another `b`.
+    fn weight_inputs(&self) -> &'static [usize] {
+        &[1]
+    }
     fn forward(&mut self, inputs: &[&Tensor<T>], out: &mut Tensor<T>) {
         let (a, b) = (as_complex(inputs[0].data()), as_complex(inputs[1].data()));
         let m = b.len();

@@ -1,0 +1,145 @@
+#!/usr/bin/env python3
+"""The table of learning rules from the sweep folders `scripts/learning-rules-table.sh` ran.
+
+Usage: scripts/learning-rules-table.py OUT_DIR [CRITERION_DIR]   (markdown on stdout)
+
+One row per run: the rule and what distinguishes the run (seed, feedback draw, control), then
+- non-finite stops: 1 when the run ended on a non-finite loss or gradient (its `failed.json`);
+- held-out gain: "next frame = this frame" MSE over the model's (summary.json);
+- C d′ of L, M (each to its nearest other class) and S;
+- CMF-SIM: the dimension at each measurement ("d@step", 1 000s as k), then the final
+  converged margins per K (worst error over threshold; < 1 passes);
+- W surround r (learned 7×7 kernel's surround taps against the DoG's);
+- P error: RMS position error after the affine gauge, cone spacings;
+- cosine to backprop per bucket W/C/D/P: the mean of metrics.csv's align_cos_* columns;
+- step time relative to backprop: criterion's median of `learning_rule_step/<rule>`
+  (`cargo bench --bench learning_rules`), when CRITERION_DIR holds it.
+"""
+import csv
+import json
+import os
+import sys
+
+
+def read_json(path):
+    try:
+        with open(path) as f:
+            return json.load(f)
+    except (OSError, ValueError):
+        return None
+
+
+def mean_cosines(metrics):
+    sums, counts = [0.0] * 4, [0] * 4
+    try:
+        with open(metrics) as f:
+            for row in csv.DictReader(f):
+                for k, b in enumerate("WCDP"):
+                    v = row.get(f"align_cos_{b}", "")
+                    if v not in ("", None):
+                        sums[k] += float(v)
+                        counts[k] += 1
+    except OSError:
+        return "—"
+    return "/".join(f"{s / c:.2f}" if c else "—" for s, c in zip(sums, counts))
+
+
+def label(config):
+    rule = config.get("learning_rule", "backprop")
+    settings = config.get("rule", {}) or {}
+    parts = [f"seed {config.get('seed')}"]
+    if "feedback_seed" in settings:
+        parts.append(f"draw {settings['feedback_seed']}")
+    for key in ("scheme", "flip_sign"):
+        if key in settings:
+            value = settings[key]
+            parts.append(f"{key} {str(value).lower() if isinstance(value, bool) else value}")
+    d = config.get("cortex", {}).get("train", {}).get("per_bucket", {}).get("d", {})
+    if d.get("learning_rate_scale", 1.0) == 0.0:
+        parts.append("D frozen")
+    return rule, ", ".join(parts)
+
+
+def fmt(v, digits=2):
+    return "—" if v is None else f"{v:.{digits}f}"
+
+
+def step_times(criterion):
+    times = {}
+    base = os.path.join(criterion or "", "learning_rule_step")
+    if not os.path.isdir(base):
+        return times
+    for rule in os.listdir(base):
+        e = read_json(os.path.join(base, rule, "new", "estimates.json"))
+        if e:
+            times[rule] = e["median"]["point_estimate"]
+    return times
+
+
+def row(run_dir, times):
+    summary = read_json(os.path.join(run_dir, "summary.json"))
+    failed = read_json(os.path.join(run_dir, "failed.json"))
+    config = summary["config"] if summary else {}
+    if not summary:
+        try:
+            import tomllib
+
+            with open(os.path.join(run_dir, "config.toml"), "rb") as f:
+                config = tomllib.load(f)
+        except (OSError, ImportError, ValueError):
+            config = {}
+    rule, what = label(config)
+    error = (failed or {}).get("error", "")
+    non_finite = int("non-finite" in error or "NaN" in error)
+    cells = [rule, what, str(non_finite)]
+    if not summary:
+        status = "failed: " + error[:80] if failed else "not finished"
+        return cells + [status] + ["—"] * 6
+    gain = (summary.get("heldout_prediction") or [None] * 3)[2]
+    rec = (summary.get("invariants") or {}).get("recovery") or {}
+    c, w, p = rec.get("c") or {}, rec.get("w") or {}, rec.get("p") or {}
+    dprime = dict(zip(c.get("classes", []), c.get("dprime", [])))
+    dp = "/".join(fmt(dprime.get(k)) for k in ("L", "M", "S"))
+    dims = " ".join(
+        f"{d['dimension']}@{d['step'] // 1000}k" if d["step"] >= 1000 else f"{d['dimension']}@{d['step']}"
+        for d in summary.get("dimension_over_steps", [])
+    )
+    margins = ", ".join(f"K{k} {r:.2f}" for k, r in summary.get("converged_ratio_per_k", []))
+    margins = margins or "no margin (undefined)"
+    rel = "—"
+    if rule in times and "backprop" in times:
+        rel = f"{times[rule] / times['backprop']:.2f}×"
+    return cells + [
+        fmt(gain),
+        dp,
+        f"{dims}; {margins}",
+        fmt(w.get("surround_r")),
+        fmt(p.get("position_error_rms_cones")),
+        mean_cosines(os.path.join(run_dir, "metrics.csv")),
+        rel,
+    ]
+
+
+def main():
+    out = sys.argv[1]
+    times = step_times(sys.argv[2] if len(sys.argv) > 2 else None)
+    header = [
+        "rule", "run", "non-finite stops", "held-out gain", "C d′ L/M/S",
+        "CMF-SIM dimension over steps; final margins", "W surround r", "P error (cones)",
+        "cos to backprop W/C/D/P", "step time / backprop",
+    ]
+    print("| " + " | ".join(header) + " |")
+    print("|" + "---|" * len(header))
+    order = ["seeds", "fa-draws", "dfa-draws", "d-frozen", "sign-flip"]
+    sweeps = sorted(os.listdir(out), key=lambda n: (order.index(n) if n in order else len(order), n))
+    for sweep in sweeps:
+        manifest = read_json(os.path.join(out, sweep, "sweep.json"))
+        if not manifest:
+            continue
+        for task in manifest["tasks"]:
+            cells = row(os.path.join(out, sweep, task["folder"]), times)
+            print("| " + " | ".join(cells) + " |")
+
+
+if __name__ == "__main__":
+    main()
