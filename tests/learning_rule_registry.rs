@@ -9,8 +9,8 @@ mod common;
 #[path = "../examples/noisy_feedback/rule.rs"]
 mod rule;
 
-use science::config::{Overrides, RunConfig};
 use colorvision::run::{run, RunMode};
+use science::config::{Overrides, RunConfig};
 use std::path::{Path, PathBuf};
 use std::sync::Once;
 

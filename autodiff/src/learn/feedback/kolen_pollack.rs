@@ -79,7 +79,13 @@ pub(super) fn step<T: Float>(
                 std::mem::replace(&mut moments.m, Tensor::zeros([0])),
                 std::mem::replace(&mut moments.v, Tensor::zeros([0])),
             ];
-            Adam::default().update(b.data_mut(), &decayed, &mut slots, moments.steps, learning_rate);
+            Adam::default().update(
+                b.data_mut(),
+                &decayed,
+                &mut slots,
+                moments.steps,
+                learning_rate,
+            );
             let [m, v] = slots;
             (moments.m, moments.v) = (m, v);
         }
