@@ -12,9 +12,8 @@ use std::path::PathBuf;
 
 /// Emergence of colour vision from the optic nerve signal.
 ///
-/// With no subcommand, `colorvision` runs `run`: an LMS eye looks at the built-in scenes (a
-/// tenth of them from its hue sphere: the `main` preset), the cortex learns from its optic
-/// nerve signal alone, and CMF-SIM measures the colour dimensionality that emerges.
+/// With no subcommand, `colorvision` runs `run`: an LMS eye looks at the built-in natural
+/// scenes (the `main` preset), the cortex learns from its optic nerve signal alone, and CMF-SIM measures the colour dimensionality that emerges.
 /// Everything lands in a run folder (default `runs/<name>`).
 #[derive(Debug, Parser)]
 #[command(name = "colorvision", version, about, long_about = None)]
@@ -114,8 +113,7 @@ pub struct ResumeOptions {
 #[derive(Debug, Clone, Default, Args)]
 pub struct CommonOptions {
     /// Named set of settings: tiny (tests, seconds), quick (64×64 cones, natural scenes, 6 000
-    /// steps), main (the default of run and train: the quick eye with a tenth of its scene tiles
-    /// from its hue sphere, 12 000 steps), long (the quick eye trained 40 000 steps, until
+    /// steps), main (the default of run and train: the quick eye and cortex, 12 000 steps), long (the quick eye trained 40 000 steps, until
     /// prediction and invariants plateau; the experiments' default), large (128×128 cones,
     /// the quick cortex, 40 000 steps: for a dimension too narrow for the quick eye), sandbox
     /// (official sandbox: no foveation, no lateral inhibition, oracle motion), paper (256×256

@@ -155,9 +155,21 @@ impl RetinaConfig {
         }
     }
 
+    /// The same eye in surface scenes ([`SceneGenerator::Surfaces`]), whose colour stays
+    /// coherent over several cones as a photograph's does; the eyes that stand in for the
+    /// paper's (`quick`, `large`, `paper`) see these. In the classic dead leaves, whose colour
+    /// changes at the scale of single cones, the quick eye's cortex stayed 2-D at 12 000 steps
+    /// where in surfaces it was 3-D (docs/notebook/2026-11-28-why-colour-emerged-slowly.md).
+    /// `tiny` and `sandbox` keep the classic leaves, on which their tests' known answers were
+    /// measured.
+    fn in_surfaces(mut self) -> Self {
+        self.scenes.generator = SceneGenerator::Surfaces;
+        self
+    }
+
     /// 64² cones, full pipeline (foveation + LI): the default CPU run.
     pub fn quick() -> Self {
-        Self::foveated("quick", 64, 128, 32, 192, 32)
+        Self::foveated("quick", 64, 128, 32, 192, 32).in_surfaces()
     }
 
     /// 128² cones in a 256-px field: the quick eye's field sampled twice as finely per axis,
@@ -168,7 +180,7 @@ impl RetinaConfig {
     /// tiles are 320 px (the field and 2 × 15 px of eye motion, rounded up to a multiple of
     /// 64); 16 of them hold 1.6 M pixels, about the quick pool's 32 × 192² (1.2 M).
     pub fn large() -> Self {
-        Self::foveated("large", 128, 256, 16, 320, 32)
+        Self::foveated("large", 128, 256, 16, 320, 32).in_surfaces()
     }
 
     /// The official sandbox: 64² cones on a 64-px field, identity layout, no LI, shift 5 px.
@@ -186,7 +198,7 @@ impl RetinaConfig {
 
     /// 256² cones in a 512-px field, official everything.
     pub fn paper() -> Self {
-        Self::foveated("paper", 256, 512, 8, 576, 16)
+        Self::foveated("paper", 256, 512, 8, 576, 16).in_surfaces()
     }
 
     /// A preset by name: `tiny`, `quick`, `large`, `sandbox`, `paper`.

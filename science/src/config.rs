@@ -20,7 +20,7 @@ mod validate;
 
 pub use overrides::{parse_setting, set_dotted, Overrides};
 
-pub use presets::{LONG_STEPS, MAIN_HUE_SPHERE_FRACTION, MAIN_STEPS, PRESETS};
+pub use presets::{LONG_STEPS, MAIN_STEPS, PRESETS};
 
 pub use resolve::one_line;
 

@@ -1,8 +1,8 @@
 //! The presets: named sets of every setting of a run, one table. `quick` is the CPU eye
-//! (64×64 foveated cones) and cortex in natural scenes; `main` (the default of `run`) and `long`
-//! are the same eye and cortex trained longer, `main` with hue-sphere tiles among its scenes;
-//! `large` is the quick cortex on an eye of 128×128 cones, trained as long as `long`, for the
-//! questions the quick eye's cones are too few to carry (a narrow fourth dimension).
+//! (64×64 foveated cones) and cortex in natural surface scenes; `main` (the default of `run`)
+//! and `long` are the same eye and cortex trained longer; `large` is the quick cortex on an eye
+//! of 128×128 cones, trained as long as `long`, for the questions the quick eye's cones are too
+//! few to carry (a narrow fourth dimension).
 
 use super::{ConfigError, RunConfig, Schedule};
 use crate::observer::ObserverSettings;
@@ -20,31 +20,12 @@ pub const PRESETS: [&str; 7] = ["tiny", "quick", "main", "long", "large", "sandb
 /// checkpoints fall on either side of the border between 2 and 3.
 pub const LONG_STEPS: u64 = 40_000;
 
-/// Steps of the `main` preset, the run of `cargo run --release`: the quick eye with a tenth of
-/// its scene tiles from its hue sphere is 3-D at this length for every seed measured
-/// (docs/notebook/2026-11-27-main-run-12000-steps.md), and the run stays within half an hour
-/// on 2 cores including the build. At 6 000 steps the same run is on the 2-D/3-D border (3-D in 3 of 6).
+/// Steps of the `main` preset, the run of `cargo run --release`: fixed before the runs that
+/// measured it (docs/notebook/2026-11-28-slow-colour-protocol-2.md), the quick eye in natural
+/// surface scenes is 3-D at this length in arm B1's seeds (every seed's verdict:
+/// docs/notebook/2026-11-28-why-colour-emerged-slowly.md), and the run stays within half an
+/// hour on 2 cores including the build.
 pub const MAIN_STEPS: u64 = 12_000;
-
-/// Share of the `main` run's scene tiles that hold surfaces of the most saturated colour the
-/// eye's cone classes see in each hue (its hue sphere; paper S-07's second environment).
-/// Natural scenes hold few short-wavelength colours, and without them the quick eye is still on
-/// the 2-D/3-D border at 40 000 steps (the `long` preset: 3, 3, 2 for seeds 0–2; seed 2 3-D
-/// from 80 000); with this share the blue test lights are as steady as the greens by 6 000
-/// steps and every seed measured is 3-D at 12 000
-/// (docs/notebook/2026-11-27-main-run-12000-steps.md).
-pub const MAIN_HUE_SPHERE_FRACTION: f64 = 0.1;
-
-/// The scenes of the `main` preset: natural, with [`MAIN_HUE_SPHERE_FRACTION`] of the tiles
-/// from the eye's hue sphere when the eye has two or more cone classes (a single class sees
-/// no hue), natural alone otherwise. Cones that do not parse are left to validation.
-fn main_scene_mix(cones: &str) -> Option<retina::scene::pool::TetraMix> {
-    let classes = retina::MosaicSpec::parse(cones).ok()?.class_names().len();
-    (classes >= 2).then_some(retina::scene::pool::TetraMix {
-        environment: retina::scene::tetra::TetraEnvironment::HueSphere,
-        fraction: MAIN_HUE_SPHERE_FRACTION,
-    })
-}
 
 impl RunConfig {
     /// The named preset with `cones`.
@@ -59,8 +40,8 @@ impl RunConfig {
                 PRESETS.join(", ")
             )));
         }
-        // `long` is the quick eye and cortex, trained until prediction and invariants plateau;
-        // `main` is the same eye and cortex with hue-sphere tiles among its scenes.
+        // `long` and `main` are the quick eye and cortex, `long` trained until prediction and
+        // invariants plateau.
         let eye = if matches!(name, "long" | "main") {
             "quick"
         } else {
@@ -68,9 +49,6 @@ impl RunConfig {
         };
         let mut retina = RetinaConfig::preset(eye).map_err(|e| invalid(e.to_string()))?;
         retina.cones = cones.to_string();
-        if name == "main" {
-            retina.scenes.tetra = main_scene_mix(cones);
-        }
         let mut cortex = CortexConfig::preset(eye).map_err(|e| invalid(e.to_string()))?;
         if matches!(name, "long" | "large") {
             cortex.train.checkpoint_every_steps = 2000;
@@ -195,28 +173,19 @@ mod tests {
     }
 
     #[test]
-    fn main_is_the_quick_eye_and_cortex_with_hue_sphere_tiles() {
+    fn main_is_the_quick_eye_and_cortex_in_natural_scenes_trained_longer() {
         let quick = RunConfig::preset("quick", "LMS").unwrap();
         let main = RunConfig::preset("main", "LMS").unwrap();
         assert_eq!(
             (main.steps, main.cortex.train.steps),
             (MAIN_STEPS, MAIN_STEPS)
         );
-        let mix = main
-            .retina
-            .scenes
-            .tetra
-            .expect("main mixes in hue-sphere tiles");
+        assert_eq!(main.retina, quick.retina, "the quick eye and its scenes");
         assert_eq!(
-            (mix.environment, mix.fraction),
-            (
-                retina::scene::tetra::TetraEnvironment::HueSphere,
-                MAIN_HUE_SPHERE_FRACTION
-            )
+            (main.retina.scenes.generator, main.retina.scenes.tetra),
+            (retina::scene::pool::SceneGenerator::Surfaces, None),
+            "natural surface scenes, no S-07 tiles"
         );
-        let mut retina = main.retina.clone();
-        retina.scenes.tetra = None;
-        assert_eq!(retina, quick.retina, "otherwise the quick eye");
         let mut cortex = main.cortex.clone();
         cortex.train.steps = quick.steps;
         assert_eq!(cortex, quick.cortex);
@@ -230,12 +199,10 @@ mod tests {
             "at most 2.5× apart, all before the end: {at:?}"
         );
         for one_class in ["L", "S"] {
-            let c = RunConfig::preset("main", one_class).unwrap();
-            assert_eq!(
-                c.retina.scenes.tetra, None,
-                "{one_class}: a single class sees no hue"
-            );
-            c.validate().unwrap();
+            RunConfig::preset("main", one_class)
+                .unwrap()
+                .validate()
+                .unwrap();
         }
     }
 
