@@ -30,24 +30,23 @@
 //! `refresh_every_batches` > 0 replaces one tile (round robin) every that many batches, so long
 //! runs see fresh scenes at a small amortised cost.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use rand::rngs::StdRng;
 use rand::seq::SliceRandom;
 use rand::{Rng, SeedableRng};
 use rayon::prelude::*;
-use serde::{Deserialize, Serialize};
 
-use super::band_stack::BandStackOptions;
+mod settings;
+
 use super::dead_leaves::{DeadLeavesConfig, LeafScene};
 use super::hue_sphere::HueSphere;
 use super::library::ReflectanceLibrary;
-use super::mat_io::MatOptions;
 use super::prepared::PreparedScenes;
 pub use super::prepared::{FileScale, ProgressFn, SceneProgress};
 pub use super::projection::SceneProjection;
 use super::rgb::Display;
-use super::surfaces::{surface_scene, SurfacesConfig};
+use super::surfaces::surface_scene;
 use super::tetra::{
     idealised_class_planes, optimal_colour_library, patch_config, TetraEnvironment,
     OPTIMAL_LIBRARY_SIZE,
@@ -55,78 +54,7 @@ use super::tetra::{
 use super::ClassPlanes;
 use crate::error::{Result, RetinaError};
 use crate::foveation::MipStack;
-
-/// How RGB photographs become cone excitations.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-pub enum RgbPath {
-    /// Spectra through the simulated display (paper).
-    Display,
-    /// The linear sRGB → cone matrix (official).
-    Matrix,
-}
-
-/// The synthetic natural scenes a pool draws when it has no files.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum SceneGenerator {
-    /// Classic dead leaves ([`super::dead_leaves`]): an independent reflectance per leaf, leaves
-    /// down to 1.5 px. A config that names no generator (every record made before
-    /// [`SceneGenerator::Surfaces`] existed) reads back as this one.
-    #[default]
-    DeadLeaves,
-    /// Surfaces matched to photographs' spatial statistics ([`super::surfaces`]).
-    Surfaces,
-}
-
-/// Tetrachromatic augmentation.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct TetraMix {
-    /// Which environment.
-    pub environment: TetraEnvironment,
-    /// Fraction of tiles drawn from it.
-    pub fraction: f64,
-}
-
-/// Pool settings.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct ScenePoolConfig {
-    /// Number of tiles.
-    pub tiles: usize,
-    /// Tile side, px (≥ field + 2·max shift).
-    pub tile_px: usize,
-    /// Which synthetic natural scenes the tiles hold.
-    #[serde(default)]
-    pub generator: SceneGenerator,
-    /// Dead-leaves settings (`size_px` is replaced by `tile_px`).
-    pub dead_leaves: DeadLeavesConfig,
-    /// Surface-scene settings ([`SceneGenerator::Surfaces`]).
-    #[serde(default)]
-    pub surfaces: SurfacesConfig,
-    /// Tetrachromatic augmentation (`None`: natural scenes only).
-    pub tetra: Option<TetraMix>,
-    /// Scene files, folders and glob patterns (`data/ARAD_1K_*.mat`); when non-empty they
-    /// replace the synthetic scenes.
-    pub files: Vec<PathBuf>,
-    /// RGB photograph path.
-    pub rgb_path: RgbPath,
-    /// Per-image white balance of spectral sources.
-    pub white_balance: bool,
-    /// Replace one tile every this many batches (0 = never).
-    pub refresh_every_batches: usize,
-    /// How scene files are scaled when prepared (default: short side = `tile_px`).
-    #[serde(default)]
-    pub file_scale: FileScale,
-    /// Dataset names of `.mat` / HDF5 cubes (default: ARAD_1K's `cube` and `bands`).
-    #[serde(default)]
-    pub mat: MatOptions,
-    /// Wavelengths of band-stack folders (default: CAVE's, 400 nm every 10 nm).
-    #[serde(default)]
-    pub band_stack: BandStackOptions,
-    /// Folder of prepared scene files (default: `$XDG_CACHE_HOME/colorvision/scenes`, else
-    /// `~/.cache/colorvision/scenes`).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub cache_dir: Option<PathBuf>,
-}
+pub use settings::{RgbPath, SceneGenerator, ScenePoolConfig, TetraMix};
 
 /// Bilinear resize of `(planes, h, w)` data to `(planes, nh, nw)` (align-corners mapping).
 pub fn resize_bilinear(
