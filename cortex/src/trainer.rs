@@ -276,6 +276,25 @@ impl Trainer {
         })
     }
 
+    /// Stops with the op and bucket that first made a non-finite value when any parameter's
+    /// gradient is not finite (named by the first such parameter).
+    fn check_gradients_finite(&mut self, loss: Var) -> Result<(), CortexError> {
+        let bad = self
+            .grads
+            .iter()
+            .find(|(_, g)| g.data().iter().any(|v| !v.is_finite()))
+            .map(|(id, _)| id);
+        match bad {
+            None => Ok(()),
+            Some(id) => Err(CortexError::NonFiniteGradient {
+                step: self.step + 1,
+                param: self.cortex.params.name(id).to_string(),
+                site: self.non_finite_site(loss),
+                last_checkpoint: self.last_checkpoint.clone(),
+            }),
+        }
+    }
+
     /// One gradient update from `batch`.
     pub fn step(&mut self, batch: &OnsBatch) -> Result<StepStats, CortexError> {
         let t0 = Instant::now();
@@ -339,20 +358,7 @@ impl Trainer {
         };
         by_bucket(&times.forward_ms, &mut fwd);
         by_bucket(&times.backward_ms, &mut bwd);
-        let bad = self
-            .grads
-            .iter()
-            .find(|(_, g)| g.data().iter().any(|v| !v.is_finite()))
-            .map(|(id, _)| id);
-        if let Some(id) = bad {
-            let param = self.cortex.params.name(id).to_string();
-            return Err(CortexError::NonFiniteGradient {
-                step: self.step + 1,
-                param,
-                site: self.non_finite_site(pred.loss),
-                last_checkpoint: self.last_checkpoint.clone(),
-            });
-        }
+        self.check_gradients_finite(pred.loss)?;
         let alignment = measure.then(|| self.measure_alignment(pred.loss));
         self.clip_update();
         let to = Instant::now();

@@ -92,6 +92,18 @@ fn main() {
         serde_json::to_string_pretty(&gdoc).unwrap(),
     )
     .unwrap();
+    plot_curves(out, &measured, &gens);
+    for (g, s) in &gens {
+        println!(
+            "{g:>24}: spectral slopes (luminance, red-green, blue-yellow) {:.2?}",
+            s.spectral_slopes
+        );
+    }
+}
+
+/// One plot per statistic: every photograph (grey fitted, blue held out) and each generator,
+/// with the generators' curves printed.
+fn plot_curves(out: &Path, measured: &[Value], gens: &[(&str, SpatialStatistics)]) {
     let xs: Vec<f64> = DISTANCES_PX.iter().map(|&d| d as f64).collect();
     for (c, (name, _)) in gens[0].1.curves().iter().enumerate() {
         let mut plot = LinePlot::new(
@@ -105,7 +117,7 @@ fn main() {
         );
         plot.y_min = Some(0.0);
         plot.y_max = Some(1.0);
-        for e in &measured {
+        for e in measured {
             let s: SpatialStatistics = serde_json::from_value(e["statistics"].clone()).unwrap();
             let held = e["held_out"].as_bool().unwrap();
             let label = format!(
@@ -130,7 +142,7 @@ fn main() {
         let file = name.replace([' ', '-'], "_");
         plot.save(out.join(format!("{file}.svg"))).unwrap();
         println!("== {name} at d = {DISTANCES_PX:?}");
-        for (g, s) in &gens {
+        for (g, s) in gens {
             println!(
                 "{g:>24}: {}",
                 s.curves()[c]
@@ -141,11 +153,5 @@ fn main() {
                     .join(" ")
             );
         }
-    }
-    for (g, s) in &gens {
-        println!(
-            "{g:>24}: spectral slopes (luminance, red-green, blue-yellow) {:.2?}",
-            s.spectral_slopes
-        );
     }
 }
