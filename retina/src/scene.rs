@@ -25,10 +25,13 @@ pub mod dead_leaves;
 pub mod envi_io;
 pub mod exr_io;
 
+#[cfg(test)]
+mod fixture_pattern;
 pub mod hue_sphere;
 pub mod library;
 pub mod mat_io;
 pub mod plane_cache;
+mod png_io;
 pub mod pool;
 pub mod prepared;
 pub mod projection;

@@ -15,13 +15,12 @@
 //! [`SpectralImage::resample`], as the OpenEXR and `.mat` readers do. Errors name the folder or
 //! the band file ([`RetinaError::Png`], [`RetinaError::SceneFile`], [`RetinaError::Io`]).
 
-use std::io::Cursor;
 use std::path::{Path, PathBuf};
 
 use colorimetry::WavelengthGrid;
 use serde::{Deserialize, Serialize};
 
-use super::exr_io::MAX_SCENE_PIXELS;
+use super::png_io::decode_png;
 use super::SpectralImage;
 use crate::error::{Result, RetinaError};
 
@@ -143,53 +142,16 @@ pub fn read_scene_band_stack(
 
 /// One band image: `(h, w, values)` (module docs: scaled to [0, 1], colour averaged).
 fn read_grey_png(path: &Path) -> Result<(usize, usize, Vec<f32>)> {
-    let bytes = std::fs::read(path).map_err(|e| RetinaError::io(path, e))?;
-    let err = |m: String| RetinaError::Png {
-        path: path.to_path_buf(),
-        message: m,
-    };
-    let mut dec = png::Decoder::new(Cursor::new(bytes));
-    dec.set_transformations(png::Transformations::EXPAND);
-    let mut reader = dec.read_info().map_err(|e| err(e.to_string()))?;
-    let (w, h) = (reader.info().width as usize, reader.info().height as usize);
-    if w.saturating_mul(h) > MAX_SCENE_PIXELS {
-        return Err(err(format!(
-            "the header declares {w}×{h} pixels, above the limit of {MAX_SCENE_PIXELS}"
-        )));
-    }
-    let size = reader
-        .output_buffer_size()
-        .ok_or_else(|| err("image too large".into()))?;
-    let mut buf = vec![0u8; size];
-    let info = reader
-        .next_frame(&mut buf)
-        .map_err(|e| err(e.to_string()))?;
-    let (channels, colour) = match info.color_type {
-        png::ColorType::Grayscale => (1, 1),
-        png::ColorType::GrayscaleAlpha => (2, 1),
-        png::ColorType::Rgb => (3, 3),
-        png::ColorType::Rgba => (4, 3),
-        png::ColorType::Indexed => return Err(err("palette was not expanded".into())),
-    };
-    let wide = info.bit_depth == png::BitDepth::Sixteen;
-    let max = if wide { 65535.0 } else { 255.0 };
-    let sample = |row: &[u8], i: usize| -> f32 {
-        if wide {
-            u16::from_be_bytes([row[2 * i], row[2 * i + 1]]) as f32
-        } else {
-            row[i] as f32
-        }
-    };
-    let (w, h) = (info.width as usize, info.height as usize);
-    let mut out = Vec::with_capacity(h * w);
-    for y in 0..h {
-        let row = &buf[y * info.line_size..(y + 1) * info.line_size];
-        out.extend((0..w).map(|x| {
-            let sum: f32 = (0..colour).map(|c| sample(row, x * channels + c)).sum();
+    let png = decode_png(path)?;
+    let (colour, max) = (png.colour_channels(), png.full_scale as f32);
+    let mut out = Vec::with_capacity(png.h * png.w);
+    for y in 0..png.h {
+        out.extend((0..png.w).map(|x| {
+            let sum: f32 = (0..colour).map(|c| png.colour(y, x, c) as f32).sum();
             sum / colour as f32 / max
         }));
     }
-    Ok((h, w, out))
+    Ok((png.h, png.w, out))
 }
 
 #[cfg(test)]

@@ -16,7 +16,6 @@
 //!   of `colorimetry::cone_rgb::ConeRgb` (least-squares fit of the fundamentals from CIE XYZ,
 //!   composed with sRGB → XYZ). No spectra involved.
 
-use std::io::Cursor;
 use std::path::Path;
 
 use colorimetry::cie::{xyz_to_xy, CieObserver};
@@ -25,6 +24,7 @@ use colorimetry::linalg::mat3_inverse;
 use colorimetry::srgb::inverse_oetf;
 use colorimetry::WavelengthGrid;
 
+use super::png_io::decode_png;
 use super::SpectralImage;
 use crate::error::{Result, RetinaError};
 
@@ -48,52 +48,13 @@ impl RgbImage {
     /// Read and linearise a PNG (module docs).
     pub fn read_png(path: impl AsRef<Path>) -> Result<RgbImage> {
         let path = path.as_ref();
-        let bytes = std::fs::read(path).map_err(|e| RetinaError::io(path, e))?;
-        let err = |m: String| RetinaError::Png {
-            path: path.to_path_buf(),
-            message: m,
-        };
-        let mut dec = png::Decoder::new(Cursor::new(bytes));
-        dec.set_transformations(png::Transformations::EXPAND);
-        let mut reader = dec.read_info().map_err(|e| err(e.to_string()))?;
-        let (w, h) = (reader.info().width as usize, reader.info().height as usize);
-        if w.saturating_mul(h) > crate::scene::exr_io::MAX_SCENE_PIXELS {
-            return Err(err(format!(
-                "the header declares {w}×{h} pixels, above the limit of {}",
-                crate::scene::exr_io::MAX_SCENE_PIXELS
-            )));
-        }
-        let size = reader
-            .output_buffer_size()
-            .ok_or_else(|| err("image too large".into()))?;
-        let mut buf = vec![0u8; size];
-        let info = reader
-            .next_frame(&mut buf)
-            .map_err(|e| err(e.to_string()))?;
-        let (w, h) = (info.width as usize, info.height as usize);
-        let channels = match info.color_type {
-            png::ColorType::Grayscale => 1,
-            png::ColorType::GrayscaleAlpha => 2,
-            png::ColorType::Rgb => 3,
-            png::ColorType::Rgba => 4,
-            png::ColorType::Indexed => return Err(err("palette was not expanded".into())),
-        };
-        let wide = info.bit_depth == png::BitDepth::Sixteen;
-        let max = if wide { 65535.0 } else { 255.0 };
-        let sample = |row: &[u8], i: usize| -> f64 {
-            if wide {
-                u16::from_be_bytes([row[2 * i], row[2 * i + 1]]) as f64 / max
-            } else {
-                row[i] as f64 / max
-            }
-        };
+        let png = decode_png(path)?;
+        let (h, w, max) = (png.h, png.w, png.full_scale as f64);
         let mut linear = vec![0.0f32; 3 * h * w];
         for y in 0..h {
-            let row = &buf[y * info.line_size..(y + 1) * info.line_size];
             for x in 0..w {
                 for c in 0..3 {
-                    let src = if channels < 3 { 0 } else { c };
-                    let v = inverse_oetf(sample(row, x * channels + src));
+                    let v = inverse_oetf(png.colour(y, x, c) as f64 / max);
                     linear[c * h * w + y * w + x] = v as f32;
                 }
             }

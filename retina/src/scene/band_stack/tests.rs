@@ -2,6 +2,7 @@
 //! (`scripts/make_scene_fixtures.py`): the cube returned exactly, and errors naming the file.
 
 use super::*;
+use crate::scene::fixture_pattern::{assert_pattern, pattern};
 
 fn fixtures() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/scenes")
@@ -14,21 +15,7 @@ fn stack() -> PathBuf {
 #[test]
 fn a_cave_style_stack_is_read_exactly_in_band_order() {
     let img = read_band_stack(&stack(), &BandStackOptions::default()).unwrap();
-    assert_eq!((img.h, img.w, img.grid.len()), (5, 7, 31));
-    let want_nm: Vec<f64> = (0..31).map(|b| 400.0 + 10.0 * b as f64).collect();
-    assert_eq!(img.grid.as_slice(), &want_nm[..]);
-    for b in 0..31 {
-        for y in 0..5 {
-            for x in 0..7 {
-                let want = (y + 16 * x + 256 * b) as f32 / 65535.0;
-                assert_eq!(
-                    img.data[b * 35 + y * 7 + x],
-                    want,
-                    "(y {y}, x {x}, band {b})"
-                );
-            }
-        }
-    }
+    assert_pattern(&img, |y, x, b| pattern(y, x, b, 65535.0));
     // The same scene as the .mat fixture's, up to the integer scale: one layout, two formats.
     let mat = crate::scene::mat_io::read_spectral_mat(
         fixtures().join("arad_uint16.mat"),

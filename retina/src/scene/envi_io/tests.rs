@@ -2,6 +2,7 @@
 //! cube returned exactly in both interleaves and byte orders, and errors naming the file.
 
 use super::*;
+use crate::scene::fixture_pattern::{assert_pattern, pattern};
 
 fn envi(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -9,33 +10,19 @@ fn envi(name: &str) -> PathBuf {
         .join(name)
 }
 
-/// The `.mat` fixture's cube: `(y + 16 x + 256 b) / 1024`, 5 × 7 × 31 at 400..700 nm.
-fn assert_pattern(img: &SpectralImage) {
-    assert_eq!((img.h, img.w, img.grid.len()), (5, 7, 31));
-    let want_nm: Vec<f64> = (0..31).map(|b| 400.0 + 10.0 * b as f64).collect();
-    assert_eq!(img.grid.as_slice(), &want_nm[..]);
-    for b in 0..31 {
-        for y in 0..5 {
-            for x in 0..7 {
-                let want = (y + 16 * x + 256 * b) as f32 / 1024.0;
-                assert_eq!(
-                    img.data[b * 35 + y * 7 + x],
-                    want,
-                    "(y {y}, x {x}, band {b})"
-                );
-            }
-        }
-    }
+/// The `.mat` fixture's cube: `(y + 16 x + 256 b) / 1024`.
+fn assert_mat_pattern(img: &SpectralImage) {
+    assert_pattern(img, |y, x, b| pattern(y, x, b, 1024.0));
 }
 
 #[test]
 fn band_interleaved_by_line_big_endian_micrometres_is_read_exactly() {
-    assert_pattern(&read_envi(&envi("pattern_bil.hdr")).unwrap());
+    assert_mat_pattern(&read_envi(&envi("pattern_bil.hdr")).unwrap());
 }
 
 #[test]
 fn band_interleaved_by_pixel_scaled_integers_with_decreasing_bands_are_read_exactly() {
-    assert_pattern(&read_envi(&envi("pattern_bip.hdr")).unwrap());
+    assert_mat_pattern(&read_envi(&envi("pattern_bip.hdr")).unwrap());
 }
 
 #[test]

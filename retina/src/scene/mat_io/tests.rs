@@ -3,30 +3,11 @@
 
 use super::*;
 
-fn fixture(name: &str) -> std::path::PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("tests/fixtures/scenes")
-        .join(name)
-}
+use crate::scene::fixture_pattern::{assert_pattern, fixture};
 
 /// The fixtures' pattern: MATLAB `cube(y+1, x+1, b+1) = (y + 16 x + 256 b) / 1024`.
 fn pattern(y: usize, x: usize, b: usize) -> f32 {
-    (y + 16 * x + 256 * b) as f32 / 1024.0
-}
-
-/// `img` is the 5 × 7 × 31 pattern at 400..700 nm, value by value.
-fn assert_pattern(img: &SpectralImage, value: impl Fn(usize, usize, usize) -> f32) {
-    assert_eq!((img.h, img.w, img.grid.len()), (5, 7, 31));
-    let want_nm: Vec<f64> = (0..31).map(|b| 400.0 + 10.0 * b as f64).collect();
-    assert_eq!(img.grid.as_slice(), &want_nm[..]);
-    for b in 0..31 {
-        for y in 0..5 {
-            for x in 0..7 {
-                let got = img.data[b * 35 + y * 7 + x];
-                assert_eq!(got, value(y, x, b), "(y {y}, x {x}, band {b})");
-            }
-        }
-    }
+    crate::scene::fixture_pattern::pattern(y, x, b, 1024.0)
 }
 
 #[test]
