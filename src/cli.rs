@@ -138,7 +138,7 @@ pub struct CommonOptions {
     pub config: Option<PathBuf>,
     /// Scenes from a file, folder or pattern instead of the built-in ones: a hyperspectral cube
     /// (.mat MATLAB v7.3 such as ARAD_1K, .h5, ENVI .hdr), a folder of one PNG per band (CAVE),
-    /// a spectral .exr or an RGB .png; the same as setting [retina.scenes] files = [FILE].
+    /// a spectral .exr or an RGB .png; the same as setting `[retina.scenes] files = [FILE]`.
     /// Quote a pattern: --scene 'data/ARAD_1K_*.mat'.
     #[arg(long, value_name = "FILE")]
     pub scene: Option<PathBuf>,

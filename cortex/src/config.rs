@@ -224,7 +224,7 @@ pub struct TrainConfig {
     #[serde(default = "default_final_lr_fraction")]
     pub final_lr_fraction: f64,
     /// Largest Frobenius norm of the whole update a learning rule returns, before Adam
-    /// (absent: no clipping, as the authors' code; see [`per_bucket`]).
+    /// (absent: no clipping, as the authors' code; see `config::per_bucket`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub clip_global_norm: Option<f64>,
     /// Steps between measurements of the rule's update against backprop's gradient (one more
@@ -232,7 +232,7 @@ pub struct TrainConfig {
     /// [`crate::StepStats`]); 0: never.
     #[serde(default)]
     pub alignment_every_steps: u64,
-    /// Learning-rate factor and clipping per bucket ([`per_bucket`]).
+    /// Learning-rate factor and clipping per bucket (`config::per_bucket`).
     #[serde(default)]
     pub per_bucket: PerBucketTrain,
 }

@@ -17,7 +17,7 @@
 //! - Layers after the output's last tag (the output mapping, the loss) and tags in scopes not
 //!   covered keep backprop: they take the true error, as the output layer does in the paper.
 //!
-//! The projections `B_k` ([`project`]: dense for `(B, features)` layers, a fixed random
+//! The projections `B_k` (`project`: dense for `(B, features)` layers, a fixed random
 //! `k × k` convolution of the resampled error for `(B, C, H, W)` layers, one per tag, rank
 //! far above 1, scaled so each unit's feedback has the error's RMS) are drawn from a generator
 //! seeded by the rule's seed and a hash of the tag and both shapes: they depend on nothing

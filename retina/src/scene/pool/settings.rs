@@ -25,12 +25,12 @@ pub enum RgbPath {
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum SceneGenerator {
-    /// Classic dead leaves ([`super::dead_leaves`]): an independent reflectance per leaf, leaves
+    /// Classic dead leaves ([`crate::scene::dead_leaves`]): an independent reflectance per leaf, leaves
     /// down to 1.5 px. A config that names no generator (every record made before
     /// [`SceneGenerator::Surfaces`] existed) reads back as this one.
     #[default]
     DeadLeaves,
-    /// Surfaces matched to photographs' spatial statistics ([`super::surfaces`]).
+    /// Surfaces matched to photographs' spatial statistics ([`crate::scene::surfaces`]).
     Surfaces,
 }
 
