@@ -146,6 +146,19 @@ pub fn validate_settings(settings: &CmfSimSettings, grid: &WavelengthGrid) -> Re
             );
         }
     }
+    // K stratified bands of the primary range: a separation of at most one band's width is
+    // drawn within the attempts of `stratified_primaries` for every K up to `max_primaries`.
+    let band_nm = (s.primary_range_nm.1 - s.primary_range_nm.0) / s.max_primaries as f64;
+    if s.min_primary_separation_nm > band_nm {
+        return bad(
+            "min_primary_separation_nm",
+            format!(
+                "{} nm is wider than one of {} bands of primary_range_nm ({band_nm:.3} nm): \
+                 {} primaries could not be drawn that far apart",
+                s.min_primary_separation_nm, s.max_primaries, s.max_primaries
+            ),
+        );
+    }
     Ok(())
 }
 
