@@ -60,7 +60,9 @@ pub fn resolve_run(
     command: &str,
 ) -> Result<(RunConfig, PathBuf), RunError> {
     if let Some(out) = options.out.as_ref().filter(|_| options.resume) {
-        if !out.join("config.toml").is_file() {
+        let never_started =
+            crate::run::temporaries::resume_never_started(out, options.sets_anything())?;
+        if !never_started && !out.join("config.toml").is_file() {
             return Err(RunError::Folder {
                 path: out.clone(),
                 reason: "holds no run to resume (no config.toml)".into(),
@@ -82,6 +84,9 @@ pub fn resolve_run(
 pub fn resume(options: &ResumeOptions) -> Result<(), RunError> {
     let dir = &options.dir;
     let marker_path = dir.join("run.json");
+    if crate::run::temporaries::holds_only_temporaries(dir)? {
+        return Err(crate::run::temporaries::never_started(dir));
+    }
     if !dir.join("config.toml").is_file() || !marker_path.is_file() {
         return Err(RunError::Folder {
             path: dir.clone(),
@@ -334,7 +339,10 @@ pub fn cmf_sim(options: &CmfSimOptions) -> Result<(), RunError> {
         };
     }
     config.validate()?;
-    let r = science::ladder::measure_observer(&config, kind, trainer.as_ref())?;
+    install_signals()?;
+    let stop = crate::interrupt::stop_flag();
+    let r = science::ladder::measure_observer_until(&config, kind, trainer.as_ref(), stop)
+        .map_err(|e| RunError::from(e).said_as_stop(|| "nothing was written".into()))?;
     r.save(&out)?;
     print_cmf_sim(&r);
     println!(

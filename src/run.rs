@@ -25,13 +25,13 @@ use crate::interrupt;
 use crate::pictures;
 use colorimetry::cmf_sim::CmfSimSettings;
 use colorimetry::plot::{LinePlot, Scale, Series};
-use colorimetry::{run_cmf_sim, CmfSimResult};
+use colorimetry::CmfSimResult;
 use cortex::{DataSource, Trainer};
 use folder::{Folder, Opened};
 use indicatif::{ProgressBar, ProgressStyle};
 use retina::Retina;
 use science::config::RunConfig;
-use science::heldout::{heldout_error, heldout_motion_error, heldout_source};
+use science::heldout::{heldout_error, heldout_motion_error, heldout_source_until};
 use science::observer::EyeObserver;
 use science::source::RetinaSource;
 use science::summary::{margins_text, DimensionPoint, LastMeasurement, Summary};
@@ -47,6 +47,7 @@ pub mod lock;
 pub mod measurement_dir;
 mod open;
 mod steps;
+pub mod temporaries;
 
 pub use error::RunError;
 pub use finish::{in_words, out_dir, print_outcome};
@@ -161,6 +162,7 @@ pub fn run_in(
     let _lock = lock::RunLock::acquire(out)?;
     let opened = folder::open(out, config, folder)?;
     if opened == Opened::Finished {
+        temporaries::remove_stale_temporaries(out)?;
         println!(
             "colorvision: {} holds this run, finished; its summary.json stands",
             out.display()
@@ -173,18 +175,18 @@ pub fn run_in(
     }
     // The eye is built (its scene files read) before the folder is touched: bad input stops
     // the run with nothing written.
-    let retina = crate::scene_bar::retina(config.retina.clone())?;
-    let source = RetinaSource::new(retina, config.seed, config.oracle_motion);
-    // Held-out batches carry the true motion for evaluation (the estimator's error); the
-    // cortex reads it only when the run itself uses the oracle.
-    let heldout = heldout_source(config, true)?;
+    let eyes = || -> Result<(RetinaSource, RetinaSource), RunError> {
+        let retina = crate::scene_bar::retina(config.retina.clone())?;
+        let source = RetinaSource::new(retina, config.seed, config.oracle_motion);
+        // Held-out batches carry the true motion for evaluation (the estimator's error); the
+        // cortex reads it only when the run itself uses the oracle.
+        let heldout = heldout_source_until(config, true, interrupt::stop_flag())?;
+        Ok((source, heldout))
+    };
+    let (source, heldout) =
+        eyes().map_err(|e| e.said_as_stop(|| "the run folder was not touched".into()))?;
     std::fs::create_dir_all(out).map_err(crate::io::fs_err(out))?;
-    for p in crate::io::clean_stale_temps(out)? {
-        println!(
-            "  removed a temporary left by a stopped run: {}",
-            p.display()
-        );
-    }
+    temporaries::remove_stale_temporaries(out)?;
     for line in cortex::checkpoint::recover(&out.join("checkpoints"))? {
         println!("  checkpoints: {line}");
     }

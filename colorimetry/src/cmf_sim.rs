@@ -35,6 +35,7 @@
 //! (`fully_evaluated`): at the passing K the first passing set, at a failed K the rejected set
 //! with the lowest worst ratio over the wavelengths it was tested on.
 
+use std::sync::atomic::AtomicBool;
 use std::time::Instant;
 
 use rand::{Rng, RngCore, SeedableRng};
@@ -176,6 +177,17 @@ pub fn run_cmf_sim_with_progress(
     settings: &CmfSimSettings,
     progress: &mut dyn FnMut(&CmfSimProgress),
 ) -> Result<CmfSimResult> {
+    run_cmf_sim_until(observer, settings, progress, &AtomicBool::new(false))
+}
+
+/// [`run_cmf_sim_with_progress`] that ends with [`ColorimetryError::Stopped`] once `stop` is
+/// set (checked before every primary set, so within one set's shows).
+pub fn run_cmf_sim_until(
+    observer: &dyn Observer,
+    settings: &CmfSimSettings,
+    progress: &mut dyn FnMut(&CmfSimProgress),
+    stop: &AtomicBool,
+) -> Result<CmfSimResult> {
     validate_settings(settings, observer.grid())?;
     let start = Instant::now();
     let s = settings;
@@ -217,6 +229,7 @@ pub fn run_cmf_sim_with_progress(
         intensity,
         base: &base,
         threshold: &threshold,
+        stop,
     };
     let mut order = WavelengthOrder::by_energy_ratio(&base.energy, &threshold);
     let mut front = (s.reuse_base_pairs && s.front_end_jacobians)
