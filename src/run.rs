@@ -148,6 +148,59 @@ pub fn run_continued(
     )
 }
 
+/// Environment variable: the memory a run may take, MiB (0: no limit). Unset, the limit is
+/// [`science::budget::LIMIT_FRACTION`] of the cgroup's limit or of the available memory.
+pub const MEMORY_LIMIT_VAR: &str = "COLORVISION_MEMORY_LIMIT_MIB";
+
+/// Estimates the run's peak memory from its settings ([`science::budget`]), says it, and
+/// refuses the run, before anything is allocated or written, when it exceeds the limit.
+pub fn check_memory(config: &RunConfig, cmf_sim: bool) -> Result<(), RunError> {
+    let estimate = science::budget::estimate(config, cmf_sim, rayon::current_num_threads());
+    let mib = 1024.0 * 1024.0;
+    let (limit, source) = match std::env::var(MEMORY_LIMIT_VAR) {
+        Ok(v) => {
+            let given: f64 = v
+                .trim()
+                .parse()
+                .ok()
+                .filter(|m: &f64| m.is_finite() && *m >= 0.0)
+                .ok_or_else(|| {
+                    RunError::invalid(
+                        MEMORY_LIMIT_VAR,
+                        format!(
+                            "`{}` is not a number of MiB",
+                            science::config::shortened(&v)
+                        ),
+                    )
+                })?;
+            let limit = if given == 0.0 {
+                f64::INFINITY
+            } else {
+                given * mib
+            };
+            (limit, format!("{MEMORY_LIMIT_VAR}={v}"))
+        }
+        Err(_) => match science::budget::memory_available() {
+            Some((bytes, what)) => (
+                science::budget::LIMIT_FRACTION * bytes,
+                format!("{:.0} % of {what}", 100.0 * science::budget::LIMIT_FRACTION),
+            ),
+            None => (f64::INFINITY, "none known".to_string()),
+        },
+    };
+    println!(
+        "  memory: estimated peak {:.0} MiB (limit {})",
+        estimate.total_bytes() / mib,
+        if limit.is_finite() {
+            format!("{:.0} MiB, {source}", limit / mib)
+        } else {
+            "none".to_string()
+        }
+    );
+    science::budget::check(&estimate, limit, &source)?;
+    Ok(())
+}
+
 /// A run in `out` as `folder` allows (new, resumed from its newest valid checkpoint, or
 /// replaced); a finished run returns its summary. The run holds the folder's lock
 /// ([`crate::run::lock`]) until it returns, so no other process trains into `out` meanwhile.
@@ -159,6 +212,7 @@ pub fn run_in(
     origin: Origin<'_>,
 ) -> Result<Summary, RunError> {
     folder::refuse_file(out)?;
+    check_memory(config, mode.cmf_sim)?;
     let _lock = lock::RunLock::acquire(out)?;
     let opened = folder::open(out, config, folder)?;
     if opened == Opened::Finished {
