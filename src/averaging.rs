@@ -136,7 +136,13 @@ fn heldout_gain(
 ) -> Result<f64, RunError> {
     let mut heldout = science::heldout::heldout_source(config, true)?;
     let bs = config.cortex.train.batch_size;
-    let [_, _, gain] = science::heldout::heldout_error(trainer, &mut heldout, bs, HELDOUT_BATCHES)?;
+    let [_, _, gain] = science::heldout::heldout_error(
+        trainer,
+        &mut heldout,
+        bs,
+        HELDOUT_BATCHES,
+        crate::interrupt::stop_flag(),
+    )?;
     Ok(gain)
 }
 

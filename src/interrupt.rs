@@ -5,14 +5,19 @@
 //! Signals are caught with `signal-hook`: its handler only sets an atomic flag (the one thing a
 //! signal handler may safely do), it needs nothing but `libc`, which the build already has, and
 //! it covers SIGTERM as well as SIGINT. A watcher thread prints that the stop was heard, since a
-//! step or a CMF-SIM measurement can take a while to finish.
+//! step or a CMF-SIM measurement can take a while to finish; a long stage (scene drawing, the
+//! held-out evaluation, CMF-SIM) still running [`STAGE_GRACE`] later is stopped unfinished
+//! through [`stop_flag`], which it checks in its loop, and the run ends within seconds from its
+//! last checkpoint.
 //!
 //! Fault injection for tests (`COLORVISION_FAULT`, read by [`install_fault_injection`]): a
 //! comma-separated list of `ACTION@POINT:STEP` (STEP counts the cortex's updates, so in a
 //! continued run it goes on from the run it continued), with ACTION `abort` (the process dies there, as under SIGKILL) or
 //! `interrupt` (as if SIGINT arrived there), POINT `step` (after the training step), `measured`
-//! (after the step's measurements) or a stage of a checkpoint write (`params-written`,
-//! `files-written`, `old-moved-aside`, `renamed`; see `cortex::checkpoint::set_fault_hook`).
+//! (after the step's measurements), `lock-written` (step 0: the run folder's first write, the
+//! lock's temporary, before it becomes `.lock`) or a stage of a checkpoint write
+//! (`params-written`, `files-written`, `old-moved-aside`, `renamed`; see
+//! `cortex::checkpoint::set_fault_hook`).
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, OnceLock};
@@ -21,6 +26,13 @@ use std::time::Duration;
 static INT: OnceLock<Arc<AtomicBool>> = OnceLock::new();
 static TERM: OnceLock<Arc<AtomicBool>> = OnceLock::new();
 static REQUESTED: AtomicBool = AtomicBool::new(false);
+/// Set [`STAGE_GRACE`] after a stop was asked for (by the watcher thread): the flag the long
+/// stages check in their loops ([`stop_flag`]).
+static STOP: OnceLock<Arc<AtomicBool>> = OnceLock::new();
+
+/// How long a stage (scene drawing, the held-out evaluation, CMF-SIM) may go on after a stop was
+/// asked for before it stops unfinished: a step that ends sooner is finished and checkpointed.
+pub const STAGE_GRACE: Duration = Duration::from_secs(3);
 
 fn flag(cell: &OnceLock<Arc<AtomicBool>>) -> &Arc<AtomicBool> {
     cell.get_or_init(|| Arc::new(AtomicBool::new(false)))
@@ -49,6 +61,8 @@ pub fn install() -> std::io::Result<()> {
                     std::thread::sleep(Duration::from_millis(100));
                 }
                 announce();
+                std::thread::sleep(STAGE_GRACE);
+                flag(&STOP).store(true, Ordering::SeqCst);
             })?;
     }
     let _ = INSTALLED.set(());
@@ -90,7 +104,9 @@ pub fn announce() {
         if !ANNOUNCED.swap(true, Ordering::SeqCst) {
             eprintln!(
                 "\ncolorvision: {what} received: finishing the current step, then writing a \
-                 checkpoint (send it again to stop at once, without one)"
+                 checkpoint; a stage still running in {} s stops unfinished (send it again to \
+                 stop at once, without one)",
+                STAGE_GRACE.as_secs()
             );
         }
     }
@@ -99,6 +115,13 @@ pub fn announce() {
 /// Asks the run to stop as a signal would (fault injection, embedding programs).
 pub fn request() {
     REQUESTED.store(true, Ordering::SeqCst);
+}
+
+/// The flag a stop request sets [`STAGE_GRACE`] after it was made (once signals are caught,
+/// [`install`]), for the stages that check it in their loops (scene drawing, the held-out
+/// evaluation, CMF-SIM: `retina`, `science` and `colorimetry` take a plain `&AtomicBool`).
+pub fn stop_flag() -> &'static AtomicBool {
+    flag(&STOP)
 }
 
 /// A fault to inject: what, where, at which step.

@@ -117,6 +117,12 @@ fn temp_owner(name: &str) -> Option<u32> {
     digits(pid)
 }
 
+/// Whether `name` is a temporary this crate or its dependencies write (see [`temp_owner`]),
+/// whoever wrote it.
+pub fn is_temporary(name: &str) -> bool {
+    temp_owner(name).is_some()
+}
+
 /// Removes temporaries left in `dir` (recursively) by writers that were killed, and returns
 /// what it removed. Temporaries of a process still running are kept. Checkpoint folders are
 /// the cortex's (see `cortex::checkpoint::recover`), which restores a checkpoint moved aside.

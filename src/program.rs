@@ -41,7 +41,9 @@ pub fn main() {
         Command::Gather(o) => commands::gather(o),
     };
     if let Err(e) = result {
-        eprintln!("colorvision: error: {e}");
+        // A long value the user gave is named, not echoed whole.
+        let said = science::config::shortened(&e.to_string());
+        eprintln!("colorvision: error: {said}");
         std::process::exit(e.exit_code());
     }
 }

@@ -25,13 +25,13 @@ use crate::interrupt;
 use crate::pictures;
 use colorimetry::cmf_sim::CmfSimSettings;
 use colorimetry::plot::{LinePlot, Scale, Series};
-use colorimetry::{run_cmf_sim, CmfSimResult};
+use colorimetry::CmfSimResult;
 use cortex::{DataSource, Trainer};
 use folder::{Folder, Opened};
 use indicatif::{ProgressBar, ProgressStyle};
 use retina::Retina;
 use science::config::RunConfig;
-use science::heldout::{heldout_error, heldout_motion_error, heldout_source};
+use science::heldout::{heldout_error, heldout_motion_error, heldout_source_until};
 use science::observer::EyeObserver;
 use science::source::RetinaSource;
 use science::summary::{margins_text, DimensionPoint, LastMeasurement, Summary};
@@ -47,6 +47,7 @@ pub mod lock;
 pub mod measurement_dir;
 mod open;
 mod steps;
+pub mod temporaries;
 
 pub use error::RunError;
 pub use finish::{in_words, out_dir, print_outcome};
@@ -147,6 +148,59 @@ pub fn run_continued(
     )
 }
 
+/// Environment variable: the memory a run may take, MiB (0: no limit). Unset, the limit is
+/// [`science::budget::LIMIT_FRACTION`] of the cgroup's limit or of the available memory.
+pub const MEMORY_LIMIT_VAR: &str = "COLORVISION_MEMORY_LIMIT_MIB";
+
+/// Estimates the run's peak memory from its settings ([`science::budget`]), says it, and
+/// refuses the run, before anything is allocated or written, when it exceeds the limit.
+pub fn check_memory(config: &RunConfig, cmf_sim: bool) -> Result<(), RunError> {
+    let estimate = science::budget::estimate(config, cmf_sim, rayon::current_num_threads());
+    let mib = 1024.0 * 1024.0;
+    let (limit, source) = match std::env::var(MEMORY_LIMIT_VAR) {
+        Ok(v) => {
+            let given: f64 = v
+                .trim()
+                .parse()
+                .ok()
+                .filter(|m: &f64| m.is_finite() && *m >= 0.0)
+                .ok_or_else(|| {
+                    RunError::invalid(
+                        MEMORY_LIMIT_VAR,
+                        format!(
+                            "`{}` is not a number of MiB",
+                            science::config::shortened(&v)
+                        ),
+                    )
+                })?;
+            let limit = if given == 0.0 {
+                f64::INFINITY
+            } else {
+                given * mib
+            };
+            (limit, format!("{MEMORY_LIMIT_VAR}={v}"))
+        }
+        Err(_) => match science::budget::memory_available() {
+            Some((bytes, what)) => (
+                science::budget::LIMIT_FRACTION * bytes,
+                format!("{:.0} % of {what}", 100.0 * science::budget::LIMIT_FRACTION),
+            ),
+            None => (f64::INFINITY, "none known".to_string()),
+        },
+    };
+    println!(
+        "  memory: estimated peak {:.0} MiB (limit {})",
+        estimate.total_bytes() / mib,
+        if limit.is_finite() {
+            format!("{:.0} MiB, {source}", limit / mib)
+        } else {
+            "none".to_string()
+        }
+    );
+    science::budget::check(&estimate, limit, &source)?;
+    Ok(())
+}
+
 /// A run in `out` as `folder` allows (new, resumed from its newest valid checkpoint, or
 /// replaced); a finished run returns its summary. The run holds the folder's lock
 /// ([`crate::run::lock`]) until it returns, so no other process trains into `out` meanwhile.
@@ -158,9 +212,11 @@ pub fn run_in(
     origin: Origin<'_>,
 ) -> Result<Summary, RunError> {
     folder::refuse_file(out)?;
+    check_memory(config, mode.cmf_sim)?;
     let _lock = lock::RunLock::acquire(out)?;
     let opened = folder::open(out, config, folder)?;
     if opened == Opened::Finished {
+        temporaries::remove_stale_temporaries(out)?;
         println!(
             "colorvision: {} holds this run, finished; its summary.json stands",
             out.display()
@@ -173,18 +229,18 @@ pub fn run_in(
     }
     // The eye is built (its scene files read) before the folder is touched: bad input stops
     // the run with nothing written.
-    let retina = crate::scene_bar::retina(config.retina.clone())?;
-    let source = RetinaSource::new(retina, config.seed, config.oracle_motion);
-    // Held-out batches carry the true motion for evaluation (the estimator's error); the
-    // cortex reads it only when the run itself uses the oracle.
-    let heldout = heldout_source(config, true)?;
+    let eyes = || -> Result<(RetinaSource, RetinaSource), RunError> {
+        let retina = crate::scene_bar::retina(config.retina.clone())?;
+        let source = RetinaSource::new(retina, config.seed, config.oracle_motion);
+        // Held-out batches carry the true motion for evaluation (the estimator's error); the
+        // cortex reads it only when the run itself uses the oracle.
+        let heldout = heldout_source_until(config, true, interrupt::stop_flag())?;
+        Ok((source, heldout))
+    };
+    let (source, heldout) =
+        eyes().map_err(|e| e.said_as_stop(|| "the run folder was not touched".into()))?;
     std::fs::create_dir_all(out).map_err(crate::io::fs_err(out))?;
-    for p in crate::io::clean_stale_temps(out)? {
-        println!(
-            "  removed a temporary left by a stopped run: {}",
-            p.display()
-        );
-    }
+    temporaries::remove_stale_temporaries(out)?;
     for line in cortex::checkpoint::recover(&out.join("checkpoints"))? {
         println!("  checkpoints: {line}");
     }

@@ -8,11 +8,12 @@ use indicatif::{ProgressBar, ProgressStyle};
 use retina::scene::pool::SceneProgress;
 use retina::{Retina, RetinaConfig, RetinaError};
 
-/// [`Retina::new`], drawing a bar on standard error while scene files are prepared, then one
+/// [`Retina::new`] (stopped by a stop request, [`crate::interrupt::stop_flag`]), drawing a bar on standard error while scene files are prepared, then one
 /// line: how many files, how many from the cache.
 pub fn retina(config: RetinaConfig) -> Result<Retina, RetinaError> {
+    let stop = crate::interrupt::stop_flag();
     if config.scenes.files.is_empty() {
-        return Retina::new(config);
+        return Retina::with_progress_until(config, &|_| {}, stop);
     }
     let bar = ProgressBar::new(0);
     bar.set_style(
@@ -36,7 +37,7 @@ pub fn retina(config: RetinaConfig) -> Result<Retina, RetinaError> {
             cached.fetch_add(1, Ordering::Relaxed);
         }
     };
-    let retina = Retina::with_progress(config, &report);
+    let retina = Retina::with_progress_until(config, &report, stop);
     bar.finish_and_clear();
     let retina = retina?;
     let total = total.load(Ordering::Relaxed);

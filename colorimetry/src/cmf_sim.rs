@@ -35,6 +35,7 @@
 //! (`fully_evaluated`): at the passing K the first passing set, at a failed K the rejected set
 //! with the lowest worst ratio over the wavelengths it was tested on.
 
+use std::sync::atomic::AtomicBool;
 use std::time::Instant;
 
 use rand::{Rng, RngCore, SeedableRng};
@@ -146,6 +147,19 @@ pub fn validate_settings(settings: &CmfSimSettings, grid: &WavelengthGrid) -> Re
             );
         }
     }
+    // K stratified bands of the primary range: a separation of at most one band's width is
+    // drawn within the attempts of `stratified_primaries` for every K up to `max_primaries`.
+    let band_nm = (s.primary_range_nm.1 - s.primary_range_nm.0) / s.max_primaries as f64;
+    if s.min_primary_separation_nm > band_nm {
+        return bad(
+            "min_primary_separation_nm",
+            format!(
+                "{} nm is wider than one of {} bands of primary_range_nm ({band_nm:.3} nm): \
+                 {} primaries could not be drawn that far apart",
+                s.min_primary_separation_nm, s.max_primaries, s.max_primaries
+            ),
+        );
+    }
     Ok(())
 }
 
@@ -162,6 +176,17 @@ pub fn run_cmf_sim_with_progress(
     observer: &dyn Observer,
     settings: &CmfSimSettings,
     progress: &mut dyn FnMut(&CmfSimProgress),
+) -> Result<CmfSimResult> {
+    run_cmf_sim_until(observer, settings, progress, &AtomicBool::new(false))
+}
+
+/// [`run_cmf_sim_with_progress`] that ends with [`ColorimetryError::Stopped`] once `stop` is
+/// set (checked before every primary set, so within one set's shows).
+pub fn run_cmf_sim_until(
+    observer: &dyn Observer,
+    settings: &CmfSimSettings,
+    progress: &mut dyn FnMut(&CmfSimProgress),
+    stop: &AtomicBool,
 ) -> Result<CmfSimResult> {
     validate_settings(settings, observer.grid())?;
     let start = Instant::now();
@@ -204,6 +229,7 @@ pub fn run_cmf_sim_with_progress(
         intensity,
         base: &base,
         threshold: &threshold,
+        stop,
     };
     let mut order = WavelengthOrder::by_energy_ratio(&base.energy, &threshold);
     let mut front = (s.reuse_base_pairs && s.front_end_jacobians)

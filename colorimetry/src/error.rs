@@ -69,6 +69,9 @@ pub enum ColorimetryError {
         /// What is wrong.
         message: String,
     },
+    /// A stop was requested (the caller's stop flag was set) before the measurement ended.
+    #[error("stopped on request before the measurement ended")]
+    Stopped,
     /// JSON (de)serialisation failed.
     #[error("{}: {source}", path.display())]
     Json {

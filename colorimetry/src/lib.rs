@@ -43,7 +43,9 @@ pub mod stiles_burch;
 pub mod table;
 
 pub use cie::CieObserver;
-pub use cmf_sim::{run_cmf_sim, run_cmf_sim_with_progress, CmfSimResult, CmfSimSettings};
+pub use cmf_sim::{
+    run_cmf_sim, run_cmf_sim_until, run_cmf_sim_with_progress, CmfSimResult, CmfSimSettings,
+};
 pub use cone_rgb::ConeRgb;
 pub use cones::{sensitivities, ConeClass, ConeFundamentals, ConeTemplate};
 pub use error::{ColorimetryError, Result};

@@ -45,6 +45,9 @@ pub enum RetinaError {
         /// What is wrong, on one line.
         message: String,
     },
+    /// A stop was requested (the caller's stop flag was set) while the scenes were drawn.
+    #[error("stopped on request while the scenes were drawn")]
+    Stopped,
     /// An OpenEXR file has no channel whose name carries a wavelength.
     #[error(
         "{}: no wavelength channels (expected names like `wl_550nm` or `S0.550,0nm`; \

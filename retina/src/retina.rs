@@ -27,6 +27,7 @@ use colorimetry::{sensitivities, ConeFundamentals};
 use rand::rngs::SmallRng;
 use rand::{Rng, SeedableRng};
 use rayon::prelude::*;
+use std::sync::atomic::AtomicBool;
 
 use crate::cones::{add_photon_noise, Cones};
 use crate::config::RetinaConfig;
@@ -105,6 +106,16 @@ impl Retina {
     /// [`Retina::new`], telling `progress` of each scene file prepared for the pool (a
     /// command-line program draws it as a bar; see [`crate::scene::prepared`]).
     pub fn with_progress(config: RetinaConfig, progress: ProgressFn<'_>) -> Result<Retina> {
+        Self::with_progress_until(config, progress, &AtomicBool::new(false))
+    }
+
+    /// [`Retina::with_progress`] that ends with [`crate::RetinaError::Stopped`] once `stop` is
+    /// set (checked before every scene tile is drawn).
+    pub fn with_progress_until(
+        config: RetinaConfig,
+        progress: ProgressFn<'_>,
+        stop: &AtomicBool,
+    ) -> Result<Retina> {
         config.validate()?;
         let n = config.cones_per_side;
         let mosaic = Mosaic::from_spec_str(&config.cones, n, config.mosaic_seed)?;
@@ -119,12 +130,13 @@ impl Retina {
             .map(|c| LateralInhibition::new(c, n));
         let projection = SceneProjection::new(&mosaic.classes, &config.template, &grid)?;
         let mut rng = SmallRng::seed_from_u64(config.scene_seed);
-        let pool = ScenePool::with_progress(
+        let pool = ScenePool::with_progress_until(
             config.scenes.clone(),
             projection,
             levels,
             &mut rng,
             progress,
+            stop,
         )?;
         Ok(Retina {
             config,

@@ -48,8 +48,14 @@ fn main() -> Result<(), science::Error> {
         println!("  {line}");
     }
     let mut held_out = heldout_source(&config, true)?;
-    let [model, no_change, gain] =
-        heldout_error(&mut trainer, &mut held_out, batch_size, HELD_OUT_BATCHES)?;
+    let never = std::sync::atomic::AtomicBool::new(false);
+    let [model, no_change, gain] = heldout_error(
+        &mut trainer,
+        &mut held_out,
+        batch_size,
+        HELD_OUT_BATCHES,
+        &never,
+    )?;
     println!(
         "held-out prediction: error {model:.3e} against {no_change:.3e} for \"next frame = this \
          frame\" ({gain:.2}×)"

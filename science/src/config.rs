@@ -15,6 +15,7 @@ use std::path::{Path, PathBuf};
 
 mod overrides;
 mod presets;
+mod ranges;
 mod resolve;
 mod validate;
 
@@ -22,7 +23,8 @@ pub use overrides::{parse_setting, set_dotted, Overrides};
 
 pub use presets::{LONG_STEPS, MAIN_STEPS, PRESETS};
 
-pub use resolve::one_line;
+pub use ranges::{numeric_fields, range_of, Range, RANGES};
+pub use resolve::{one_line, shortened, LONGEST_SHOWN};
 
 /// A configuration problem, naming the file and field where there is one.
 #[derive(Debug, thiserror::Error)]

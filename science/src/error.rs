@@ -15,9 +15,26 @@ pub enum Error {
     /// A setting is wrong.
     #[error("{0}")]
     Config(#[from] crate::config::ConfigError),
+    /// A stop was requested (the caller's stop flag was set) during `stage`.
+    #[error("stopped on request during {stage}")]
+    Stopped {
+        /// What was under way.
+        stage: &'static str,
+    },
 }
 
 impl Error {
+    /// The stage a stop request ended, when this error is one: scene drawing, the held-out
+    /// evaluation or CMF-SIM.
+    pub fn stopped_stage(&self) -> Option<&'static str> {
+        match self {
+            Error::Stopped { stage } => Some(stage),
+            Error::Retina(retina::RetinaError::Stopped) => Some("scene generation"),
+            Error::Colorimetry(colorimetry::ColorimetryError::Stopped) => Some("CMF-SIM"),
+            _ => None,
+        }
+    }
+
     /// A setting that cannot be used, naming it (`field`) and why.
     pub fn invalid(field: impl Into<String>, reason: impl Into<String>) -> Self {
         Error::Config(crate::config::ConfigError::Invalid {

@@ -8,33 +8,56 @@ use crate::source::RetinaSource;
 use crate::Error;
 use cortex::{DataSource, Trainer};
 use retina::Retina;
+use std::sync::atomic::{AtomicBool, Ordering};
 
-/// A held-out eye: the same mosaic and layout, different scenes.
-fn heldout_retina(config: &RunConfig) -> Result<Retina, Error> {
+/// A held-out eye: the same mosaic and layout, different scenes (drawn until `stop` is set).
+fn heldout_retina(config: &RunConfig, stop: &AtomicBool) -> Result<Retina, Error> {
     let mut c = config.retina.clone();
     c.scene_seed = c.scene_seed.wrapping_add(0x005E_ED0F_0E1D);
-    Ok(Retina::new(c)?)
+    Ok(Retina::with_progress_until(c, &|_| {}, stop)?)
 }
 
 /// The run's held-out batches (the held-out eye, its own batch seed), the same sequence on
 /// every call; with `true_motion` each batch carries the eye's motion for evaluation.
 pub fn heldout_source(config: &RunConfig, true_motion: bool) -> Result<RetinaSource, Error> {
+    heldout_source_until(config, true_motion, &AtomicBool::new(false))
+}
+
+/// [`heldout_source`] whose scene drawing ends with [`Error::Stopped`] once `stop` is set.
+pub fn heldout_source_until(
+    config: &RunConfig,
+    true_motion: bool,
+    stop: &AtomicBool,
+) -> Result<RetinaSource, Error> {
     Ok(RetinaSource::new(
-        heldout_retina(config)?,
+        heldout_retina(config, stop)?,
         config.seed ^ 0xA5A5,
         true_motion,
     ))
 }
 
-/// Held-out prediction error `[model MSE, next = current MSE, ratio]` over `batches` batches.
+/// [`Error::Stopped`] once `stop` is set.
+fn stopped(stop: &AtomicBool) -> Result<(), Error> {
+    if stop.load(Ordering::Relaxed) {
+        return Err(Error::Stopped {
+            stage: "the held-out evaluation",
+        });
+    }
+    Ok(())
+}
+
+/// Held-out prediction error `[model MSE, next = current MSE, ratio]` over `batches` batches
+/// (ends with [`Error::Stopped`] once `stop` is set, checked before every batch).
 pub fn heldout_error(
     trainer: &mut Trainer,
     heldout: &mut RetinaSource,
     bs: usize,
     batches: usize,
+    stop: &AtomicBool,
 ) -> Result<[f64; 3], Error> {
     let (mut model, mut identity) = (0.0, 0.0);
     for _ in 0..batches.max(1) {
+        stopped(stop)?;
         let b = heldout.next_batch(bs);
         let e = trainer.prediction_error(&b)?;
         model += e.model_mse;
@@ -44,15 +67,18 @@ pub fn heldout_error(
 }
 
 /// Mean distance (ONS pixels) of the cortex's motion estimate from the true motion over
-/// `batches` held-out batches (evaluation: the batches carry the oracle motion).
+/// `batches` held-out batches (evaluation: the batches carry the oracle motion); ends with
+/// [`Error::Stopped`] once `stop` is set.
 pub fn heldout_motion_error(
     trainer: &mut Trainer,
     heldout: &mut RetinaSource,
     bs: usize,
     batches: usize,
+    stop: &AtomicBool,
 ) -> Result<f64, Error> {
     let mut total = 0.0;
     for _ in 0..batches.max(1) {
+        stopped(stop)?;
         let b = heldout.next_batch(bs);
         if let Some(e) = trainer.motion_error_ons_px(&b)? {
             total += e.mean_px;

@@ -23,10 +23,11 @@ use crate::config::RunConfig;
 use crate::observer::{Decoder, EyeObserver, ObserverKind, OracleDecoder, ReadoutMode};
 use crate::Error;
 use colorimetry::analytic::ConeObserver;
-use colorimetry::{run_cmf_sim, CmfSimResult};
+use colorimetry::{run_cmf_sim_until, CmfSimResult};
 use cortex::Trainer;
 use retina::Retina;
 use serde::Serialize;
+use std::sync::atomic::AtomicBool;
 
 /// What a rung must return.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
@@ -178,11 +179,22 @@ pub fn measure_observer(
     kind: ObserverKind,
     trainer: Option<&Trainer>,
 ) -> Result<CmfSimResult, Error> {
+    measure_observer_until(config, kind, trainer, &AtomicBool::new(false))
+}
+
+/// [`measure_observer`] that ends with a stop error ([`Error::stopped_stage`]) once `stop` is
+/// set (checked while scenes are drawn and before every primary set).
+pub fn measure_observer_until(
+    config: &RunConfig,
+    kind: ObserverKind,
+    trainer: Option<&Trainer>,
+    stop: &AtomicBool,
+) -> Result<CmfSimResult, Error> {
     let mut eye = config.retina.clone();
     if trainer.is_none() {
         eye.scenes.tiles = 1; // the stimuli are discs: no scenes needed
     }
-    let retina = Retina::new(eye)?;
+    let retina = Retina::with_progress_until(eye, &|_| {}, stop)?;
     let oracle = |interpolate: bool| oracle_decoder(&retina, config, interpolate);
     let decoder = match (kind, trainer) {
         (ObserverKind::Cortex, Some(t)) => Decoder::Cortex(&t.cortex),
@@ -193,11 +205,21 @@ pub fn measure_observer(
         (ObserverKind::OracleMosaic, _) => Decoder::Oracle(oracle(false)?),
         (ObserverKind::Analytic, _) => {
             let observer = own_fundamentals(&retina, config)?;
-            return Ok(run_cmf_sim(&observer, &config.cmf_sim)?);
+            return Ok(run_cmf_sim_until(
+                &observer,
+                &config.cmf_sim,
+                &mut |_| {},
+                stop,
+            )?);
         }
     };
     let observer = EyeObserver::new(&retina, decoder, config.observer.clone());
-    Ok(run_cmf_sim(&observer, &config.cmf_sim)?)
+    Ok(run_cmf_sim_until(
+        &observer,
+        &config.cmf_sim,
+        &mut |_| {},
+        stop,
+    )?)
 }
 
 /// One rung measured at one location seed.

@@ -36,6 +36,7 @@
 //! # Ok::<(), science::Error>(())
 //! ```
 
+pub mod budget;
 pub mod config;
 mod error;
 pub mod gamut;

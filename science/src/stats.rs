@@ -2,6 +2,8 @@
 //! clusters to labels, separability (d′), Pearson correlation and a 2-D affine least-squares
 //! fit. Rows are `(m, dim)` row-major `f64`; labels are `0..k`.
 
+pub mod assignment;
+
 use rand::rngs::SmallRng;
 use rand::{Rng, SeedableRng};
 
@@ -143,51 +145,21 @@ pub fn adjusted_rand_index(a: &[usize], b: &[usize]) -> f64 {
 }
 
 /// Per-class recall of `clusters` after matching each true class to one cluster so that the
-/// number of agreeing items is largest (exhaustive over assignments; `k` ≤ 8). Classes without
-/// members get NaN.
+/// number of agreeing items is largest (the Hungarian algorithm, [`assignment`]; any number of
+/// classes). Classes without members get NaN.
 pub fn matched_recall(clusters: &[usize], truth: &[usize], k: usize) -> Vec<f64> {
-    assert!(
-        k <= 8,
-        "matched_recall: {k} classes (exhaustive matching up to 8)"
-    );
     let kc = clusters.iter().max().map_or(0, |m| m + 1).max(k);
     let mut table = vec![0usize; k * kc];
     for (&c, &t) in clusters.iter().zip(truth) {
         table[t * kc + c] += 1;
     }
-    let mut best = (0usize, vec![0usize; k]);
-    let mut assignment = Vec::with_capacity(k);
-    search_assignment(&table, kc, k, &mut assignment, 0, &mut best);
+    let best = assignment::max_weight_assignment(&table, k, kc);
     (0..k)
         .map(|t| {
             let members: usize = table[t * kc..(t + 1) * kc].iter().sum();
-            table[t * kc + best.1[t]] as f64 / members as f64
+            table[t * kc + best[t]] as f64 / members as f64
         })
         .collect()
-}
-
-fn search_assignment(
-    table: &[usize],
-    kc: usize,
-    k: usize,
-    assignment: &mut Vec<usize>,
-    agreed: usize,
-    best: &mut (usize, Vec<usize>),
-) {
-    if assignment.len() == k {
-        if agreed >= best.0 {
-            *best = (agreed, assignment.clone());
-        }
-        return;
-    }
-    let t = assignment.len();
-    for c in 0..kc {
-        if !assignment.contains(&c) {
-            assignment.push(c);
-            search_assignment(table, kc, k, assignment, agreed + table[t * kc + c], best);
-            assignment.pop();
-        }
-    }
 }
 
 /// Mean and variance of each labelled group's rows; `None` for empty groups.

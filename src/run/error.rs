@@ -41,9 +41,37 @@ pub enum RunError {
         /// The run folder it belongs to.
         run: PathBuf,
     },
+    /// SIGINT/SIGTERM stopped a stage that writes nothing until it ends (scene drawing, the
+    /// held-out evaluation, CMF-SIM).
+    #[error("stopped by {signal} during {stage}; {next}")]
+    Stopped {
+        /// What stopped it.
+        signal: &'static str,
+        /// The stage under way.
+        stage: &'static str,
+        /// What was kept and how to go on.
+        next: String,
+    },
 }
 
 impl RunError {
+    /// This error with a stop request said as one ([`RunError::Stopped`]: the signal, the
+    /// stage, then `next`); any other error unchanged.
+    pub fn said_as_stop(self, next: impl FnOnce() -> String) -> Self {
+        let stage = match &self {
+            RunError::Science(e) => e.stopped_stage(),
+            _ => None,
+        };
+        match stage {
+            Some(stage) => RunError::Stopped {
+                signal: crate::interrupt::requested().unwrap_or("a stop request"),
+                stage,
+                next: next(),
+            },
+            None => self,
+        }
+    }
+
     /// A setting or option that cannot be used, naming it (`field`) and why.
     pub fn invalid(field: impl Into<String>, reason: impl Into<String>) -> Self {
         RunError::Science(science::Error::invalid(field, reason))
@@ -52,7 +80,8 @@ impl RunError {
     /// The process exit code for this error: 130 when a signal stopped the run, else 1.
     pub fn exit_code(&self) -> i32 {
         match self {
-            RunError::Interrupted { .. } => 130,
+            RunError::Interrupted { .. } | RunError::Stopped { .. } => 130,
+            RunError::Science(e) if e.stopped_stage().is_some() => 130,
             _ => 1,
         }
     }

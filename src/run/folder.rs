@@ -44,7 +44,7 @@ fn refuse(out: &Path, reason: String) -> RunError {
 
 /// The entries of `dir` a run wrote: all but the lock of the run now starting
 /// ([`LOCK_FILE`]).
-fn run_entries(dir: &Path) -> Result<Vec<std::path::PathBuf>, IoError> {
+pub(crate) fn run_entries(dir: &Path) -> Result<Vec<std::path::PathBuf>, IoError> {
     let mut paths = Vec::new();
     for entry in std::fs::read_dir(dir).map_err(fs_err(dir))? {
         let path = entry.map_err(fs_err(dir))?.path();
@@ -55,9 +55,18 @@ fn run_entries(dir: &Path) -> Result<Vec<std::path::PathBuf>, IoError> {
     Ok(paths)
 }
 
-/// Whether `dir` is absent or holds nothing but a run lock.
-fn is_empty(dir: &Path) -> Result<bool, IoError> {
-    Ok(!dir.exists() || run_entries(dir)?.is_empty())
+/// Whether `dir` is absent or holds nothing but a run lock and temporaries this program writes
+/// (`.NAME.tmp-PID`: a run killed at its first write leaves only those; they are removed when
+/// the run starts, [`crate::io::clean_stale_temps`]).
+pub fn is_empty(dir: &Path) -> Result<bool, IoError> {
+    if !dir.exists() {
+        return Ok(true);
+    }
+    Ok(run_entries(dir)?.iter().all(|p| {
+        p.is_file()
+            && p.file_name()
+                .is_some_and(|n| crate::io::is_temporary(&n.to_string_lossy()))
+    }))
 }
 
 /// The first setting in which `a` and `b` differ, as `name`, value in `a`, value in `b`.

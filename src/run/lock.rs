@@ -55,6 +55,7 @@ fn before_boot(path: &Path) -> bool {
 fn try_create(lock: &Path) -> Result<bool, IoError> {
     let tmp = atomic_io::temp_sibling(lock);
     atomic_io::write_atomic(&tmp, format!("{}\n", std::process::id()).as_bytes())?;
+    crate::interrupt::fault_point("lock-written", 0);
     let linked = std::fs::hard_link(&tmp, lock);
     let _ = std::fs::remove_file(&tmp);
     match linked {

@@ -16,13 +16,13 @@ impl RunState<'_> {
         }
         while k < steps {
             k += 1;
-            self.train_step(k)?;
+            self.train_step(k).map_err(|e| self.said_as_stop(e, k))?;
             interrupt::fault_point("step", self.trainer.step_count());
             if self.checkpoint_due(k) {
                 self.save(k, false)?;
             }
             self.stop_if_asked(k, false)?;
-            let stop_early = self.measure(k)?;
+            let stop_early = self.measure(k).map_err(|e| self.said_as_stop(e, k))?;
             interrupt::fault_point("measured", self.trainer.step_count());
             self.stop_if_asked(k, true)?;
             if stop_early {
@@ -89,11 +89,13 @@ impl RunState<'_> {
         let every = schedule.eval_every_steps;
         if k == self.config.steps || (every > 0 && k.is_multiple_of(every)) {
             let batches = schedule.eval_batches;
-            let e = heldout_error(&mut self.trainer, &mut self.heldout, bs, batches)?;
+            let stop = interrupt::stop_flag();
+            let e = heldout_error(&mut self.trainer, &mut self.heldout, bs, batches, stop)?;
             self.progress.last_eval = Some(e);
             let _ = write!(row, ",{},{},{}", e[0], e[1], e[2]);
             if self.config.cortex.m.mode != cortex::config::MMode::Oracle {
-                let m = heldout_motion_error(&mut self.trainer, &mut self.heldout, bs, batches)?;
+                let m =
+                    heldout_motion_error(&mut self.trainer, &mut self.heldout, bs, batches, stop)?;
                 self.progress.last_motion_error = Some(m);
                 let _ = write!(row, ",{m}");
             } else {
@@ -217,6 +219,23 @@ impl RunState<'_> {
         Ok(path)
     }
 
+    /// `e` said as a stop inside step `k` ([`RunError::said_as_stop`]): what was written is the
+    /// last checkpoint, from which the run resumes.
+    fn said_as_stop(&mut self, e: RunError, k: u64) -> RunError {
+        self.bar.abandon_with_message("stopped");
+        let out = self.out.display();
+        let kept = match &self.saved {
+            Some((s, _, path)) => format!("its last checkpoint is {} (step {s})", path.display()),
+            None => "no checkpoint was written yet".to_string(),
+        };
+        e.said_as_stop(|| {
+            format!(
+                "step {k} is not recorded and {kept}. Continue with `colorvision resume {out}` \
+                 (or the same command with --resume)"
+            )
+        })
+    }
+
     /// After step `k` (before or after its measurements): when a signal asked to stop, make
     /// sure a checkpoint of this point exists and stop with [`RunError::Interrupted`].
     fn stop_if_asked(&mut self, k: u64, measured: bool) -> Result<(), RunError> {
@@ -247,5 +266,11 @@ pub fn measure(
     trainer: &Trainer,
 ) -> Result<CmfSimResult, RunError> {
     let observer = EyeObserver::cortex(retina, &trainer.cortex, config.observer.clone());
-    Ok(run_cmf_sim(&observer, settings)?)
+    let stop = interrupt::stop_flag();
+    Ok(colorimetry::run_cmf_sim_until(
+        &observer,
+        settings,
+        &mut |_| {},
+        stop,
+    )?)
 }

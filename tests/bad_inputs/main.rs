@@ -11,9 +11,11 @@ const BIN: &str = env!("CARGO_BIN_EXE_colorvision");
 
 mod cases;
 mod scene_files;
+mod settings;
 
 use cases::{CASES, OUT_CASES};
 use scene_files::write_scene_files;
+use settings::RANGE_CASES;
 
 #[derive(Debug, Default)]
 struct Totals {
@@ -53,7 +55,9 @@ fn try_input(dir: &Path, name: &str, args: &[String], expect: &[&str], totals: &
         (Some(134), _) | (None, Some(_)) => totals.aborts.push(label),
         (Some(0), _) => totals.silent.push(label),
         (Some(code), _) => {
-            let one_line = lines.len() == 1 || (code == 2 && lines[0].starts_with("error:"));
+            // One line, and a long value named rather than echoed whole.
+            let one_line = (lines.len() == 1 && lines[0].chars().count() <= 400)
+                || (code == 2 && lines[0].starts_with("error:"));
             let says = expect
                 .iter()
                 .all(|e| lines.first().is_some_and(|l| l.contains(e)));
@@ -72,7 +76,7 @@ fn every_bad_input_gets_a_one_line_error_naming_file_and_field_and_writes_nothin
     let dir = scratch("bad_inputs");
     write_scene_files(&dir);
     let mut totals = Totals::default();
-    for c in CASES {
+    for c in CASES.iter().chain(RANGE_CASES) {
         let mut args: Vec<String> = ["train", "--preset", "tiny", "--steps", "2", "--out", "out"]
             .iter()
             .map(|s| s.to_string())
@@ -121,6 +125,25 @@ fn every_bad_input_gets_a_one_line_error_naming_file_and_field_and_writes_nothin
         }
         let _ = std::fs::remove_file(&out);
         let _ = std::fs::remove_dir_all(&out);
+    }
+    // A 100 000-character value is named, not echoed whole (`try_input` bounds the line).
+    let long = format!("{}Z", "C0:400,".repeat(14_285));
+    for (flag, value, names) in [
+        ("--cones", long.clone(), "--cones"),
+        ("--set", format!("cones={long}"), "--set"),
+        ("--preset", long.clone(), "preset"),
+    ] {
+        let mut args: Vec<String> = ["train", "--steps", "2", "--out", "out"]
+            .iter()
+            .map(|s| s.to_string())
+            .collect();
+        args.extend([flag.to_string(), value]);
+        let name = format!("{flag} of 100 000 characters");
+        try_input(&dir, &name, &args, &[names], &mut totals);
+        if dir.join("out").exists() {
+            totals.wrote.push(name);
+            std::fs::remove_dir_all(dir.join("out")).unwrap();
+        }
     }
     // A held-out scene count that does not split into whole batches, halves of them.
     for scenes in ["4", "10"] {

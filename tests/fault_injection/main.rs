@@ -10,6 +10,7 @@
 #[path = "../common/mod.rs"]
 mod common;
 mod harness;
+mod stop_stages;
 
 use common::{text, BIN};
 use harness::*;
@@ -254,4 +255,59 @@ fn a_kolen_pollack_run_killed_between_steps_resumes_bit_identically() {
 fn a_forward_forward_run_killed_between_steps_resumes_bit_identically() {
     // The wrong motions of the negative data come from the batch: the data stream's resume.
     a_rule_run_resumes_bit_identically("forward-forward", "forward-forward");
+}
+
+/// The names in `dir`.
+fn names(dir: &Path) -> Vec<String> {
+    let mut n: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().to_string())
+        .collect();
+    n.sort();
+    n
+}
+
+#[test]
+fn killed_at_its_first_write_the_folder_is_rerun_or_resumed() {
+    let dir = scratch("first_write");
+    let o = start(&dir, "train", Some("abort@lock-written:0"));
+    assert_eq!(exit_code(&o), Some(ABORT), "{}", text(&o));
+    let left = names(&dir.join("out"));
+    assert!(
+        !left.is_empty()
+            && left
+                .iter()
+                .all(|n| n.starts_with('.') && n.contains(".tmp-")),
+        "{left:?}"
+    );
+    // `resume` says the run was never started and removes what the killed start left.
+    let o = colorvision(&dir, &["resume", "out"], None);
+    let log = text(&o);
+    assert_eq!(exit_code(&o), Some(1), "{log}");
+    assert!(
+        log.contains("never started") && log.contains("removed"),
+        "{log}"
+    );
+    assert!(names(&dir.join("out")).is_empty(), "{log}");
+    // Killed again, the same command run again starts the run and finishes it.
+    let o = start(&dir, "train", Some("abort@lock-written:0"));
+    assert_eq!(exit_code(&o), Some(ABORT), "{}", text(&o));
+    let o = start(&dir, "train", None);
+    assert!(o.status.success(), "{}", text(&o));
+    assert_files_parse(&dir.join("out"), false);
+    // Killed once more elsewhere, `--resume` with the run's settings starts it.
+    let args = ["train", "--config", "config.toml", "--out", "again"];
+    let o = colorvision(&dir, &args, Some("abort@lock-written:0"));
+    assert_eq!(exit_code(&o), Some(ABORT), "{}", text(&o));
+    let o = colorvision(&dir, &[&args[..], &["--resume"]].concat(), None);
+    let log = text(&o);
+    assert!(o.status.success() && log.contains("never started"), "{log}");
+    assert_files_parse(&dir.join("again"), false);
+    // A temporary a killed writer left beside a finished run goes when it is resumed.
+    let stale = dir.join("out/.report.html.tmp-4294967295");
+    std::fs::write(&stale, "").unwrap();
+    let o = colorvision(&dir, &["resume", "out"], None);
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(!stale.exists(), "{}", text(&o));
+    std::fs::remove_dir_all(dir).ok();
 }

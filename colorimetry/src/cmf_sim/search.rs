@@ -14,9 +14,10 @@ use super::base::Base;
 use super::sets::{evaluate_early, evaluate_fully, FrontEnd, SetOutcome, WavelengthOrder};
 use super::{curve, stratified_primaries, CmfSimProgress, CmfSimSettings, ErrorCurve, KSummary};
 use super::{SetRecord, WavelengthPairs};
-use crate::error::Result;
+use crate::error::{ColorimetryError, Result};
 use crate::matching::{KnownAtZero, MatchOptions, MatchProblem};
 use crate::observer::Observer;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 /// What every K's search shares: the observer, the settings and step 1's results.
 pub(super) struct Search<'a> {
@@ -26,6 +27,8 @@ pub(super) struct Search<'a> {
     pub intensity: f64,
     pub base: &'a Base,
     pub threshold: &'a [f64],
+    /// Set by the caller to stop the search (checked before every primary set).
+    pub stop: &'a AtomicBool,
 }
 
 /// A set tried: its primaries, locations and seed, and what its evaluation found.
@@ -133,6 +136,9 @@ impl Search<'_> {
         let mut tried: Vec<Tried> = Vec::new();
         let mut best_bound = f64::INFINITY;
         for index in 1..=self.settings.sets_per_k {
+            if self.stop.load(Ordering::Relaxed) {
+                return Err(ColorimetryError::Stopped);
+            }
             let t = self.try_set(k, index, rng, order, front.as_deref_mut(), draw_pairs)?;
             summary.account(&t.outcome);
             let bound = t.outcome.worst_ratio(self.threshold);
@@ -172,6 +178,9 @@ impl Search<'_> {
         }
         let mut reported: Option<ErrorCurve> = None;
         for t in &tried {
+            if self.stop.load(Ordering::Relaxed) {
+                return Err(ColorimetryError::Stopped);
+            }
             let full = self.converge(t, front.as_deref_mut());
             if !t.outcome.fully_evaluated {
                 summary.reported_curve_shows += full.shows;

@@ -155,6 +155,38 @@ fn too_small_a_budget_is_reported_not_guessed() {
 }
 
 #[test]
+fn a_stop_request_ends_the_search_and_a_progress_callback_can_request_it() {
+    let o = cones(&ConeClass::lms());
+    let stop = std::sync::atomic::AtomicBool::new(false);
+    let mut sets = 0;
+    let r = run_cmf_sim_until(
+        &o,
+        &fast(1),
+        &mut |_| {
+            sets += 1;
+            stop.store(true, std::sync::atomic::Ordering::Relaxed);
+        },
+        &stop,
+    );
+    assert!(matches!(r, Err(ColorimetryError::Stopped)), "{r:?}");
+    assert_eq!(sets, 1, "the search stops before the next set");
+}
+
+#[test]
+fn a_separation_wider_than_a_band_is_refused_before_any_show() {
+    let o = cones(&ConeClass::lms());
+    let bad = CmfSimSettings {
+        min_primary_separation_nm: 1000.0,
+        ..fast(1)
+    };
+    let e = run_cmf_sim(&o, &bad).unwrap_err().to_string();
+    assert!(
+        e.contains("min_primary_separation_nm") && e.contains("bands"),
+        "{e}"
+    );
+}
+
+#[test]
 fn settings_outside_the_grid_are_errors() {
     let o = cones(&ConeClass::lms());
     let bad = CmfSimSettings {

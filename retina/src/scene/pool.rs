@@ -31,6 +31,7 @@
 //! runs see fresh scenes at a small amortised cost.
 
 use std::path::Path;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 use rand::rngs::StdRng;
 use rand::seq::SliceRandom;
@@ -178,6 +179,20 @@ impl ScenePool {
         rng: &mut R,
         progress: ProgressFn<'_>,
     ) -> Result<ScenePool> {
+        let never = AtomicBool::new(false);
+        Self::with_progress_until(config, projection, levels, rng, progress, &never)
+    }
+
+    /// [`ScenePool::with_progress`] that ends with [`RetinaError::Stopped`] once `stop` is set
+    /// (checked before every tile is drawn).
+    pub fn with_progress_until<R: Rng + ?Sized>(
+        config: ScenePoolConfig,
+        projection: SceneProjection,
+        levels: usize,
+        rng: &mut R,
+        progress: ProgressFn<'_>,
+        stop: &AtomicBool,
+    ) -> Result<ScenePool> {
         if config.tiles == 0 || config.tile_px < 2 {
             return Err(RetinaError::setting(
                 "scenes",
@@ -221,7 +236,12 @@ impl ScenePool {
         let tiles = seeds
             .par_iter()
             .enumerate()
-            .map(|(i, &s)| pool.make_tile(i, &mut StdRng::seed_from_u64(s)))
+            .map(|(i, &s)| {
+                if stop.load(Ordering::Relaxed) {
+                    return Err(RetinaError::Stopped);
+                }
+                pool.make_tile(i, &mut StdRng::seed_from_u64(s))
+            })
             .collect::<Result<Vec<_>>>()?;
         pool.tiles = tiles;
         Ok(pool)

@@ -179,6 +179,28 @@ pub fn one_line(message: &str) -> String {
     out
 }
 
+/// Longest run of characters without a space that a message shows whole.
+pub const LONGEST_SHOWN: usize = 80;
+
+/// `message` with every word (run of characters without a space) longer than
+/// [`LONGEST_SHOWN`] cut to its start and end around how many characters were left out: a
+/// 100 000-character value is named, not echoed.
+pub fn shortened(message: &str) -> String {
+    message
+        .split(' ')
+        .map(|word| {
+            let chars: Vec<char> = word.chars().collect();
+            if chars.len() <= LONGEST_SHOWN {
+                return word.to_string();
+            }
+            let head: String = chars[..48].iter().collect();
+            let tail: String = chars[chars.len() - 16..].iter().collect();
+            format!("{head}…[{} characters]…{tail}", chars.len() - 64)
+        })
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
 /// Names where a bad value came from: the command-line flag or `--set` that gave it, else the
 /// config file.
 fn attribute(e: ConfigError, options: &Overrides, file: Option<&str>) -> ConfigError {

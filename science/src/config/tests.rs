@@ -159,3 +159,17 @@ fn a_wrong_setting_given_with_set_names_set_and_the_key() {
         "{e}"
     );
 }
+
+#[test]
+fn a_long_value_is_shortened_in_a_message_and_a_short_one_kept() {
+    let long = "C0:400,".repeat(20_000);
+    let said = shortened(&format!("setting `--cones`: `{long}`: unknown class"));
+    assert!(said.chars().count() < 200, "{said}");
+    assert!(said.starts_with("setting `--cones`: `C0:400,") && said.ends_with("unknown class"));
+    assert!(
+        said.contains(&format!("[{} characters]", long.len() + 3 - 64)),
+        "{said}"
+    );
+    let short = "setting `steps`: 0 must be in [1, 1000000000] (gradient updates)";
+    assert_eq!(shortened(short), short);
+}

@@ -10,6 +10,8 @@ impl RunConfig {
             field: field.into(),
             reason,
         };
+        self.validate_integers()?;
+        self.validate_ranges()?;
         self.validate_said_twice()?;
         if self.retina.cones_per_side != self.cortex.ons_size_px {
             return Err(invalid(
@@ -56,7 +58,15 @@ impl RunConfig {
                 other => invalid(what, other.to_string()),
             })?;
         }
-        // Every value is written to config.toml, whose integers are signed 64-bit.
+        Ok(())
+    }
+
+    /// Checks that every integer fits config.toml, whose integers are signed 64-bit.
+    fn validate_integers(&self) -> Result<(), ConfigError> {
+        let invalid = |field: &str, reason: String| ConfigError::Invalid {
+            field: field.into(),
+            reason,
+        };
         for (field, v) in [
             ("seed", self.seed),
             ("steps", self.steps),

@@ -136,3 +136,18 @@ fn affine_fit_removes_an_affine_map_exactly() {
         .sum();
     assert!(residual > 0.1);
 }
+
+#[test]
+fn matched_recall_works_for_twenty_classes() {
+    // 20 classes of 5 items, clusters relabelled by a shuffle; class 0 loses one item to class 1's
+    // cluster.
+    let k = 20;
+    let truth: Vec<usize> = (0..k * 5).map(|i| i / 5).collect();
+    let relabel = |t: usize| (t * 7 + 3) % k;
+    let mut clusters: Vec<usize> = truth.iter().map(|&t| relabel(t)).collect();
+    clusters[0] = relabel(1);
+    let r = matched_recall(&clusters, &truth, k);
+    assert_eq!(r.len(), k);
+    assert_eq!(r[0], 0.8);
+    assert!(r[1..].iter().all(|&v| v == 1.0), "{r:?}");
+}

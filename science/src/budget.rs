@@ -1,0 +1,208 @@
+//! How much memory a run takes, estimated from its settings before anything is allocated, and
+//! the limit it must stay under.
+//!
+//! Conventions: sizes in bytes (`_bytes`), said in MiB. The estimate is the peak resident
+//! memory of the process: a fixed part (the program, its tables, the eye and the cortex per
+//! cone), the two scene pools (training and held-out: every tile's mip stack of class planes),
+//! and the larger of a training step (the autodiff tape of a batch) and, when CMF-SIM runs, a
+//! decode of the observer (each thread's tape over `observer.decode_batch` shows); the two never
+//! overlap. The coefficients are peak resident memory measured on the `tiny` and `quick` presets
+//! (2 threads; `tests/memory_budget.rs` checks the estimate within ±30 % of the measured peak).
+
+use crate::config::RunConfig;
+use retina::foveation::{ConeLayout, ConeSampler};
+
+const MIB: f64 = 1024.0 * 1024.0;
+
+/// The program, its tables and thread stacks, bytes (measured: the fixed part of `tiny` and
+/// `quick` less their per-cone part).
+const FIXED_BYTES: f64 = 33.0 * MIB;
+/// Per cone of the lattice, bytes: the eye's sampler and the cortex's per-pixel structures
+/// (measured: `quick` and `tiny` differ by 52 MiB over 3 072 cones).
+const PER_CONE_BYTES: f64 = 17.4 * 1024.0;
+/// Full-size planes per cone class a tile takes beyond its mip levels (the planes it is drawn
+/// from, and their copies while drawn; measured: 1.9 MiB per `quick` tile of 192² px, 3 classes
+/// and 3 levels, is 4.6 planes per class).
+const TILE_PLANES_PER_CLASS: f64 = 1.6;
+/// Tape of a training step per sample per ONS pixel, in `f32`s: a fixed part and a part per
+/// channel of the U-Net summed over its levels at their resolution (measured: the slope of
+/// peak memory in `cortex.train.batch_size` on `tiny` and `quick`).
+const STEP_F32_PER_PIXEL: (f64, f64) = (10.0, 17.4);
+/// A decode of one show by the cortex, bytes, on the `tiny` eye (32² cones; measured: the slope
+/// of peak memory in `observer.decode_batch`), and its growth with the cone lattice's side
+/// (measured between `tiny` and `quick`: ×34 for twice the side).
+const DECODE_SHOW_BYTES: (f64, f64) = (0.67 * MIB, 5.07);
+
+/// The estimated peak memory of a run and its parts.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Estimate {
+    /// The program and the per-cone structures.
+    pub fixed_bytes: f64,
+    /// The training and held-out scene pools.
+    pub scenes_bytes: f64,
+    /// A training step's tape.
+    pub step_bytes: f64,
+    /// The observer's decodes during CMF-SIM (0 without CMF-SIM).
+    pub decode_bytes: f64,
+}
+
+impl Estimate {
+    /// The estimated peak: the fixed part, the scenes and the larger of a step and a decode.
+    pub fn total_bytes(&self) -> f64 {
+        self.fixed_bytes + self.scenes_bytes + self.step_bytes.max(self.decode_bytes)
+    }
+
+    /// The parts in words, each with the settings that drive it.
+    pub fn parts(&self) -> String {
+        format!(
+            "scenes {:.0} MiB (retina.scenes.tiles × tile_px² × cone classes, twice), training \
+             step {:.0} MiB (cortex.train.batch_size × cones_per_side² × cortex.d.widths), \
+             CMF-SIM decodes {:.0} MiB (observer.decode_batch × threads × cones_per_side⁵), \
+             the rest {:.0} MiB",
+            self.scenes_bytes / MIB,
+            self.step_bytes / MIB,
+            self.decode_bytes / MIB,
+            self.fixed_bytes / MIB
+        )
+    }
+}
+
+/// Mip levels a tile holds for the eye of `config` (its layout's coarsest cone spacing).
+fn mip_levels(config: &RunConfig) -> usize {
+    let r = &config.retina;
+    let layout = ConeLayout::compute(&r.layout, r.cones_per_side, r.field_px, r.layout_seed);
+    ConeSampler::compute(&layout).levels_needed()
+}
+
+/// The estimate for `config`; `cmf_sim` when the run measures CMF-SIM, on `threads` threads.
+pub fn estimate(config: &RunConfig, cmf_sim: bool, threads: usize) -> Estimate {
+    let n = config.retina.cones_per_side as f64;
+    let classes = retina::MosaicSpec::parse(&config.cones)
+        .map(|s| s.class_names().len())
+        .unwrap_or(3) as f64;
+    let s = &config.retina.scenes;
+    let tile_bytes = (mip_levels(config) as f64 + TILE_PLANES_PER_CLASS)
+        * classes
+        * (s.tile_px as f64).powi(2)
+        * 4.0;
+    let channels: f64 = config
+        .cortex
+        .d
+        .widths
+        .iter()
+        .enumerate()
+        .map(|(level, &w)| w as f64 / 4f64.powi(level as i32))
+        .sum();
+    let (a, b) = STEP_F32_PER_PIXEL;
+    let per_sample = n * n * 4.0 * (a + b * channels);
+    let (show, growth) = DECODE_SHOW_BYTES;
+    let decode = if cmf_sim {
+        threads as f64 * config.observer.decode_batch as f64 * show * (n / 32.0).powf(growth)
+    } else {
+        0.0
+    };
+    Estimate {
+        fixed_bytes: FIXED_BYTES + PER_CONE_BYTES * n * n,
+        scenes_bytes: 2.0 * s.tiles as f64 * tile_bytes,
+        step_bytes: config.cortex.train.batch_size as f64 * per_sample,
+        decode_bytes: decode,
+    }
+}
+
+/// Fraction of the memory there is that a run may plan to take.
+pub const LIMIT_FRACTION: f64 = 0.8;
+
+/// The memory there is, bytes, and where the figure comes from: the cgroup's limit where there
+/// is one (v2 `memory.max`, v1 `memory.limit_in_bytes`), else the machine's available memory
+/// (`MemAvailable` of `/proc/meminfo`); `None` where neither can be read.
+pub fn memory_available() -> Option<(f64, &'static str)> {
+    let read = |p: &str| std::fs::read_to_string(p).ok();
+    for path in [
+        "/sys/fs/cgroup/memory.max",
+        "/sys/fs/cgroup/memory/memory.limit_in_bytes",
+    ] {
+        if let Some(v) = read(path).and_then(|t| t.trim().parse::<f64>().ok()) {
+            // v1 reports "no limit" as a huge number.
+            if v < 1e15 {
+                return Some((v, "the cgroup's memory limit"));
+            }
+        }
+    }
+    let meminfo = read("/proc/meminfo")?;
+    let kib = meminfo
+        .lines()
+        .find_map(|l| l.strip_prefix("MemAvailable:"))?
+        .trim()
+        .trim_end_matches("kB")
+        .trim()
+        .parse::<f64>()
+        .ok()?;
+    Some((kib * 1024.0, "the available memory"))
+}
+
+/// Refuses a run whose estimate exceeds `limit_bytes` (and names what drives it); `source`
+/// says where the limit comes from.
+pub fn check(estimate: &Estimate, limit_bytes: f64, source: &str) -> Result<(), crate::Error> {
+    let total = estimate.total_bytes();
+    if total <= limit_bytes {
+        return Ok(());
+    }
+    Err(crate::Error::invalid(
+        "memory",
+        format!(
+            "the run would take about {:.0} MiB, over the limit of {:.0} MiB ({source}): {}. \
+             Lower the settings that drive the largest part",
+            total / MIB,
+            limit_bytes / MIB,
+            estimate.parts()
+        ),
+    ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_part_grows_with_the_settings_that_drive_it() {
+        let base = RunConfig::preset("quick", "LMS").unwrap();
+        let e = estimate(&base, true, 2);
+        let mut c = base.clone();
+        c.retina.scenes.tiles *= 2;
+        assert!((estimate(&c, true, 2).scenes_bytes - 2.0 * e.scenes_bytes).abs() < 1.0);
+        let mut c = base.clone();
+        c.cortex.train.batch_size *= 2;
+        assert!((estimate(&c, true, 2).step_bytes - 2.0 * e.step_bytes).abs() < 1.0);
+        assert_eq!(estimate(&base, false, 2).decode_bytes, 0.0);
+        assert!(estimate(&base, true, 4).decode_bytes > e.decode_bytes);
+    }
+
+    #[test]
+    fn a_run_over_the_limit_is_refused_naming_what_drives_it() {
+        let mut c = RunConfig::preset("tiny", "LMS").unwrap();
+        c.retina.scenes.tiles = 1_000_000;
+        let e = estimate(&c, true, 2);
+        let msg = check(&e, 8.0 * 1024.0 * MIB, "a test")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            msg.contains("retina.scenes.tiles") && msg.contains("MiB"),
+            "{msg}"
+        );
+        assert!(!msg.contains('\n'));
+        assert!(check(
+            &estimate(&RunConfig::preset("tiny", "LMS").unwrap(), true, 2),
+            8.0 * 1024.0 * MIB,
+            "a test"
+        )
+        .is_ok());
+    }
+
+    #[test]
+    fn the_memory_there_is_is_read_on_linux() {
+        if cfg!(target_os = "linux") {
+            let (bytes, _) = memory_available().expect("readable on Linux");
+            assert!(bytes > 1e6, "{bytes}");
+        }
+    }
+}

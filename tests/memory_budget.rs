@@ -1,0 +1,114 @@
+//! The memory estimate a run prints before it allocates anything (`science::budget`) is within
+//! ±30 % of the peak resident memory the run then takes, on the `tiny` and `quick` presets; a run
+//! over its limit (`COLORVISION_MEMORY_LIMIT_MIB`) is refused with one line naming the settings
+//! that drive the estimate, and makes no folder.
+//!
+//! The peak is the child's own (`wait4`'s resource usage of that process, `ru_maxrss`).
+
+#[path = "common/mod.rs"]
+mod common;
+
+use std::path::{Path, PathBuf};
+use std::process::Stdio;
+
+fn scratch(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("cv_memory_{name}_{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// Runs `colorvision ARGS` in `dir` to the end; its stdout and its peak resident memory, MiB.
+// The child is waited for with `wait4`, which also reports its resource usage.
+#[allow(clippy::zombie_processes)]
+fn peak_of(dir: &Path, args: &[&str]) -> (String, f64) {
+    let log = dir.join("stdout.txt");
+    let child = common::command(dir, args, None)
+        .stdout(std::fs::File::create(&log).unwrap())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    let pid = child.id() as libc::pid_t;
+    let mut status = 0;
+    // SAFETY: `rusage` is plain data, zeroed is a valid value; `wait4` writes into both
+    // out-parameters, which live for the call.
+    let mut usage: libc::rusage = unsafe { std::mem::zeroed() };
+    let waited = unsafe { libc::wait4(pid, &mut status, 0, &mut usage) };
+    assert_eq!(waited, pid, "wait4");
+    assert!(
+        libc::WIFEXITED(status) && libc::WEXITSTATUS(status) == 0,
+        "{args:?} failed: {}",
+        std::fs::read_to_string(&log).unwrap()
+    );
+    // Linux reports ru_maxrss in KiB.
+    (
+        std::fs::read_to_string(&log).unwrap(),
+        usage.ru_maxrss as f64 / 1024.0,
+    )
+}
+
+/// The estimate the run printed, MiB.
+fn printed_estimate(stdout: &str) -> f64 {
+    stdout
+        .split("estimated peak ")
+        .nth(1)
+        .and_then(|t| t.split_whitespace().next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("no estimate in:\n{stdout}"))
+}
+
+#[test]
+fn the_estimate_is_within_30_percent_of_the_peak_on_tiny_and_quick() {
+    let dir = scratch("estimate");
+    for (name, args) in [
+        ("tiny", ["train", "--preset", "tiny", "--steps", "2"]),
+        (
+            "tiny with CMF-SIM",
+            ["run", "--preset", "tiny", "--steps", "2"],
+        ),
+        ("quick", ["train", "--preset", "quick", "--steps", "2"]),
+    ] {
+        let out = format!("out_{}", name.replace(' ', "_"));
+        let args: Vec<&str> = args.iter().copied().chain(["--out", &out]).collect();
+        let (stdout, peak) = peak_of(&dir, &args);
+        let estimate = printed_estimate(&stdout);
+        println!("{name}: estimated {estimate:.0} MiB, peak {peak:.0} MiB");
+        assert!(
+            (estimate / peak - 1.0).abs() <= 0.30,
+            "{name}: estimated {estimate} MiB, peak {peak} MiB"
+        );
+    }
+    std::fs::remove_dir_all(dir).ok();
+}
+
+#[test]
+fn a_run_over_its_memory_limit_is_refused_naming_what_drives_it() {
+    let dir = scratch("limit");
+    let o = common::command(
+        &dir,
+        &["train", "--preset", "tiny", "--steps", "2", "--out", "out"],
+        None,
+    )
+    .args(["--set", "retina.scenes.tiles=100000"])
+    .env("COLORVISION_MEMORY_LIMIT_MIB", "4096")
+    .output()
+    .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr).to_string();
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    assert!(
+        err.contains("COLORVISION_MEMORY_LIMIT_MIB=4096") && err.contains("retina.scenes.tiles"),
+        "{err}"
+    );
+    assert!(!dir.join("out").exists(), "{err}");
+    let o = common::command(&dir, &["train", "--preset", "tiny", "--out", "out"], None)
+        .env("COLORVISION_MEMORY_LIMIT_MIB", "lots")
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr).to_string();
+    assert!(
+        err.contains("COLORVISION_MEMORY_LIMIT_MIB") && o.status.code() == Some(1),
+        "{err}"
+    );
+    std::fs::remove_dir_all(dir).ok();
+}
