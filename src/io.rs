@@ -117,7 +117,7 @@ fn temp_owner(name: &str) -> Option<u32> {
     digits(pid)
 }
 
-/// Whether `name` is a temporary this crate or its dependencies write (see [`temp_owner`]),
+/// Whether `name` is a temporary this crate or its dependencies write (see `temp_owner`),
 /// whoever wrote it.
 pub fn is_temporary(name: &str) -> bool {
     temp_owner(name).is_some()
