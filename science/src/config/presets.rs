@@ -22,7 +22,7 @@ pub const LONG_STEPS: u64 = 40_000;
 
 /// Steps of the `main` preset, the run of `cargo run --release`: fixed before the runs that
 /// measured it (docs/notebook/2026-11-28-slow-colour-protocol-2.md), the quick eye in natural
-/// surface scenes is 3-D at this length in arm B1's seeds (every seed's verdict:
+/// surface scenes is 3-D at this length for each of arm B1's five seeds (K2 fails 1.06–3.08;
 /// docs/notebook/2026-11-28-why-colour-emerged-slowly.md), and the run stays within half an
 /// hour on 2 cores including the build.
 pub const MAIN_STEPS: u64 = 12_000;
