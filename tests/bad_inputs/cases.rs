@@ -9,7 +9,7 @@ pub struct Case {
     pub expect: &'static [&'static str],
 }
 
-const fn case(
+pub(super) const fn case(
     name: &'static str,
     config: Option<&'static str>,
     args: &'static [&'static str],

@@ -2,21 +2,7 @@
 //! machine: each a one-line error naming the file (or `--set`/flag) and the field, before any
 //! folder is made. The same shape as [`super::cases`].
 
-use super::cases::Case;
-
-const fn case(
-    name: &'static str,
-    config: Option<&'static str>,
-    args: &'static [&'static str],
-    expect: &'static [&'static str],
-) -> Case {
-    Case {
-        name,
-        args,
-        config,
-        expect,
-    }
-}
+use super::cases::{case, Case};
 
 pub const RANGE_CASES: &[Case] = &[
     case(
