@@ -17,7 +17,8 @@
 //!    is a random square crop of one file's planes; tile draws walk the files in an order
 //!    shuffled once from the pool's seed (initial tiles first, then each refresh), so every
 //!    file is used before any is used again.
-//! 2. otherwise synthetic dead leaves ([`super::dead_leaves`]), with a fraction
+//! 2. otherwise synthetic scenes of the pool's `generator` — surfaces ([`super::surfaces`]) or
+//!    the classic dead leaves ([`super::dead_leaves`]) — with a fraction
 //!    `tetra.fraction` of tiles from a tetrachromatic environment ([`super::tetra`]; the
 //!    paper's 100 patches on 900 images is 0.1).
 //!
