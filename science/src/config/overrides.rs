@@ -95,21 +95,25 @@ impl Overrides {
         Ok(Some((name, value)))
     }
 
-    /// Checks every `--set` setting alone over `base` (the preset), so that an unknown key or
-    /// a value of the wrong type names `--set` and the key rather than the file.
-    pub(super) fn check_settings_alone(&self, base: &RunConfig) -> Result<(), ConfigError> {
-        for item in &self.set {
-            let (key, setting) = parse_setting(item)?;
+    /// The first `--set` setting that does not parse laid alone over `base` (the preset), as an
+    /// error naming `--set` and the key — asked when the settings together did not parse, so
+    /// that an unknown key or a value of the wrong type names the setting rather than the file.
+    /// Settings that make a table together (`retina.scenes.tetra.environment` and `.fraction`)
+    /// are never checked one without the other while the whole parses.
+    pub(super) fn setting_that_fails_alone(&self, base: &RunConfig) -> Option<ConfigError> {
+        self.set.iter().find_map(|item| {
+            let (key, setting) = match parse_setting(item) {
+                Ok(parsed) => parsed,
+                Err(e) => return Some(e),
+            };
             let mut alone = toml::Value::try_from(base).expect("a RunConfig serialises to TOML");
             set_dotted(&mut alone, &key, setting);
-            alone
-                .try_into::<RunConfig>()
-                .map_err(|e| ConfigError::Parse {
-                    path: format!("--set {item}"),
-                    message: one_line(&e.to_string()),
-                })?;
-        }
-        Ok(())
+            let error = alone.try_into::<RunConfig>().err()?;
+            Some(ConfigError::Parse {
+                path: format!("--set {item}"),
+                message: one_line(&error.to_string()),
+            })
+        })
     }
 
     /// The `--set` key that gave `field` (a setting's dotted name), if one did.

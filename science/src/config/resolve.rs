@@ -51,7 +51,6 @@ impl RunConfig {
             .or_else(|| file_str("cones"))
             .unwrap_or_else(|| "LMS".to_string());
         let base = RunConfig::preset(&preset, &cones)?;
-        options.check_settings_alone(&base)?;
         let given = |key: &[&str]| {
             file.as_ref()
                 .is_some_and(|(_, v)| key.iter().try_fold(v, |v, k| v.get(k)).is_some())
@@ -70,9 +69,13 @@ impl RunConfig {
                 merge(&mut merged, value);
                 merged
                     .try_into::<RunConfig>()
-                    .map_err(|e| ConfigError::Parse {
-                        path,
-                        message: one_line(&e.to_string()),
+                    .map_err(|e| {
+                        options
+                            .setting_that_fails_alone(&base)
+                            .unwrap_or_else(|| ConfigError::Parse {
+                                path,
+                                message: one_line(&e.to_string()),
+                            })
                     })?
             }
             None => base,

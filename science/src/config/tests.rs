@@ -153,6 +153,23 @@ fn a_wrong_setting_given_with_set_names_set_and_the_key() {
     assert!(e.starts_with("--set steps=many: "), "{e}");
     let e = resolve(&["cortex.train.learning_rate=-1"]);
     assert!(e.contains("--set cortex.train.learning_rate"), "{e}");
+    // A table given key by key: together they make it, one alone names its missing sibling.
+    let o = Overrides {
+        preset: Some("tiny".into()),
+        set: vec![
+            "retina.scenes.tetra.environment=HueSphere".into(),
+            "retina.scenes.tetra.fraction=0.1".into(),
+        ],
+        ..Overrides::default()
+    };
+    let tetra = RunConfig::resolve(&o, "quick").unwrap().retina.scenes.tetra;
+    assert_eq!(tetra.map(|t| t.fraction), Some(0.1));
+    let e = resolve(&["retina.scenes.tetra.environment=HueSphere"]);
+    assert!(
+        e.starts_with("--set retina.scenes.tetra.environment=HueSphere: ")
+            && e.contains("fraction"),
+        "{e}"
+    );
     let e = resolve(&["learning_rate"]);
     assert!(
         e.starts_with("--set: `learning_rate`: expected KEY=VALUE"),
