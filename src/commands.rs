@@ -241,8 +241,9 @@ pub fn print_cmf_sim(r: &CmfSimResult) {
     }
 }
 
-/// `colorvision scope`: Neural Scope pictures and invariants of a trained run, written to
-/// `--out` or `DIR/scope/` (never over the run's own `pictures/`).
+/// `colorvision scope`: Neural Scope pictures and invariants of a trained run (the percept's
+/// hue-angle error, the hue axes, what the eye hides; `scope.json`), written to `--out` or
+/// `DIR/scope/` (never over the run's own `pictures/`).
 pub fn scope(options: &RunDirOptions) -> Result<(), RunError> {
     let dir = measurement_dir(&options.run, options.common.out.as_ref(), "scope")?;
     let (config, trainer, _) =
@@ -250,7 +251,8 @@ pub fn scope(options: &RunDirOptions) -> Result<(), RunError> {
     let retina = Retina::new(config.retina.clone())?;
     let mut heldout = science::heldout::heldout_source(&config, false)?;
     let inv = crate::pictures::write_all(&dir, &config, &retina, &mut heldout, &trainer)?;
-    println!("Neural Scope pictures in {}", dir.display());
+    crate::io::write_json(&dir.join("scope.json"), &inv)?;
+    println!("Neural Scope pictures and scope.json in {}", dir.display());
     println!(
         "{}",
         serde_json::to_string_pretty(&inv).expect("plain data")

@@ -78,6 +78,7 @@ fn measurements_of_a_run_never_touch_its_record() {
         "stiles-burch/trained/stiles_burch.svg",
         "x/cmf_sim.json",
         "y/scope.png",
+        "y/scope.json",
         "z/cmf_sim.json",
     ] {
         assert!(

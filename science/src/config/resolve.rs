@@ -67,16 +67,14 @@ impl RunConfig {
                 let mut merged =
                     toml::Value::try_from(&base).expect("a RunConfig serialises to TOML");
                 merge(&mut merged, value);
-                merged
-                    .try_into::<RunConfig>()
-                    .map_err(|e| {
-                        options
-                            .setting_that_fails_alone(&base)
-                            .unwrap_or_else(|| ConfigError::Parse {
-                                path,
-                                message: one_line(&e.to_string()),
-                            })
-                    })?
+                merged.try_into::<RunConfig>().map_err(|e| {
+                    options
+                        .setting_that_fails_alone(&base)
+                        .unwrap_or_else(|| ConfigError::Parse {
+                            path,
+                            message: one_line(&e.to_string()),
+                        })
+                })?
             }
             None => base,
         };

@@ -1,0 +1,152 @@
+#!/bin/bash
+# The paper's table, measured once at counts fixed in advance
+# (docs/notebook/2026-11-28-paper-table-protocol.md): every cell below is a `colorvision run` of
+# the `main` preset (the quick eye and cortex in natural surface scenes, oracle eye motion,
+# backprop, CMF-SIM over steps and with the full budget at the end), one thread each, two cells
+# at a time. A cell that continues another's cortex (gene therapy, boosting) waits for it.
+#
+# Running it again continues: a finished cell (summary.json) is skipped, a stopped one resumes
+# from its checkpoints (`colorvision resume`), a cell another worker holds is left to it, and a
+# cell that stops with an error (logs/CELL.failed) is not tried again until the next call.
+# After a cell ends, its final checkpoint is measured again with location seeds 1 and 2
+# (DIR/cmf-sim-final-loc1, -loc2) when its verdict is on the border (the protocol's rule:
+# the last passing K above 0.9 of the threshold or the last failing one below 1.1); the
+# cell's verdict is then the median of the three.
+#
+# Usage: scripts/paper-table.sh OUT_DIR [COLORVISION_BINARY]
+#   JOBS=N   cells at once (default 2)
+#   A check of the script itself, not of the science: PRESET=tiny STEPS=20 (every cell on the
+#   32-cone test eye, 20 steps); ONLY=REGEX runs only the cells whose names match (and what
+#   they continue).
+# Then: scripts/record-run.sh OUT_DIR/CELL CELL for each, and scripts/readme-tables.sh.
+set -euo pipefail
+ROOT=$(cd "$(dirname "$0")/.." && pwd)
+OUT=${1:?usage: scripts/paper-table.sh OUT_DIR [COLORVISION_BINARY]}
+BIN=${2:-$ROOT/target/release/colorvision}
+[ -x "$BIN" ] || { echo "paper-table.sh: $BIN: not built (cargo build --release)" >&2; exit 1; }
+export RAYON_NUM_THREADS=1
+PRESET=${PRESET:-main}
+mkdir -p "$OUT/logs"
+OUT=$(cd "$OUT" && pwd)
+
+HUE="--set retina.scenes.tetra.environment=HueSphere --set retina.scenes.tetra.fraction=0.1"
+IDEAL="--set retina.scenes.tetra.environment=Idealised --set retina.scenes.tetra.fraction=0.1"
+# cell | cones | seed | steps | the cell it continues (- for none) | extra settings
+CELLS="
+LMS-surfaces-seed0-12k|LMS|0|12000|-|
+MS-surfaces-12k|MS|0|12000|-|
+LMS-surfaces-seed1-12k|LMS|1|12000|-|
+LMS-surfaces-seed2-12k|LMS|2|12000|-|
+L-surfaces-8k|L|0|8000|-|
+M-surfaces-8k|M|0|8000|-|
+S-surfaces-8k|S|0|8000|-|
+LM-surfaces-12k|LM|0|12000|-|
+LS-surfaces-12k|LS|0|12000|-|
+LMS-lm1-surfaces-12k|LMS,lm=1|0|12000|-|
+LMS-lm0.5-surfaces-12k|LMS,lm=0.5|0|12000|-|
+LMS-1to1to1-surfaces-12k|iid,L=1,M=1,S=1|0|12000|-|
+baselines-surfaces-8k|LMS|0|8000|-|baselines
+MS-gene-replace-surfaces-24k|MS+L_replace_M|0|12000|MS-surfaces-12k|
+MS-gene-coexpress-surfaces-24k|MS+L_coexpress_M|0|12000|MS-surfaces-12k|
+MS-gene-ratio-surfaces-24k|MS+L_ratio_M|0|12000|MS-surfaces-12k|
+LMS-boost-pigeonQ-surfaces-24k|LMSQ,Q:506|0|12000|LMS-surfaces-seed0-12k|
+LMS-boost-pigeonQ-huesphere-surfaces-24k|LMSQ,Q:506|0|12000|LMS-surfaces-seed0-12k|$HUE
+LMS-boost-pigeonQ-idealised-surfaces-24k|LMSQ,Q:506|0|12000|LMS-surfaces-seed0-12k|$IDEAL
+LMS-boost-humanQ-surfaces-24k|LMSQ|0|12000|LMS-surfaces-seed0-12k|
+LMS-boost-humanQ-huesphere-surfaces-24k|LMSQ|0|12000|LMS-surfaces-seed0-12k|$HUE
+LMS-boost-humanQ-idealised-surfaces-24k|LMSQ|0|12000|LMS-surfaces-seed0-12k|$IDEAL
+LMSQ-pigeonQ-surfaces-24k|LMSQ,Q:506|0|24000|-|
+LMSQ-pigeonQ-huesphere-surfaces-24k|LMSQ,Q:506|0|24000|-|$HUE
+LMSQ-pigeonQ-idealised-surfaces-24k|LMSQ,Q:506|0|24000|-|$IDEAL
+LMSQ-humanQ-surfaces-24k|LMSQ|0|24000|-|
+LMSQ-humanQ-huesphere-surfaces-24k|LMSQ|0|24000|-|$HUE
+LMSQ-humanQ-idealised-surfaces-24k|LMSQ|0|24000|-|$IDEAL
+"
+
+done_cell() {
+    { [ -f "$OUT/$1/summary.json" ] || [ -f "$OUT/$1/trained_on_cone_activations/summary.json" ]; } \
+        && [ ! -f "$OUT/$1/.measuring" ]
+}
+failed() { [ -f "$OUT/logs/$1.failed" ]; }
+
+# Holds CELL for this worker (a lock folder naming its process); a lock whose process is gone
+# is taken over.
+take() {
+    local lock="$OUT/logs/$1.lock"
+    if mkdir "$lock" 2>/dev/null; then echo $$ > "$lock/pid"; return 0; fi
+    local pid; pid=$(cat "$lock/pid" 2>/dev/null || echo 0)
+    if ! kill -0 "$pid" 2>/dev/null; then echo $$ > "$lock/pid"; return 0; fi
+    return 1
+}
+
+# The verdict's two deciding margins on the border (protocol's rule)? Reads summary.json.
+on_border() {
+    python3 - "$1/summary.json" <<'EOF'
+import json, sys
+s = json.load(open(sys.argv[1]))
+ratios = dict((k, r) for k, r in s["converged_ratio_per_k"])
+d = s["dimension"]
+near = (d in ratios and ratios[d] > 0.9) or (d - 1 in ratios and ratios[d - 1] < 1.1)
+sys.exit(0 if near else 1)
+EOF
+}
+
+run_cell() {
+    local name=$1 cones=$2 seed=$3 steps=$4 after=$5 extra=$6 dir="$OUT/$1"
+    if [ "$extra" = baselines ]; then
+        local resume=(); [ -d "$dir" ] && resume=(--resume)
+        "$BIN" experiment baselines --preset "$PRESET" --cones "$cones" --seed "$seed" \
+            --steps "${STEPS:-$steps}" --out "$dir" "${resume[@]}" || return 1
+        return 0
+    fi
+    if [ -f "$dir/run.json" ] && [ ! -f "$dir/summary.json" ]; then
+        "$BIN" resume "$dir" || return 1
+    elif [ ! -f "$dir/summary.json" ]; then
+        local from=()
+        [ "$after" != - ] && from=(--continue-from "$OUT/$after")
+        # shellcheck disable=SC2086  # $extra is a list of --set options
+        "$BIN" run --preset "$PRESET" --cones "$cones" --seed "$seed" \
+            --steps "${STEPS:-$steps}" --out "$dir" "${from[@]}" $extra || return 1
+    fi
+    if on_border "$dir"; then
+        touch "$dir/.measuring"
+        for loc in 1 2; do
+            [ -f "$dir/cmf-sim-final-loc$loc/cmf_sim.json" ] || "$BIN" cmf-sim --run "$dir" \
+                --location-seed "$loc" --out "$dir/cmf-sim-final-loc$loc" || return 1
+        done
+        rm -f "$dir/.measuring"
+    fi
+}
+
+worker() {
+    while true; do
+        local left=0 ran=0
+        while IFS='|' read -r name cones seed steps after extra; do
+            [ -z "$name" ] && continue
+            [ -n "${ONLY:-}" ] && ! [[ $name =~ $ONLY ]] && [[ $ONLY_AFTER != *"|$name|"* ]] && continue
+            done_cell "$name" && continue
+            failed "$name" && continue
+            [ "$after" != - ] && failed "$after" && continue
+            left=1
+            [ "$after" != - ] && ! done_cell "$after" && continue
+            take "$name" || continue
+            echo "$(date -u +%FT%TZ) worker $1: $name"
+            run_cell "$name" "$cones" "$seed" "$steps" "$after" "$extra" \
+                >> "$OUT/logs/$name.log" 2>&1 \
+                || { touch "$OUT/logs/$name.failed"
+                     echo "$(date -u +%FT%TZ) worker $1: $name stopped (see logs/$name.log)"; }
+            rm -rf "$OUT/logs/$name.lock"
+            ran=1
+            break
+        done <<< "$CELLS"
+        [ $left = 0 ] && break
+        [ $ran = 0 ] && sleep 60
+    done
+}
+
+# The cells ONLY's cells continue, as |a|b|.
+ONLY_AFTER="|$(while IFS='|' read -r n _ _ _ a _; do [[ -n $n && $n =~ ${ONLY:-^$} && $a != - ]] && echo -n "$a|"; done <<< "$CELLS"; true)"
+rm -f "$OUT"/logs/*.failed   # a cell that stopped last time is tried again
+for j in $(seq "${JOBS:-2}"); do worker "$j" & done
+wait
+echo "paper-table.sh: every cell of $OUT finished"
