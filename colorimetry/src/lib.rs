@@ -12,7 +12,7 @@
 //! | sRGB, linear sRGB ↔ cones (authors' code, docs/references.md#colour-transforms) | [`srgb`], [`cone_rgb`] |
 //! | observer trait, analytic observers | [`observer`], [`analytic`] |
 //! | matching solver, CMF-SIM, its output | [`matching`], [`cmf_sim`], [`cmf_sim_output`] |
-//! | Stiles–Burch comparison, Neural Scope | [`stiles_burch`], [`scope`] |
+//! | Stiles–Burch comparison, Neural Scope, hue axis and hue error | [`stiles_burch`], [`scope`], [`hue`] |
 //! | SVG line plots | [`plot`] |
 //!
 //! Conventions: wavelengths in nm (`*_nm`), spectra as `&[f64]` on a [`WavelengthGrid`], matrices
@@ -32,6 +32,7 @@ pub mod cones;
 pub mod data;
 pub mod error;
 pub mod grid;
+pub mod hue;
 pub mod linalg;
 pub mod matching;
 pub mod observer;
@@ -50,7 +51,8 @@ pub use cone_rgb::ConeRgb;
 pub use cones::{sensitivities, ConeClass, ConeFundamentals, ConeTemplate};
 pub use error::{ColorimetryError, Result};
 pub use grid::WavelengthGrid;
+pub use hue::{hue_axis, hue_error, HueAxis, HueError};
 pub use observer::{Observer, Show, Stimulus};
-pub use scope::{hue_axis, hue_error, HueAxis, HueError, NeuralScope, ScopeAccumulator};
+pub use scope::{NeuralScope, ScopeAccumulator};
 pub use stiles_burch::{compare_stiles_burch, StilesBurchResult, StilesBurchSettings};
 pub use table::SpectralTable;
