@@ -8,10 +8,10 @@
 # Running it again continues: a finished cell (summary.json) is skipped, a stopped one resumes
 # from its checkpoints (`colorvision resume`), a cell another worker holds is left to it, and a
 # cell that stops with an error (logs/CELL.failed) is not tried again until the next call.
-# After a cell ends, its final checkpoint is measured again with location seeds 1 and 2
-# (DIR/cmf-sim-final-loc1, -loc2) when its verdict is on the border (the protocol's rule:
-# the last passing K above 0.9 of the threshold or the last failing one below 1.1); the
-# cell's verdict is then the median of the three.
+# After a cell ends, its final checkpoint is measured again with the two location seeds after
+# its own (DIR/cmf-sim-step<N>-loc<L>) when its verdict is on the border (the protocol's rule:
+# the first passing K above 0.9 of the threshold or the last failing one below 1.1); the
+# cell's verdict is then the median of the three (`colorvision gather` reads them).
 #
 # Usage: scripts/paper-table.sh OUT_DIR [COLORVISION_BINARY]
 #   JOBS=N   cells at once (default 2)
@@ -79,15 +79,17 @@ take() {
     return 1
 }
 
-# The verdict's two deciding margins on the border (protocol's rule)? Reads summary.json.
-on_border() {
+# When the verdict is on the border (the protocol's rule), the final step and the two location
+# seeds after the run's own (`cmf_sim.seed`) to measure it with; nothing otherwise.
+border_measurements() {
     python3 - "$1/summary.json" <<'EOF'
 import json, sys
 s = json.load(open(sys.argv[1]))
 ratios = dict((k, r) for k, r in s["converged_ratio_per_k"])
 d = s["dimension"]
-near = (d in ratios and ratios[d] > 0.9) or (d - 1 in ratios and ratios[d - 1] < 1.1)
-sys.exit(0 if near else 1)
+if (d in ratios and ratios[d] > 0.9) or (d - 1 in ratios and ratios[d - 1] < 1.1):
+    own = s["config"]["cmf_sim"]["seed"]
+    print(s["steps"], own + 1, own + 2)
 EOF
 }
 
@@ -108,11 +110,14 @@ run_cell() {
         "$BIN" run --preset "$PRESET" --cones "$cones" --seed "$seed" \
             --steps "${STEPS:-$steps}" --out "$dir" "${from[@]}" $extra || return 1
     fi
-    if on_border "$dir"; then
+    local step loc1 loc2
+    read -r step loc1 loc2 <<< "$(border_measurements "$dir")" || true
+    if [ -n "${step:-}" ]; then
         touch "$dir/.measuring"
-        for loc in 1 2; do
-            [ -f "$dir/cmf-sim-final-loc$loc/cmf_sim.json" ] || "$BIN" cmf-sim --run "$dir" \
-                --location-seed "$loc" --out "$dir/cmf-sim-final-loc$loc" || return 1
+        for loc in "$loc1" "$loc2"; do
+            local dest="$dir/cmf-sim-step$step-loc$loc"
+            [ -f "$dest/cmf_sim.json" ] || "$BIN" cmf-sim --run "$dir" \
+                --location-seed "$loc" --out "$dest" || return 1
         done
         rm -f "$dir/.measuring"
     fi

@@ -147,9 +147,29 @@ pub struct Run {
     /// CMF-SIM's verdict over its checkpoints, when `colorvision convergence --cmf` measured
     /// some ([`OVER_CHECKPOINTS_FILE`]).
     pub over_checkpoints: Option<VerdictOverCheckpoints>,
+    /// CMF-SIM's dimension on its final checkpoint with location seeds other than its own, by
+    /// seed, where they were measured (`cmf-sim-step<N>-loc<L>/`: a verdict on the border).
+    pub other_location_seeds: Vec<(u64, usize)>,
     /// The figure of its checkpoints' averaged weights, when `colorvision average` measured it
     /// into the run folder ([`crate::averaging::averaged_path`]).
     pub averaged: Option<Averaged>,
+}
+
+impl Run {
+    /// The dimension the run measured at its end, when it measured one: its final CMF-SIM's,
+    /// or, where the same checkpoint was measured with other location seeds to an odd count of
+    /// three or more, the median of them all (a verdict on the border is not one draw of where
+    /// the lights are shown).
+    pub fn dimension(&self) -> Option<usize> {
+        let summary = (self.summary.as_ref()).filter(|s| !s.dimension_over_steps.is_empty())?;
+        let mut all: Vec<usize> = self.other_location_seeds.iter().map(|(_, d)| *d).collect();
+        all.push(summary.dimension);
+        if all.len() < 3 || all.len() % 2 == 0 {
+            return Some(summary.dimension);
+        }
+        all.sort_unstable();
+        Some(all[all.len() / 2])
+    }
 }
 
 /// `colorvision gather`.
@@ -310,6 +330,7 @@ pub(crate) fn recorded_run(
         settings: [("cones".to_string(), cones.to_string())].into(),
         stiles_burch: None,
         over_checkpoints: None,
+        other_location_seeds: Vec::new(),
         averaged: None,
     }
 }

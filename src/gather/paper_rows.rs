@@ -134,15 +134,12 @@ impl JudgedRow<'_> {
     }
 }
 
-/// A run's measured dimension: `3`, `undefined`, or its status when it measured none.
+/// A run's measured dimension ([`Run::dimension`]): `3`, `undefined`, or its status when it
+/// measured none.
 pub fn figure(run: &Run) -> String {
-    match run
-        .summary
-        .as_ref()
-        .filter(|s| !s.dimension_over_steps.is_empty())
-    {
-        Some(s) if s.dimension == 0 => "undefined".into(),
-        Some(s) => s.dimension.to_string(),
+    match run.dimension() {
+        Some(0) => "undefined".into(),
+        Some(d) => d.to_string(),
         None => run.status.word().into(),
     }
 }
@@ -151,13 +148,7 @@ pub fn figure(run: &Run) -> String {
 /// measured dimension agrees with it (`None` when the run has no measured dimension).
 fn against_paper(run: &Run) -> (Option<Reported>, Option<bool>) {
     let reported = science::paper::reported_for_settings(&run.settings);
-    let measured = run
-        .summary
-        .as_ref()
-        .filter(|s| !s.dimension_over_steps.is_empty());
-    let agrees = reported
-        .zip(measured)
-        .map(|(p, s)| p.agrees_with(s.dimension));
+    let agrees = reported.zip(run.dimension()).map(|(p, d)| p.agrees_with(d));
     (reported, agrees)
 }
 

@@ -62,6 +62,7 @@ pub(super) fn read_run(dir: &Path, folder: String, rows: &BTreeMap<PathBuf, Stri
         .ok()
     });
     let over_checkpoints = over_checkpoints(dir, summary.as_ref());
+    let other_location_seeds = other_location_seeds(dir, summary.as_ref());
     let averaged = averaged(dir);
     Run {
         folder,
@@ -71,6 +72,7 @@ pub(super) fn read_run(dir: &Path, folder: String, rows: &BTreeMap<PathBuf, Stri
         settings,
         stiles_burch,
         over_checkpoints,
+        other_location_seeds,
         averaged,
     }
 }
@@ -92,6 +94,42 @@ pub(super) fn over_checkpoints(
         .map_err(|e| eprintln!("colorvision gather: {}: {e}", path.display()))
         .ok()?;
     VerdictOverCheckpoints::with_final(points, summary.and_then(CheckpointCmf::final_of))
+}
+
+/// The dimensions CMF-SIM measured on the run's final checkpoint with location seeds other than
+/// its own (`cmf-sim-step<N>-loc<L>/cmf_sim.json`, `N` the run's steps, `L` not its
+/// `cmf_sim.seed`), by location seed. A file that does not read is reported on stderr and
+/// passed over.
+pub(super) fn other_location_seeds(dir: &Path, summary: Option<&Summary>) -> Vec<(u64, usize)> {
+    let Some(summary) = summary else {
+        return Vec::new();
+    };
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return Vec::new();
+    };
+    let prefix = format!("cmf-sim-step{}-loc", summary.steps);
+    let mut found: Vec<(u64, usize)> = (entries.filter_map(|e| e.ok()))
+        .filter_map(|entry| {
+            let name = entry.file_name();
+            let seed: u64 = name.to_string_lossy().strip_prefix(&prefix)?.parse().ok()?;
+            let own = seed == summary.config.cmf_sim.seed;
+            let path = entry.path().join(colorimetry::cmf_sim_output::CMF_SIM_JSON);
+            (!own).then(|| read_dimension(&path).map(|d| (seed, d)))?
+        })
+        .collect();
+    found.sort_unstable();
+    found
+}
+
+/// The integer field `dimension` of a `cmf_sim.json`; a file that does not read is reported.
+fn read_dimension(path: &Path) -> Option<usize> {
+    let read = crate::io::read_json::<serde_json::Value>(path).and_then(|v| {
+        (v.get("dimension").and_then(|d| d.as_u64()))
+            .map(|d| d as usize)
+            .ok_or_else(|| "no integer field `dimension`".to_string())
+    });
+    read.map_err(|e| eprintln!("colorvision gather: {}: {e}", path.display()))
+        .ok()
 }
 
 /// What `colorvision average` measured of `dir`'s checkpoints, when it wrote into `dir`

@@ -94,6 +94,7 @@ mod tests {
             settings: Default::default(),
             stiles_burch,
             over_checkpoints: None,
+            other_location_seeds: Vec::new(),
             averaged: None,
         }
     }

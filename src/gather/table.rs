@@ -96,6 +96,18 @@ fn cells(run: &Run) -> Option<Cells> {
         (true, false, 0) => format!("undefined ({margins})"),
         (true, _, d) => format!("{d} ({margins})"),
     };
+    let dimension = match (run.dimension(), run.other_location_seeds.as_slice()) {
+        (Some(median), others) if !others.is_empty() => {
+            let seeds: Vec<String> = (others.iter())
+                .map(|(l, d)| format!("{d} at {l}"))
+                .collect();
+            format!(
+                "{dimension}; other location seeds: {}; median {median}",
+                seeds.join(", ")
+            )
+        }
+        _ => dimension,
+    };
     let rec = s.invariants.as_ref().map(|i| &i.recovery);
     let c = rec.and_then(|r| r.c.as_ref());
     let w = rec.and_then(|r| r.w.as_ref());

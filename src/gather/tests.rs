@@ -55,3 +55,48 @@ fn the_averaged_weights_figure_is_read_with_the_run() {
     assert_eq!((run.status, run.averaged), (Status::Done, None));
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// The final checkpoint measured with other location seeds (a verdict on the border) makes the
+/// run's dimension the median of all; the run's own seed, another step's measurement, an even
+/// count and a file that does not read leave its own figure.
+#[test]
+fn other_location_seeds_on_the_final_checkpoint_give_the_median() {
+    let dir = std::env::temp_dir().join(format!("cv_gather_loc_{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let record = Path::new(env!("CARGO_MANIFEST_DIR")).join("results/LMS-main-surfaces-12k");
+    std::fs::copy(record.join("summary.json"), dir.join("summary.json")).unwrap();
+    let measure = |name: &str, text: &str| {
+        std::fs::create_dir_all(dir.join(name)).unwrap();
+        std::fs::write(dir.join(name).join("cmf_sim.json"), text).unwrap();
+    };
+    let read = || read_run(&dir, "x".into(), &BTreeMap::new());
+    let run = read();
+    assert_eq!(
+        (run.dimension(), run.other_location_seeds.len()),
+        (Some(3), 0)
+    );
+    measure("cmf-sim-step12000-loc0", r#"{"dimension": 1}"#); // the run's own seed
+    measure("cmf-sim-step6000-loc1", r#"{"dimension": 1}"#); // another checkpoint
+    measure("cmf-sim-step12000-loc1", r#"{"dimension": 2}"#);
+    let run = read();
+    assert_eq!(run.other_location_seeds, vec![(1, 2)]);
+    assert_eq!(run.dimension(), Some(3), "two measurements have no median");
+    measure("cmf-sim-step12000-loc2", r#"{"dimension": 2}"#);
+    let run = read();
+    assert_eq!(run.other_location_seeds, vec![(1, 2), (2, 2)]);
+    assert_eq!(run.dimension(), Some(2), "3, 2, 2: the median is 2");
+    assert!(
+        super::table::dimension_cell(&run)
+            .ends_with("other location seeds: 2 at 1, 2 at 2; median 2"),
+        "{}",
+        super::table::dimension_cell(&run)
+    );
+    measure("cmf-sim-step12000-loc2", "{");
+    assert_eq!(
+        read().dimension(),
+        Some(3),
+        "a file that does not read is passed over"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -11,6 +11,7 @@ fn run(folder: &str, settings: &[(&str, &str)], status: Status) -> Run {
         summary: None,
         stiles_burch: None,
         over_checkpoints: None,
+        other_location_seeds: Vec::new(),
         averaged: None,
         settings: settings
             .iter()
