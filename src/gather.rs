@@ -164,7 +164,7 @@ impl Run {
         let summary = (self.summary.as_ref()).filter(|s| !s.dimension_over_steps.is_empty())?;
         let mut all: Vec<usize> = self.other_location_seeds.iter().map(|(_, d)| *d).collect();
         all.push(summary.dimension);
-        if all.len() < 3 || all.len() % 2 == 0 {
+        if all.len() < 3 || all.len().is_multiple_of(2) {
             return Some(summary.dimension);
         }
         all.sort_unstable();
