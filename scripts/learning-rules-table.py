@@ -5,6 +5,9 @@ Usage: scripts/learning-rules-table.py OUT_DIR [CRITERION_DIR]   (markdown on st
 
 One row per run: the rule and what distinguishes the run (seed, feedback draw, control), then
 - non-finite stops: 1 when the run ended on a non-finite loss or gradient (its `failed.json`);
+- empty warp: the share of steps whose loss is exactly 0, and the first of them: P had moved
+  every sampling point out of the field, the warp's mask was empty and the step had nothing to
+  learn from (docs/learning-rules.md, the smoke check); "—" when no step was;
 - held-out gain: "next frame = this frame" MSE over the model's (summary.json);
 - C d′ of L, M (each to its nearest other class) and S;
 - CMF-SIM: the dimension at each measurement ("d@step", 1 000s as k), then the final
@@ -42,6 +45,19 @@ def mean_cosines(metrics):
     except OSError:
         return "—"
     return "/".join(f"{s / c:.2f}" if c else "—" for s, c in zip(sums, counts))
+
+
+def empty_warp(metrics):
+    """Share of metrics.csv's steps whose loss is exactly 0 and the first such step ("—": none)."""
+    try:
+        with open(metrics) as f:
+            losses = [(int(r["step"]), float(r["loss"])) for r in csv.DictReader(f)]
+    except (OSError, ValueError, KeyError):
+        return "—"
+    empty = [s for s, l in losses if l == 0.0]
+    if not empty:
+        return "—"
+    return f"{100 * len(empty) / len(losses):.0f} % (from {empty[0]})"
 
 
 def label(config):
@@ -91,7 +107,7 @@ def row(run_dir, times):
     rule, what = label(config)
     error = (failed or {}).get("error", "")
     non_finite = int("non-finite" in error or "NaN" in error)
-    cells = [rule, what, str(non_finite)]
+    cells = [rule, what, str(non_finite), empty_warp(os.path.join(run_dir, "metrics.csv"))]
     if not summary:
         status = "failed: " + error[:80] if failed else "not finished"
         return cells + [status] + ["—"] * 6
@@ -124,7 +140,7 @@ def main():
     out = sys.argv[1]
     times = step_times(sys.argv[2] if len(sys.argv) > 2 else None)
     header = [
-        "rule", "run", "non-finite stops", "held-out gain", "C d′ L/M/S",
+        "rule", "run", "non-finite stops", "steps with an empty warp", "held-out gain", "C d′ L/M/S",
         "CMF-SIM dimension over steps; final margins", "W surround r", "P error (cones)",
         "cos to backprop W/C/D/P", "step time / backprop",
     ]
