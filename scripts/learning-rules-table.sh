@@ -13,7 +13,8 @@
 # checkpoints. A run that stops on a non-finite loss is a result (the table counts it).
 #
 # Usage: scripts/learning-rules-table.sh OUT_DIR [COLORVISION_BINARY]
-#   JOBS=N        tasks at once per sweep (default 1; each run then uses RAYON_NUM_THREADS)
+#   JOBS=N        runs at once (default 1), each sweep's runs one after another in a lane of
+#                 its own; set RAYON_NUM_THREADS=1 with JOBS=2 on two cores
 #   SKIP_BENCH=1  no step-time benchmark (the column stays empty)
 set -euo pipefail
 ROOT=$(cd "$(dirname "$0")/.." && pwd)
@@ -21,12 +22,22 @@ OUT=${1:?usage: scripts/learning-rules-table.sh OUT_DIR [COLORVISION_BINARY]}
 BIN=${2:-$ROOT/target/release/colorvision}
 [ -x "$BIN" ] || { echo "learning-rules-table.sh: $BIN: not built (cargo build --release)" >&2; exit 1; }
 mkdir -p "$OUT"
+OUT=$(cd "$OUT" && pwd)
+# The seeds sweep first: forward-forward's steps take several times backprop's, so it is the
+# longest, and the other sweeps share the remaining lanes one after another.
+SWEEPS=(seeds)
 for spec in "$ROOT"/scripts/learning-rules-table/*.toml; do
     name=$(basename "$spec" .toml)
-    [ -f "$OUT/$name/sweep.json" ] || "$BIN" sweep "$spec" --out "$OUT/$name"
-    "$BIN" sweep --local -j "${JOBS:-1}" "$OUT/$name" \
-        || echo "learning-rules-table.sh: not every run of $name finished (see $OUT/$name/logs)"
+    [ "$name" = seeds ] || SWEEPS+=("$name")
 done
+for name in "${SWEEPS[@]}"; do
+    [ -f "$OUT/$name/sweep.json" ] \
+        || "$BIN" sweep "$ROOT/scripts/learning-rules-table/$name.toml" --out "$OUT/$name"
+done
+export BIN OUT
+printf '%s\n' "${SWEEPS[@]}" | xargs -P "${JOBS:-1}" -I{} sh -c \
+    '"$BIN" sweep --local -j 1 "$OUT/{}" \
+        || echo "learning-rules-table.sh: not every run of {} finished (see $OUT/{}/logs)"'
 if [ -z "${SKIP_BENCH:-}" ]; then
     (cd "$ROOT" && cargo bench --bench learning_rules)
     rm -rf "$OUT/learning_rule_step"
