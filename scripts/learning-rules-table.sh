@@ -24,11 +24,11 @@ BIN=${2:-$ROOT/target/release/colorvision}
 mkdir -p "$OUT"
 OUT=$(cd "$OUT" && pwd)
 # The seeds sweep first: forward-forward's steps take several times backprop's, so it is the
-# longest, and the other sweeps share the remaining lanes one after another.
-SWEEPS=(seeds)
-for spec in "$ROOT"/scripts/learning-rules-table/*.toml; do
+# longest; the rules' sweeps, then the controls, share the other lanes one after another.
+SWEEPS=(seeds fa-draws dfa-draws sign-flip d-frozen)
+for spec in "$ROOT"/scripts/learning-rules-table/*.toml; do   # and any other spec there
     name=$(basename "$spec" .toml)
-    [ "$name" = seeds ] || SWEEPS+=("$name")
+    [[ " ${SWEEPS[*]} " == *" $name "* ]] || SWEEPS+=("$name")
 done
 for name in "${SWEEPS[@]}"; do
     [ -f "$OUT/$name/sweep.json" ] \
