@@ -5,20 +5,25 @@
 # backprop, CMF-SIM over steps and with the full budget at the end), one thread each, two cells
 # at a time. A cell that continues another's cortex (gene therapy, boosting) waits for it.
 #
-# Running it again continues: a finished cell (summary.json) is skipped, a stopped one resumes
-# from its checkpoints (`colorvision resume`), a cell another worker holds is left to it, and a
-# cell that stops with an error (logs/CELL.failed) is not tried again until the next call.
-# After a cell ends, its final checkpoint is measured again with the two location seeds after
-# its own (DIR/cmf-sim-step<N>-loc<L>) when its verdict is on the border (the protocol's rule:
-# the first passing K above 0.9 of the threshold or the last failing one below 1.1); the
-# cell's verdict is then the median of the three (`colorvision gather` reads them).
+# Running it again continues: a finished cell is skipped, a stopped one resumes from its
+# checkpoints (`colorvision resume`), and a cell that stopped with an error (logs/CELL.failed)
+# is tried again. Ctrl-C (or SIGTERM) stops every cell after its step, with a checkpoint.
+# After a trained run ends, its final checkpoint is measured again with the two location seeds
+# after its own (RUN/cmf-sim-step<N>-loc<L>) when its verdict is on the border (the protocol's
+# rule: the first passing K above 0.9 of the threshold, or the last failing one below 1.1);
+# the run's verdict is then the median of the three (`colorvision gather` reads them). A cell
+# is finished when its runs are and their border measurements too (no CELL/.measuring).
+# The LMS cells are the learning-rules table's backprop runs when LMS_RUNS names that table's
+# `seeds` sweep folder (the same settings, the same losses to the last bit): a finished one is
+# copied in under the cell's name.
 #
 # Usage: scripts/paper-table.sh OUT_DIR [COLORVISION_BINARY]
 #   JOBS=N   cells at once (default 2)
 #   A check of the script itself, not of the science: PRESET=tiny STEPS=20 (every cell on the
 #   32-cone test eye, 20 steps); ONLY=REGEX runs only the cells whose names match (and what
 #   they continue).
-# Then: scripts/record-run.sh OUT_DIR/CELL CELL for each, and scripts/readme-tables.sh.
+# Then: scripts/record-run.sh OUT_DIR/CELL CELL for each cell (for the baselines cell, each of
+# its four run folders), and scripts/readme-tables.sh.
 set -euo pipefail
 ROOT=$(cd "$(dirname "$0")/.." && pwd)
 OUT=${1:?usage: scripts/paper-table.sh OUT_DIR [COLORVISION_BINARY]}
@@ -63,69 +68,73 @@ LMSQ-humanQ-huesphere-surfaces-24k|LMSQ|0|24000|-|$HUE
 LMSQ-humanQ-idealised-surfaces-24k|LMSQ|0|24000|-|$IDEAL
 "
 
-done_cell() {
-    { [ -f "$OUT/$1/summary.json" ] || [ -f "$OUT/$1/trained_on_cone_activations/summary.json" ]; } \
-        && [ ! -f "$OUT/$1/.measuring" ]
-}
-failed() { [ -f "$OUT/logs/$1.failed" ]; }
-
-# Holds CELL for this worker (a lock folder naming its process); a lock whose process is gone
-# is taken over.
-take() {
-    local lock="$OUT/logs/$1.lock"
-    if mkdir "$lock" 2>/dev/null; then echo $$ > "$lock/pid"; return 0; fi
-    local pid; pid=$(cat "$lock/pid" 2>/dev/null || echo 0)
-    if ! kill -0 "$pid" 2>/dev/null; then echo $$ > "$lock/pid"; return 0; fi
-    return 1
-}
-
-# When the verdict is on the border (the protocol's rule), the final step and the two location
-# seeds after the run's own (`cmf_sim.seed`) to measure it with; nothing otherwise.
+# A run folder's border measurement, when its verdict is on the border: the final step and the
+# two location seeds after the run's own (`cmf_sim.seed`); nothing otherwise, and an error when
+# summary.json does not read. An undefined verdict (0: every K tried failed) is on the border
+# when its last K failed by less than 1.1.
 border_measurements() {
     python3 - "$1/summary.json" <<'EOF'
 import json, sys
 s = json.load(open(sys.argv[1]))
 ratios = dict((k, r) for k, r in s["converged_ratio_per_k"])
 d = s["dimension"]
-if (d in ratios and ratios[d] > 0.9) or (d - 1 in ratios and ratios[d - 1] < 1.1):
+last_failing = d - 1 if d else max(ratios, default=0)
+near = (d in ratios and ratios[d] > 0.9) or (last_failing in ratios and ratios[last_failing] < 1.1)
+if near and s.get("dimension_over_steps"):
     own = s["config"]["cmf_sim"]["seed"]
     print(s["steps"], own + 1, own + 2)
 EOF
 }
+
+# Measures run folder $1 again with other location seeds when its verdict is on the border.
+measure_border() {
+    local measurements step loc1 loc2 loc
+    measurements=$(border_measurements "$1") || return 1
+    [ -z "$measurements" ] && return 0
+    read -r step loc1 loc2 <<< "$measurements"
+    for loc in "$loc1" "$loc2"; do
+        local dest="$1/cmf-sim-step$step-loc$loc"
+        [ -f "$dest/cmf_sim.json" ] || "$BIN" cmf-sim --run "$1" \
+            --location-seed "$loc" --out "$dest" || return 1
+    done
+}
+
+done_cell() { [ -f "$OUT/$1/.finished" ]; }
+failed() { [ -f "$OUT/logs/$1.failed" ]; }
+
+# Holds CELL for this worker: a lock folder, made once (stale locks are cleared at the start).
+take() { mkdir "$OUT/logs/$1.lock" 2>/dev/null; }
 
 run_cell() {
     local name=$1 cones=$2 seed=$3 steps=$4 after=$5 extra=$6 dir="$OUT/$1"
     if [ "$extra" = baselines ]; then
         local resume=(); [ -d "$dir" ] && resume=(--resume)
         "$BIN" experiment baselines --preset "$PRESET" --cones "$cones" --seed "$seed" \
-            --steps "${STEPS:-$steps}" --out "$dir" "${resume[@]}" || return 1
+            --steps "${STEPS:-$steps}" --out "$dir" "${resume[@]}" || return $?
+        measure_border "$dir/no_demosaicker" || return $?
+        measure_border "$dir/trained_on_cone_activations" || return $?
+        touch "$dir/.finished"
         return 0
     fi
     if [ -f "$dir/run.json" ] && [ ! -f "$dir/summary.json" ]; then
-        "$BIN" resume "$dir" || return 1
+        "$BIN" resume "$dir" || return $?
     elif [ ! -f "$dir/summary.json" ]; then
         local from=()
         [ "$after" != - ] && from=(--continue-from "$OUT/$after")
         # shellcheck disable=SC2086  # $extra is a list of --set options
         "$BIN" run --preset "$PRESET" --cones "$cones" --seed "$seed" \
-            --steps "${STEPS:-$steps}" --out "$dir" "${from[@]}" $extra || return 1
+            --steps "${STEPS:-$steps}" --out "$dir" "${from[@]}" $extra || return $?
     fi
-    local step loc1 loc2
-    read -r step loc1 loc2 <<< "$(border_measurements "$dir")" || true
-    if [ -n "${step:-}" ]; then
-        touch "$dir/.measuring"
-        for loc in "$loc1" "$loc2"; do
-            local dest="$dir/cmf-sim-step$step-loc$loc"
-            [ -f "$dest/cmf_sim.json" ] || "$BIN" cmf-sim --run "$dir" \
-                --location-seed "$loc" --out "$dest" || return 1
-        done
-        rm -f "$dir/.measuring"
-    fi
+    measure_border "$dir" || return $?
+    touch "$dir/.finished"
 }
 
+# Exit statuses of a cell stopped by a signal (Ctrl-C, SIGTERM): not a failure.
+stopped_by_signal() { [ "$1" -eq 130 ] || [ "$1" -eq 143 ]; }
+
 worker() {
-    while true; do
-        local left=0 ran=0
+    while [ ! -f "$OUT/logs/.stop" ]; do
+        local left=0 ran=0 status=0
         while IFS='|' read -r name cones seed steps after extra; do
             [ -z "$name" ] && continue
             [ -n "${ONLY:-}" ] && ! [[ $name =~ $ONLY ]] && [[ $ONLY_AFTER != *"|$name|"* ]] && continue
@@ -135,12 +144,19 @@ worker() {
             left=1
             [ "$after" != - ] && ! done_cell "$after" && continue
             take "$name" || continue
+            if done_cell "$name" || failed "$name"; then   # another worker ended it meanwhile
+                rm -rf "$OUT/logs/$name.lock"; continue
+            fi
             echo "$(date -u +%FT%TZ) worker $1: $name"
+            status=0
             run_cell "$name" "$cones" "$seed" "$steps" "$after" "$extra" \
-                >> "$OUT/logs/$name.log" 2>&1 \
-                || { touch "$OUT/logs/$name.failed"
-                     echo "$(date -u +%FT%TZ) worker $1: $name stopped (see logs/$name.log)"; }
+                >> "$OUT/logs/$name.log" 2>&1 || status=$?
             rm -rf "$OUT/logs/$name.lock"
+            if [ $status -ne 0 ]; then
+                stopped_by_signal $status && return 0
+                touch "$OUT/logs/$name.failed"
+                echo "$(date -u +%FT%TZ) worker $1: $name stopped (see logs/$name.log)"
+            fi
             ran=1
             break
         done <<< "$CELLS"
@@ -149,9 +165,36 @@ worker() {
     done
 }
 
+# The LMS cells from the learning-rules table's backprop runs (LMS_RUNS: its seeds sweep).
+adopt_lms_runs() {
+    local seed src dest
+    for seed in 0 1 2; do
+        src="$LMS_RUNS/00${seed}_learning_rule=backprop_seed=$seed"
+        dest="$OUT/LMS-surfaces-seed$seed-12k"
+        [ -f "$src/summary.json" ] && [ ! -e "$dest" ] || continue
+        grep -qx 'preset = "main"' "$src/config.toml" && grep -qx "seed = $seed" "$src/config.toml" \
+            && grep -qx 'learning_rule = "backprop"' "$src/config.toml" \
+            && grep -qx 'steps = 12000' "$src/config.toml" \
+            || { echo "paper-table.sh: $src: not the settings of LMS seed $seed" >&2; exit 1; }
+        cp -r "$src" "$dest.tmp" && mv "$dest.tmp" "$dest"
+        echo "paper-table.sh: LMS-surfaces-seed$seed-12k is $src"
+    done
+}
+
 # The cells ONLY's cells continue, as |a|b|.
 ONLY_AFTER="|$(while IFS='|' read -r n _ _ _ a _; do [[ -n $n && $n =~ ${ONLY:-^$} && $a != - ]] && echo -n "$a|"; done <<< "$CELLS"; true)"
-rm -f "$OUT"/logs/*.failed   # a cell that stopped last time is tried again
-for j in $(seq "${JOBS:-2}"); do worker "$j" & done
+[ -n "${LMS_RUNS:-}" ] && adopt_lms_runs
+rm -rf "$OUT"/logs/*.failed "$OUT"/logs/*.lock "$OUT/logs/.stop"   # one call runs at a time
+WORKERS=()
+for j in $(seq "${JOBS:-2}"); do worker "$j" & WORKERS+=($!); done
+stop() {
+    touch "$OUT/logs/.stop"
+    pkill -TERM -P "$(echo "${WORKERS[@]}" | tr ' ' ,)" 2>/dev/null || true
+    pkill -TERM -f "$BIN .*$OUT/" 2>/dev/null || true
+    wait
+    echo "paper-table.sh: stopped; run it again to continue" >&2
+    exit 130
+}
+trap stop INT TERM
 wait
 echo "paper-table.sh: every cell of $OUT finished"

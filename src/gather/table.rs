@@ -96,18 +96,7 @@ fn cells(run: &Run) -> Option<Cells> {
         (true, false, 0) => format!("undefined ({margins})"),
         (true, _, d) => format!("{d} ({margins})"),
     };
-    let dimension = match (run.dimension(), run.other_location_seeds.as_slice()) {
-        (Some(median), others) if !others.is_empty() => {
-            let seeds: Vec<String> = (others.iter())
-                .map(|(l, d)| format!("{d} at {l}"))
-                .collect();
-            format!(
-                "{dimension}; other location seeds: {}; median {median}",
-                seeds.join(", ")
-            )
-        }
-        _ => dimension,
-    };
+    let dimension = with_other_location_seeds(run, dimension);
     let rec = s.invariants.as_ref().map(|i| &i.recovery);
     let c = rec.and_then(|r| r.c.as_ref());
     let w = rec.and_then(|r| r.w.as_ref());
@@ -137,6 +126,27 @@ fn cells(run: &Run) -> Option<Cells> {
             .map_or(String::new(), |d| science::invariants::per_class(&d.r2, 2)),
         wall: format!("{:.0}", s.wall_seconds),
     })
+}
+
+/// `own`, the dimension cell of the run's own location seed, with the dimensions its final
+/// checkpoint measured at other location seeds: led by their median ([`Run::dimension`]) when
+/// there is one, so that the figure first in the cell is the run's.
+fn with_other_location_seeds(run: &Run, own: String) -> String {
+    let others = run.other_location_seeds.as_slice();
+    if others.is_empty() {
+        return own;
+    }
+    let seeds: Vec<String> = (others.iter())
+        .map(|(l, d)| format!("{d} at {l}"))
+        .collect();
+    let seeds = seeds.join(", ");
+    let n = others.len() + 1;
+    match run.dimension() {
+        Some(median) if n >= 3 && !n.is_multiple_of(2) => {
+            format!("{median} (median of {n} location seeds; its own: {own}; the others: {seeds})")
+        }
+        _ => format!("{own}; other location seeds: {seeds}"),
+    }
 }
 
 /// A finished run's measured dimension with its margins (`3 (K1 9.41, K2 4.53, K3 0.70)`);
@@ -314,7 +324,8 @@ pub fn csv(runs: &[Run], keys: &[String]) -> String {
         row.push(num(s.map(|s| s.wall_seconds)));
         let paper = science::paper::reported_for_settings(&run.settings);
         row.push(paper.map_or(String::new(), |r| r.to_string()));
-        row.push(s.map_or(String::new(), |s| s.dimension.to_string()));
+        let dimension = run.dimension().or(s.map(|s| s.dimension));
+        row.push(dimension.map_or(String::new(), |d| d.to_string()));
         row.push(s.map_or(String::new(), |s| s.verdict.clone()));
         for k in 1..=max_k {
             let m = s.and_then(|s| s.converged_ratio_per_k.iter().find(|(j, _)| *j == k));

@@ -82,15 +82,20 @@ fn other_location_seeds_on_the_final_checkpoint_give_the_median() {
     let run = read();
     assert_eq!(run.other_location_seeds, vec![(1, 2)]);
     assert_eq!(run.dimension(), Some(3), "two measurements have no median");
+    let cell = super::table::dimension_cell(&run);
+    assert!(
+        cell.starts_with("3 (K1 ") && cell.ends_with("; other location seeds: 2 at 1"),
+        "{cell}"
+    );
     measure("cmf-sim-step12000-loc2", r#"{"dimension": 2}"#);
     let run = read();
     assert_eq!(run.other_location_seeds, vec![(1, 2), (2, 2)]);
     assert_eq!(run.dimension(), Some(2), "3, 2, 2: the median is 2");
+    let cell = super::table::dimension_cell(&run);
     assert!(
-        super::table::dimension_cell(&run)
-            .ends_with("other location seeds: 2 at 1, 2 at 2; median 2"),
-        "{}",
-        super::table::dimension_cell(&run)
+        cell.starts_with("2 (median of 3 location seeds; its own: 3 (K1 ")
+            && cell.ends_with("; the others: 2 at 1, 2 at 2)"),
+        "{cell}"
     );
     measure("cmf-sim-step12000-loc2", "{");
     assert_eq!(

@@ -95,25 +95,48 @@ impl Overrides {
         Ok(Some((name, value)))
     }
 
-    /// The first `--set` setting that does not parse laid alone over `base` (the preset), as an
-    /// error naming `--set` and the key — asked when the settings together did not parse, so
-    /// that an unknown key or a value of the wrong type names the setting rather than the file.
+    /// The `--set` setting to name when the settings laid over `base` (the preset) and `file`
+    /// (the `--config` file's own settings) did not parse: the first whose removal lets the
+    /// rest parse, else the first that does not parse laid alone. `None` when the preset and the
+    /// file do not parse without any setting (the file's error) or no setting is singled out.
     /// Settings that make a table together (`retina.scenes.tetra.environment` and `.fraction`)
-    /// are never checked one without the other while the whole parses.
-    pub(super) fn setting_that_fails_alone(&self, base: &RunConfig) -> Option<ConfigError> {
-        self.set.iter().find_map(|item| {
-            let (key, setting) = match parse_setting(item) {
-                Ok(parsed) => parsed,
+    /// are judged together, never one without the other.
+    pub(super) fn setting_to_blame(
+        &self,
+        base: &RunConfig,
+        file: Option<&toml::Value>,
+    ) -> Option<ConfigError> {
+        let mut start = toml::Value::try_from(base).expect("a RunConfig serialises to TOML");
+        if let Some(file) = file {
+            super::resolve::merge(&mut start, file.clone());
+        }
+        let parses = |v: toml::Value| v.try_into::<RunConfig>().map_err(|e| e.to_string());
+        parses(start.clone()).ok()?;
+        let settings: Vec<(String, toml::Value)> =
+            match self.set.iter().map(|i| parse_setting(i)).collect() {
+                Ok(settings) => settings,
                 Err(e) => return Some(e),
             };
-            let mut alone = toml::Value::try_from(base).expect("a RunConfig serialises to TOML");
-            set_dotted(&mut alone, &key, setting);
-            let error = alone.try_into::<RunConfig>().err()?;
-            Some(ConfigError::Parse {
-                path: format!("--set {item}"),
-                message: one_line(&error.to_string()),
-            })
-        })
+        let laid = |skip: Option<usize>, only: Option<usize>| {
+            let mut v = start.clone();
+            for (i, (key, value)) in settings.iter().enumerate() {
+                if skip != Some(i) && only.is_none_or(|o| o == i) {
+                    set_dotted(&mut v, key, value.clone());
+                }
+            }
+            parses(v)
+        };
+        let whole = laid(None, None).err()?;
+        let named = |i: usize, message: String| ConfigError::Parse {
+            path: format!("--set {}", self.set[i]),
+            message: one_line(&message),
+        };
+        for i in 0..settings.len() {
+            if laid(Some(i), None).is_ok() {
+                return Some(named(i, laid(None, Some(i)).err().unwrap_or(whole)));
+            }
+        }
+        (0..settings.len()).find_map(|i| laid(None, Some(i)).err().map(|e| named(i, e)))
     }
 
     /// The `--set` key that gave `field` (a setting's dotted name), if one did.

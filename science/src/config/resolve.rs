@@ -33,6 +33,7 @@ impl RunConfig {
         file: Option<(String, toml::Value)>,
         default_preset: &str,
     ) -> Result<RunConfig, ConfigError> {
+        let file_alone = file.as_ref().map(|(_, v)| v.clone());
         let file = options.lay_settings_over(file)?;
         let file_str = |key: &str| {
             file.as_ref()
@@ -69,7 +70,7 @@ impl RunConfig {
                 merge(&mut merged, value);
                 merged.try_into::<RunConfig>().map_err(|e| {
                     options
-                        .setting_that_fails_alone(&base)
+                        .setting_to_blame(&base, file_alone.as_ref())
                         .unwrap_or_else(|| ConfigError::Parse {
                             path,
                             message: one_line(&e.to_string()),
@@ -243,7 +244,7 @@ struct FileKeys {
 }
 
 /// Deep-merges `over` into `base` (tables recursively, everything else replaced).
-fn merge(base: &mut toml::Value, over: toml::Value) {
+pub(super) fn merge(base: &mut toml::Value, over: toml::Value) {
     match (base, over) {
         (toml::Value::Table(b), toml::Value::Table(o)) => {
             for (k, v) in o {

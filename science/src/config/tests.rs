@@ -190,3 +190,37 @@ fn a_long_value_is_shortened_in_a_message_and_a_short_one_kept() {
     let short = "setting `steps`: 0 must be in [1, 1000000000] (gradient updates)";
     assert_eq!(shortened(short), short);
 }
+
+/// With a table given key by key beside a wrong setting, the wrong one is named; a setting
+/// whose sibling comes from the `--config` file fits; the file's own mistake names the file.
+#[test]
+fn the_setting_named_is_the_one_whose_removal_lets_the_rest_parse() {
+    let dir = std::env::temp_dir().join(format!("cv_cfg_blame_{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let resolve = |file: Option<&str>, items: &[&str]| {
+        let config = file.map(|text| {
+            std::fs::write(dir.join("f.toml"), text).unwrap();
+            dir.join("f.toml")
+        });
+        let o = Overrides {
+            preset: Some("tiny".into()),
+            set: items.iter().map(|s| s.to_string()).collect(),
+            ..options(config)
+        };
+        RunConfig::resolve(&o, "quick")
+    };
+    let tetra = [
+        "retina.scenes.tetra.environment=HueSphere",
+        "retina.scenes.tetra.fraction=0.1",
+    ];
+    let e = resolve(None, &[tetra[0], tetra[1], "steps=many"]).unwrap_err();
+    assert!(e.to_string().starts_with("--set steps=many: "), "{e}");
+    let with_fraction = "[retina.scenes.tetra]\nfraction = 0.2\nenvironment = \"Idealised\"\n";
+    let c = resolve(Some(with_fraction), &[tetra[0]]).unwrap();
+    assert_eq!(c.retina.scenes.tetra.map(|t| t.fraction), Some(0.2));
+    let e = resolve(Some("[cortex.train]\nlearning_rat = 0.01\n"), &[tetra[0], tetra[1]])
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("f.toml") && e.contains("learning_rat"), "{e}");
+    std::fs::remove_dir_all(dir).ok();
+}
