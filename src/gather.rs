@@ -147,8 +147,9 @@ pub struct Run {
     /// CMF-SIM's verdict over its checkpoints, when `colorvision convergence --cmf` measured
     /// some ([`OVER_CHECKPOINTS_FILE`]).
     pub over_checkpoints: Option<VerdictOverCheckpoints>,
-    /// CMF-SIM's dimension on its final checkpoint with location seeds other than its own, by
-    /// seed, where they were measured (`cmf-sim-step<N>-loc<L>/`: a verdict on the border).
+    /// CMF-SIM's dimension on its final checkpoint with location seeds other than the one its
+    /// summary measured, by seed, where they were measured (`cmf-sim-step<N>-loc<L>/`: a verdict
+    /// on the border, or a protocol's arm trained without measuring).
     pub other_location_seeds: Vec<(u64, usize)>,
     /// The figure of its checkpoints' averaged weights, when `colorvision average` measured it
     /// into the run folder ([`crate::averaging::averaged_path`]).
@@ -157,15 +158,18 @@ pub struct Run {
 
 impl Run {
     /// The dimension the run measured at its end, when it measured one: its final CMF-SIM's,
-    /// or, where the same checkpoint was measured with other location seeds to an odd count of
-    /// three or more, the median of them all (a verdict on the border is not one draw of where
-    /// the lights are shown).
+    /// or, where its final checkpoint was also measured with other location seeds (a verdict on
+    /// the border; a protocol's arm measured only that way), the median over all of them when
+    /// they are an odd number of three or more — a verdict is not one draw of where the lights
+    /// are shown.
     pub fn dimension(&self) -> Option<usize> {
-        let summary = (self.summary.as_ref()).filter(|s| !s.dimension_over_steps.is_empty())?;
+        let own = (self.summary.as_ref())
+            .filter(|s| !s.dimension_over_steps.is_empty())
+            .map(|s| s.dimension);
         let mut all: Vec<usize> = self.other_location_seeds.iter().map(|(_, d)| *d).collect();
-        all.push(summary.dimension);
+        all.extend(own);
         if all.len() < 3 || all.len().is_multiple_of(2) {
-            return Some(summary.dimension);
+            return own;
         }
         all.sort_unstable();
         Some(all[all.len() / 2])

@@ -97,8 +97,8 @@ pub(super) fn over_checkpoints(
 }
 
 /// The dimensions CMF-SIM measured on the run's final checkpoint with location seeds other than
-/// its own (`cmf-sim-step<N>-loc<L>/cmf_sim.json`, `N` the run's steps, `L` not its
-/// `cmf_sim.seed`), by location seed. A file that does not read is reported on stderr and
+/// the one its summary measured (`cmf-sim-step<N>-loc<L>/cmf_sim.json`, `N` the run's steps,
+/// `L` not its `cmf_sim.seed` when the run measured itself), by location seed. A file that does not read is reported on stderr and
 /// passed over.
 pub(super) fn other_location_seeds(dir: &Path, summary: Option<&Summary>) -> Vec<(u64, usize)> {
     let Some(summary) = summary else {
@@ -108,11 +108,13 @@ pub(super) fn other_location_seeds(dir: &Path, summary: Option<&Summary>) -> Vec
         return Vec::new();
     };
     let prefix = format!("cmf-sim-step{}-loc", summary.steps);
+    // A run trained without measuring (`train`) has no figure of its own location seed.
+    let measured = !summary.dimension_over_steps.is_empty();
     let mut found: Vec<(u64, usize)> = (entries.filter_map(|e| e.ok()))
         .filter_map(|entry| {
             let name = entry.file_name();
             let seed: u64 = name.to_string_lossy().strip_prefix(&prefix)?.parse().ok()?;
-            let own = seed == summary.config.cmf_sim.seed;
+            let own = measured && seed == summary.config.cmf_sim.seed;
             let path = entry.path().join(colorimetry::cmf_sim_output::CMF_SIM_JSON);
             (!own).then(|| read_dimension(&path).map(|d| (seed, d)))?
         })

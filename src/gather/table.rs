@@ -140,12 +140,14 @@ fn with_other_location_seeds(run: &Run, own: String) -> String {
         .map(|(l, d)| format!("{d} at {l}"))
         .collect();
     let seeds = seeds.join(", ");
-    let n = others.len() + 1;
-    match run.dimension() {
-        Some(median) if n >= 3 && !n.is_multiple_of(2) => {
+    let n = others.len() + usize::from(!own.is_empty());
+    match (run.dimension(), own.is_empty()) {
+        (Some(median), false) if n >= 3 && !n.is_multiple_of(2) => {
             format!("{median} (median of {n} location seeds; its own: {own}; the others: {seeds})")
         }
-        _ => format!("{own}; other location seeds: {seeds}"),
+        (Some(median), true) => format!("{median} (median of {n} location seeds: {seeds})"),
+        (_, false) => format!("{own}; other location seeds: {seeds}"),
+        (None, true) => format!("location seeds: {seeds}"),
     }
 }
 

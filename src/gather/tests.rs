@@ -105,3 +105,24 @@ fn other_location_seeds_on_the_final_checkpoint_give_the_median() {
     );
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// A protocol arm trained without measuring (`train`) and measured at three location seeds on
+/// its last checkpoint reads as their median, its own seed among them.
+#[test]
+fn an_arm_measured_only_at_location_seeds_reads_as_their_median() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("results");
+    let run = read_run(
+        &root.join("slow-colour-A0-seed0-12k"),
+        "x".into(),
+        &BTreeMap::new(),
+    );
+    assert_eq!(run.other_location_seeds, vec![(0, 2), (1, 2), (2, 2)]);
+    assert_eq!(run.dimension(), Some(2));
+    let run = read_run(
+        &root.join("slow-colour-B1-seed3-12k"),
+        "x".into(),
+        &BTreeMap::new(),
+    );
+    assert_eq!(run.other_location_seeds, vec![(0, 3), (1, 3), (2, 3)]);
+    assert_eq!(run.dimension(), Some(3));
+}

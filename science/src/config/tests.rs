@@ -218,9 +218,12 @@ fn the_setting_named_is_the_one_whose_removal_lets_the_rest_parse() {
     let with_fraction = "[retina.scenes.tetra]\nfraction = 0.2\nenvironment = \"Idealised\"\n";
     let c = resolve(Some(with_fraction), &[tetra[0]]).unwrap();
     assert_eq!(c.retina.scenes.tetra.map(|t| t.fraction), Some(0.2));
-    let e = resolve(Some("[cortex.train]\nlearning_rat = 0.01\n"), &[tetra[0], tetra[1]])
-        .unwrap_err()
-        .to_string();
+    let e = resolve(
+        Some("[cortex.train]\nlearning_rat = 0.01\n"),
+        &[tetra[0], tetra[1]],
+    )
+    .unwrap_err()
+    .to_string();
     assert!(e.contains("f.toml") && e.contains("learning_rat"), "{e}");
     std::fs::remove_dir_all(dir).ok();
 }
