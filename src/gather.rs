@@ -157,22 +157,32 @@ pub struct Run {
 }
 
 impl Run {
-    /// The dimension the run measured at its end, when it measured one: its final CMF-SIM's,
-    /// or, where its final checkpoint was also measured with other location seeds (a verdict on
-    /// the border; a protocol's arm measured only that way), the median over all of them when
-    /// they are an odd number of three or more — a verdict is not one draw of where the lights
-    /// are shown.
+    /// The dimension the run measured at its end, when it measured one: the median over its
+    /// final checkpoint's location seeds where there is one ([`Run::location_median`]), else
+    /// its final CMF-SIM's — a verdict is not one draw of where the lights are shown.
     pub fn dimension(&self) -> Option<usize> {
-        let own = (self.summary.as_ref())
-            .filter(|s| !s.dimension_over_steps.is_empty())
-            .map(|s| s.dimension);
+        (self.location_median().map(|(median, _)| median)).or(self.own_dimension())
+    }
+
+    /// The median dimension over every location seed its final checkpoint was measured with
+    /// (its own CMF-SIM's and [`Run::other_location_seeds`]: a verdict on the border, or a
+    /// protocol's arm measured only that way) and how many, when they are an odd number of
+    /// three or more.
+    pub fn location_median(&self) -> Option<(usize, usize)> {
         let mut all: Vec<usize> = self.other_location_seeds.iter().map(|(_, d)| *d).collect();
-        all.extend(own);
+        all.extend(self.own_dimension());
         if all.len() < 3 || all.len().is_multiple_of(2) {
-            return own;
+            return None;
         }
         all.sort_unstable();
-        Some(all[all.len() / 2])
+        Some((all[all.len() / 2], all.len()))
+    }
+
+    /// The dimension of the run's own final CMF-SIM, when the run measured itself.
+    fn own_dimension(&self) -> Option<usize> {
+        (self.summary.as_ref())
+            .filter(|s| !s.dimension_over_steps.is_empty())
+            .map(|s| s.dimension)
     }
 }
 

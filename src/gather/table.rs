@@ -140,13 +140,12 @@ fn with_other_location_seeds(run: &Run, own: String) -> String {
         .map(|(l, d)| format!("{d} at {l}"))
         .collect();
     let seeds = seeds.join(", ");
-    let n = others.len() + usize::from(!own.is_empty());
-    match (run.dimension(), own.is_empty()) {
-        (Some(median), false) if n >= 3 && !n.is_multiple_of(2) => {
+    match (run.location_median(), own.is_empty()) {
+        (Some((median, n)), false) => {
             format!("{median} (median of {n} location seeds; its own: {own}; the others: {seeds})")
         }
-        (Some(median), true) => format!("{median} (median of {n} location seeds: {seeds})"),
-        (_, false) => format!("{own}; other location seeds: {seeds}"),
+        (Some((median, n)), true) => format!("{median} (median of {n} location seeds: {seeds})"),
+        (None, false) => format!("{own}; other location seeds: {seeds}"),
         (None, true) => format!("location seeds: {seeds}"),
     }
 }
