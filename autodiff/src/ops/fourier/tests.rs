@@ -205,6 +205,12 @@ proptest! {
         let cfg = CheckConfig::default();
         check_gradients(|t, v| t.fft_convolve_same(v[0], v[1]), &[x.clone(), r.clone()], &cfg)
             .map_err(|e| TestCaseError::fail(e.to_string()))?;
+        // Deconvolution divides by the response's spectrum: next to a spectral zero its
+        // derivatives grow as 1/|R|³ and central differences cannot follow them (a response of
+        // zeros failed by 6e-6 at |∂| ≈ 1.6e4). So it is checked on spectra kept from zero: the
+        // all-pass response plus a quarter of the random one (|R| ≥ 1 − 0.25·2·√2 ≈ 0.29).
+        let id = identity_response::<f64>(x.dims()[2]);
+        let r = Tensor::from_fn(id.dims(), |i| id.data()[i] + 0.25 * r.data()[i]);
         check_gradients(|t, v| t.fft_deconvolve_same(v[0], v[1], 1e-6), &[x, r], &cfg)
             .map_err(|e| TestCaseError::fail(e.to_string()))?;
     }
