@@ -21,6 +21,7 @@ One row per run: the rule and what distinguishes the run (seed, feedback draw, c
 import csv
 import json
 import os
+import re
 import sys
 
 
@@ -92,6 +93,16 @@ def step_times(criterion):
     return times
 
 
+def stop_reason(error):
+    """A failed run's error in a few words: the step, and for a non-finite stop the op and bucket."""
+    step = re.search(r"at step (\d+)", error)
+    where = re.search(r"produced by `([^`]+)` in bucket (\w+), (\w+)", error)
+    if "non-finite" in error and step:
+        origin = f" from `{where[1]}` ({where[2]}, {where[3]})" if where else ""
+        return f"stopped at step {step[1]}: non-finite{origin}"
+    return "failed: " + error[:60]
+
+
 def row(run_dir, times):
     summary = read_json(os.path.join(run_dir, "summary.json"))
     failed = read_json(os.path.join(run_dir, "failed.json"))
@@ -108,9 +119,11 @@ def row(run_dir, times):
     error = (failed or {}).get("error", "")
     non_finite = int("non-finite" in error or "NaN" in error)
     cells = [rule, what, str(non_finite), empty_warp(os.path.join(run_dir, "metrics.csv"))]
+    rel = "—"
+    if rule in times and "backprop" in times:
+        rel = f"{times[rule] / times['backprop']:.2f}×"
     if not summary:
-        status = "failed: " + error[:80] if failed else "not finished"
-        return cells + [status] + ["—"] * 6
+        return cells + [stop_reason(error) if failed else "not finished"] + ["—"] * 5 + [rel]
     gain = (summary.get("heldout_prediction") or [None] * 3)[2]
     rec = (summary.get("invariants") or {}).get("recovery") or {}
     c, w, p = rec.get("c") or {}, rec.get("w") or {}, rec.get("p") or {}
@@ -122,9 +135,6 @@ def row(run_dir, times):
     )
     margins = ", ".join(f"K{k} {r:.2f}" for k, r in summary.get("converged_ratio_per_k", []))
     margins = margins or "no margin (undefined)"
-    rel = "—"
-    if rule in times and "backprop" in times:
-        rel = f"{times[rule] / times['backprop']:.2f}×"
     return cells + [
         fmt(gain),
         dp,
