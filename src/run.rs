@@ -281,6 +281,8 @@ struct RunState<'a> {
     bar: ProgressBar,
     /// The checkpoint written last: step and whether it was after the step's measurements.
     saved: Option<(u64, bool, PathBuf)>,
+    /// Whether this process has said that the warp's mask went empty (said once per run).
+    said_empty_warp: bool,
 }
 
 /// `metrics.csv`'s header: the step's loss and time, the held-out evaluation, the learning

@@ -55,6 +55,10 @@ pub struct StepStats {
     /// The rule's update against backprop's gradient per bucket, when measured this step
     /// ([`crate::credit`]).
     pub alignment: Option<Alignment>,
+    /// The share of the warp's validity mask that is 1 (over the batch and every pixel):
+    /// how much of `O_{t+1}` the prediction could be compared with. At 0, P has moved every
+    /// sampling point out of the field: the masked loss is 0 and the step learns nothing.
+    pub warp_coverage: f64,
 }
 
 impl StepStats {
@@ -324,6 +328,8 @@ impl Trainer {
         let measure = self.alignment_due();
         let loss = self.tape.value(pred.loss).item() as f64;
         let main_loss = self.tape.value(pred.main_loss).item() as f64;
+        let mask = self.tape.value(pred.mask).data();
+        let warp_coverage = mask.iter().map(|&m| m as f64).sum::<f64>() / mask.len().max(1) as f64;
         if !loss.is_finite() {
             return Err(CortexError::NonFiniteLoss {
                 step: self.step + 1,
@@ -383,6 +389,7 @@ impl Trainer {
             optimizer_ms,
             total_ms: t0.elapsed().as_secs_f64() * 1e3,
             alignment,
+            warp_coverage,
         })
     }
 }

@@ -177,3 +177,52 @@ fn c_stays_unit_norm_through_training() {
         "C should have learned something, max off-e1 component {moved}"
     );
 }
+
+/// A tiny trainer whose flow P contracts both coordinates as far as its bounded log-scale lets
+/// every coupling (`s = −bound` in every block), so that P⁻¹ magnifies the eye's motion.
+fn contracting_trainer() -> (Trainer, SyntheticSource) {
+    let cfg = CortexConfig::tiny();
+    let mut t = Trainer::new(cfg.clone()).unwrap();
+    for k in 0..cfg.p.couplings {
+        let id = t
+            .cortex
+            .params
+            .find(&format!("p.block{k}.fc3.bias"))
+            .expect("a coupling");
+        t.cortex.params.get_mut(id).data_mut()[1] = -1e3;
+    }
+    (
+        t,
+        SyntheticSource::new(SyntheticConfig::lms(cfg.ons_size_px, 5)),
+    )
+}
+
+#[test]
+fn warp_coverage_reports_an_empty_warp() {
+    let cfg = CortexConfig::tiny();
+    let mut fresh = Trainer::new(cfg.clone()).unwrap();
+    let mut src = SyntheticSource::new(SyntheticConfig::lms(cfg.ons_size_px, 5));
+    let mut coverage = Vec::new();
+    fresh
+        .run(&mut src, 2, None, |st, _| coverage.push(st.warp_coverage))
+        .unwrap();
+    println!("identity P: coverage {coverage:?}");
+    assert!(
+        coverage.iter().all(|&c| c > 0.0 && c <= 1.0),
+        "{coverage:?}"
+    );
+
+    let (mut t, mut src) = contracting_trainer();
+    let mut seen = Vec::new();
+    t.run(&mut src, 2, None, |st, _| {
+        seen.push((st.warp_coverage, st.loss))
+    })
+    .unwrap();
+    println!("contracting P: (coverage, loss) {seen:?}");
+    let (c, loss) = seen[0];
+    assert_eq!(c, 0.0, "P⁻¹ magnifies every motion out of the field");
+    assert_eq!(
+        loss, 0.0,
+        "an empty warp leaves nothing to compare: {seen:?}"
+    );
+}

@@ -58,6 +58,7 @@ impl<'a> RunState<'a> {
             started: Instant::now(),
             bar: ProgressBar::hidden(),
             saved: None,
+            said_empty_warp: false,
         };
         let resumed_at = was_resumed.then(|| state.run_step());
         if resumed_at.is_some() {

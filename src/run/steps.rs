@@ -79,6 +79,11 @@ impl RunState<'_> {
             }
         };
         self.progress.step_ms_total += stats.total_ms;
+        if stats.warp_coverage == 0.0 && !self.said_empty_warp {
+            self.said_empty_warp = true;
+            self.bar
+                .suspend(|| println!("  warning: {}", empty_warp_warning(k)));
+        }
         self.losses.0.push(k as f64);
         self.losses.1.push(stats.loss);
         let mut row = format!(
@@ -273,4 +278,14 @@ pub fn measure(
         &mut |_| {},
         stop,
     )?)
+}
+
+/// What a run says the first time a step's warp mask is empty.
+fn empty_warp_warning(step: u64) -> String {
+    format!(
+        "step {step}: the warp's mask is empty: P has moved every sampling point out of the \
+         field, so the prediction loss is 0 and the step learns nothing (a minimum of the loss, \
+         not a fit; docs/learning-rules.md, \"The empty warp\"). Steps with loss 0 in \
+         metrics.csv are such steps."
+    )
 }
