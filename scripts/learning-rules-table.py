@@ -5,16 +5,19 @@ Usage: scripts/learning-rules-table.py OUT_DIR [CRITERION_DIR]   (markdown on st
 
 One row per run: the rule and what distinguishes the run (seed, feedback draw, control), then
 - non-finite stops: 1 when the run ended on a non-finite loss or gradient (its `failed.json`);
-- empty warp: the share of steps whose loss is exactly 0, and the first of them: P had moved
-  every sampling point out of the field, the warp's mask was empty and the step had nothing to
-  learn from (docs/learning-rules.md, the smoke check); "—" when no step was;
-- held-out gain: "next frame = this frame" MSE over the model's (summary.json);
+- empty warp: the share of all steps whose prediction loss (`main_loss`) is exactly 0, and the
+  first of them: P had moved every sampling point out of the field, the warp's mask was empty
+  and the prediction error gave no gradient (docs/learning-rules.md, "The empty warp"); "—"
+  when no step was;
+- held-out gain: "next frame = this frame" MSE over the model's (summary.json); undefined when
+  the held-out warp was empty too;
 - C d′ of L, M (each to its nearest other class) and S;
 - CMF-SIM: the dimension at each measurement ("d@step", 1 000s as k), then the final
   converged margins per K (worst error over threshold; < 1 passes);
 - W surround r (learned 7×7 kernel's surround taps against the DoG's);
 - P error: RMS position error after the affine gauge, cone spacings;
-- cosine to backprop per bucket W/C/D/P: the mean of metrics.csv's align_cos_* columns;
+- cosine to backprop per bucket W/C/D/P: the mean of metrics.csv's align_cos_* columns, and in
+  parentheses how many measurements that is (a step whose warp is empty measures nothing);
 - step time relative to backprop: criterion's median of `learning_rule_step/<rule>`
   (`cargo bench --bench learning_rules`), when CRITERION_DIR holds it.
 """
@@ -45,14 +48,15 @@ def mean_cosines(metrics):
                         counts[k] += 1
     except OSError:
         return "—"
-    return "/".join(f"{s / c:.2f}" if c else "—" for s, c in zip(sums, counts))
+    cosines = "/".join(f"{s / c:.2f}" if c else "—" for s, c in zip(sums, counts))
+    return f"{cosines} ({max(counts)})" if any(counts) else cosines
 
 
 def empty_warp(metrics):
     """Share of metrics.csv's steps whose loss is exactly 0 and the first such step ("—": none)."""
     try:
         with open(metrics) as f:
-            losses = [(int(r["step"]), float(r["loss"])) for r in csv.DictReader(f)]
+            losses = [(int(r["step"]), float(r["main_loss"])) for r in csv.DictReader(f)]
     except (OSError, ValueError, KeyError):
         return "—"
     empty = [s for s, l in losses if l == 0.0]
@@ -93,11 +97,27 @@ def step_times(criterion):
     return times
 
 
+# How the cortex words a non-finite stop: "the gradient of `…` became non-finite" or "the loss
+# became NaN" (or inf, -inf).
+NON_FINITE = re.compile(r"became (non-finite|NaN|inf|-inf)\b")
+
+
+def heldout_gain(heldout):
+    """The held-out gain, `[model MSE, identity MSE, identity / model]`, in words: undefined when
+    the held-out warp was empty too (both errors 0), in powers of ten when it is tiny."""
+    if not heldout:
+        return "—"
+    model, identity, gain = heldout
+    if model == 0 and identity == 0:
+        return "undefined (empty held-out warp)"
+    return f"{gain:.1e}" if 0 < gain < 0.01 else f"{gain:.2f}"
+
+
 def stop_reason(error):
     """A failed run's error in a few words: the step, and for a non-finite stop the op and bucket."""
     step = re.search(r"at step (\d+)", error)
     where = re.search(r"produced by `([^`]+)` in bucket (\w+), (\w+)", error)
-    if "non-finite" in error and step:
+    if NON_FINITE.search(error) and step:
         origin = f" from `{where[1]}` ({where[2]}, {where[3]})" if where else ""
         return f"stopped at step {step[1]}: non-finite{origin}"
     return "failed: " + error[:60]
@@ -117,14 +137,14 @@ def row(run_dir, times):
             config = {}
     rule, what = label(config)
     error = (failed or {}).get("error", "")
-    non_finite = int("non-finite" in error or "NaN" in error)
+    non_finite = int(NON_FINITE.search(error) is not None)
     cells = [rule, what, str(non_finite), empty_warp(os.path.join(run_dir, "metrics.csv"))]
     rel = "—"
     if rule in times and "backprop" in times:
         rel = f"{times[rule] / times['backprop']:.2f}×"
     if not summary:
         return cells + [stop_reason(error) if failed else "not finished"] + ["—"] * 5 + [rel]
-    gain = (summary.get("heldout_prediction") or [None] * 3)[2]
+    gain = heldout_gain(summary.get("heldout_prediction"))
     rec = (summary.get("invariants") or {}).get("recovery") or {}
     c, w, p = rec.get("c") or {}, rec.get("w") or {}, rec.get("p") or {}
     dprime = dict(zip(c.get("classes", []), c.get("dprime", [])))
@@ -136,7 +156,7 @@ def row(run_dir, times):
     margins = ", ".join(f"K{k} {r:.2f}" for k, r in summary.get("converged_ratio_per_k", []))
     margins = margins or "no margin (undefined)"
     return cells + [
-        fmt(gain),
+        gain,
         dp,
         f"{dims}; {margins}",
         fmt(w.get("surround_r")),

@@ -281,7 +281,8 @@ struct RunState<'a> {
     bar: ProgressBar,
     /// The checkpoint written last: step and whether it was after the step's measurements.
     saved: Option<(u64, bool, PathBuf)>,
-    /// Whether this process has said that the warp's mask went empty (said once per run).
+    /// Whether this process has said that a step's warp mask was empty (said once per
+    /// process: again after a resume).
     said_empty_warp: bool,
 }
 

@@ -55,9 +55,10 @@ pub struct StepStats {
     /// The rule's update against backprop's gradient per bucket, when measured this step
     /// ([`crate::credit`]).
     pub alignment: Option<Alignment>,
-    /// The share of the warp's validity mask that is 1 (over the batch and every pixel):
-    /// how much of `O_{t+1}` the prediction could be compared with. At 0, P has moved every
-    /// sampling point out of the field: the masked loss is 0 and the step learns nothing.
+    /// The share of the loss's sites (every batch item, every pixel inside `loss.border_px`)
+    /// where the warp's validity mask is 1: how much of `O_{t+1}` the prediction was compared
+    /// with. At 0, P has moved every sampling point out of the field: `main_loss` is 0 and the
+    /// prediction error gives no gradient.
     pub warp_coverage: f64,
 }
 
@@ -299,6 +300,25 @@ impl Trainer {
         }
     }
 
+    /// The mean of the warp's validity mask `(B, 1, n, n)` over the loss's sites (inside the
+    /// border the loss drops): [`StepStats::warp_coverage`].
+    fn warp_coverage(&self, mask: Var) -> f64 {
+        let border = self.cortex.config.loss.border_px;
+        let value = self.tape.value(mask);
+        let (_, _, _, n) = value.shape().bchw("the warp mask");
+        let inner = n.saturating_sub(2 * border);
+        let mut sum = 0.0;
+        for plane in value.data().chunks(n * n) {
+            for row in plane.chunks(n).skip(border).take(inner) {
+                sum += row[border..border + inner]
+                    .iter()
+                    .map(|&m| m as f64)
+                    .sum::<f64>();
+            }
+        }
+        sum / (value.data().len() / (n * n) * inner * inner).max(1) as f64
+    }
+
     /// One gradient update from `batch`.
     pub fn step(&mut self, batch: &OnsBatch) -> Result<StepStats, CortexError> {
         let t0 = Instant::now();
@@ -328,8 +348,7 @@ impl Trainer {
         let measure = self.alignment_due();
         let loss = self.tape.value(pred.loss).item() as f64;
         let main_loss = self.tape.value(pred.main_loss).item() as f64;
-        let mask = self.tape.value(pred.mask).data();
-        let warp_coverage = mask.iter().map(|&m| m as f64).sum::<f64>() / mask.len().max(1) as f64;
+        let warp_coverage = self.warp_coverage(pred.mask);
         if !loss.is_finite() {
             return Err(CortexError::NonFiniteLoss {
                 step: self.step + 1,

@@ -215,14 +215,14 @@ fn warp_coverage_reports_an_empty_warp() {
     let (mut t, mut src) = contracting_trainer();
     let mut seen = Vec::new();
     t.run(&mut src, 2, None, |st, _| {
-        seen.push((st.warp_coverage, st.loss))
+        seen.push((st.warp_coverage, st.main_loss))
     })
     .unwrap();
-    println!("contracting P: (coverage, loss) {seen:?}");
-    let (c, loss) = seen[0];
+    println!("contracting P: (coverage, main loss) {seen:?}");
+    let (c, main_loss) = seen[0];
     assert_eq!(c, 0.0, "P⁻¹ magnifies every motion out of the field");
     assert_eq!(
-        loss, 0.0,
+        main_loss, 0.0,
         "an empty warp leaves nothing to compare: {seen:?}"
     );
 }

@@ -280,12 +280,12 @@ pub fn measure(
     )?)
 }
 
-/// What a run says the first time a step's warp mask is empty.
+/// What a run says the first time (in this process) a step's warp mask is empty.
 fn empty_warp_warning(step: u64) -> String {
     format!(
         "step {step}: the warp's mask is empty: P has moved every sampling point out of the \
-         field, so the prediction loss is 0 and the step learns nothing (a minimum of the loss, \
-         not a fit; docs/learning-rules.md, \"The empty warp\"). Steps with loss 0 in \
-         metrics.csv are such steps."
+         field, so the prediction loss (main_loss) is 0 and gives no gradient this step (a \
+         minimum of the loss, not a fit; docs/learning-rules.md, \"The empty warp\"). Such \
+         steps are the rows of metrics.csv whose main_loss is 0."
     )
 }
