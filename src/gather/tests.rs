@@ -111,18 +111,13 @@ fn other_location_seeds_on_the_final_checkpoint_give_the_median() {
 #[test]
 fn an_arm_measured_only_at_location_seeds_reads_as_their_median() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("results");
-    let run = read_run(
-        &root.join("slow-colour-A0-seed0-12k"),
-        "x".into(),
-        &BTreeMap::new(),
-    );
-    assert_eq!(run.other_location_seeds, vec![(0, 2), (1, 2), (2, 2)]);
-    assert_eq!(run.dimension(), Some(2));
-    let run = read_run(
-        &root.join("slow-colour-B1-seed3-12k"),
-        "x".into(),
-        &BTreeMap::new(),
-    );
-    assert_eq!(run.other_location_seeds, vec![(0, 3), (1, 3), (2, 3)]);
-    assert_eq!(run.dimension(), Some(3));
+    for (record, dimension) in [
+        ("slow-colour-A0-seed0-12k", 2),
+        ("slow-colour-B1-seed3-12k", 3),
+    ] {
+        let run = read_run(&root.join(record), "x".into(), &BTreeMap::new());
+        let seeds: Vec<(u64, usize)> = (0..3).map(|seed| (seed, dimension)).collect();
+        assert_eq!(run.other_location_seeds, seeds, "{record}");
+        assert_eq!(run.dimension(), Some(dimension), "{record}");
+    }
 }
