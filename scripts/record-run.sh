@@ -5,12 +5,17 @@
 # Burch, and a protocol arm's CMF-SIM per checkpoint and location seed), and record.json
 # naming the folder it was trained in (so that `gather` names a run continued from that folder
 # by this record) — the small files the README's tables are generated from
-# (`colorvision gather results --markdown`).
+# (`colorvision gather results --markdown`). PROTOCOL, when given, names the protocol that fixed
+# the run before it ran — its page and the commit that added it, e.g.
+# "docs/notebook/2026-11-28-paper-table-protocol.md @ f0603a6" — and goes into record.json, so
+# the runs' index marks the run as pre-registered.
 # No checkpoints, pictures or per-step log.
-# Usage: scripts/record-run.sh RUN_DIR NAME
+# Usage: scripts/record-run.sh RUN_DIR NAME [PROTOCOL]
 set -euo pipefail
-RUN=${1:?usage: scripts/record-run.sh RUN_DIR NAME}
-NAME=${2:?usage: scripts/record-run.sh RUN_DIR NAME}
+USAGE="usage: scripts/record-run.sh RUN_DIR NAME [PROTOCOL]"
+RUN=${1:?$USAGE}
+NAME=${2:?$USAGE}
+PROTOCOL=${3:-}
 ROOT=$(cd "$(dirname "$0")/.." && pwd)
 [ -f "$RUN/summary.json" ] || { echo "record-run.sh: $RUN/summary.json: not a finished run" >&2; exit 1; }
 DEST="$ROOT/results/$NAME"
@@ -19,8 +24,14 @@ trap 'rm -rf "$TMP"' EXIT
 for f in config.toml run.json summary.json cmf_sim.json dimension.svg; do
     [ -f "$RUN/$f" ] && cp "$RUN/$f" "$TMP/"
 done
-TRAINED_IN=$(cd "$RUN" && pwd | sed 's/[\\"]/\\&/g')   # a JSON string: \ and " escaped
-printf '{"trained_in": "%s"}\n' "$TRAINED_IN" > "$TMP/record.json"
+json_string() { sed 's/[\\"]/\\&/g'; }   # a JSON string's content: \ and " escaped
+TRAINED_IN=$(cd "$RUN" && pwd | json_string)
+if [ -n "$PROTOCOL" ]; then
+    printf '{"trained_in": "%s", "protocol": "%s"}\n' "$TRAINED_IN" \
+        "$(printf '%s' "$PROTOCOL" | json_string)" > "$TMP/record.json"
+else
+    printf '{"trained_in": "%s"}\n' "$TRAINED_IN" > "$TMP/record.json"
+fi
 [ -f "$RUN/convergence/convergence.md" ] && cp "$RUN/convergence/convergence.md" "$TMP/"
 if [ -f "$RUN/convergence/cmf_over_checkpoints.json" ]; then
     mkdir "$TMP/convergence" && cp "$RUN/convergence/cmf_over_checkpoints.json" "$TMP/convergence/"

@@ -51,7 +51,7 @@ pub mod table;
 
 pub use read::OVER_CHECKPOINTS_FILE;
 pub(crate) use settings::run_settings;
-pub use settings::{flatten, CONTINUED_FROM_KEY, RECORD_FILE};
+pub use settings::{flatten, CONTINUED_FROM_KEY, PROTOCOL_KEY, RECORD_FILE};
 
 use crate::averaging::Averaged;
 use crate::convergence::VerdictOverCheckpoints;

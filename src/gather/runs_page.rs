@@ -14,7 +14,9 @@ use std::fmt::Write as _;
 
 /// What the columns say.
 const COLUMNS: &str = "Columns: the settings that vary between the runs (`continued_from`: the \
-run and step whose cortex this run continued); steps done (a continued run's count goes on from \
+run and step whose cortex this run continued; `protocol`: the page that fixed the run's cells, \
+steps, seeds and verdict rule before it ran, and the commit that added it — a run without one \
+was measured before any protocol); steps done (a continued run's count goes on from \
 its start); wall time in seconds on the machine the run was trained on; the paper's figure for \
 the run's settings; CMF-SIM's dimension with each K's margin (the best set's worst error over \
 the threshold, below 1 passes); gain: held-out error of \"next = this frame\" over the \

@@ -1,24 +1,33 @@
 //! The settings a gathered run is shown and matched by: its resolved config flattened to
 //! dotted keys ([`flatten`]) and, for a run that continued another run's cortex, the setting
 //! [`CONTINUED_FROM_KEY`] naming that run — by its row among the gathered runs, or by the
-//! record a gathered folder was copied to ([`RECORD_FILE`]).
+//! record a gathered folder was copied to ([`RECORD_FILE`]) — and, for a record run under a
+//! protocol fixed in advance, the setting [`PROTOCOL_KEY`] naming it.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-/// The file of a run record naming the folder the run was trained in: `{"trained_in": PATH}`.
+/// The file of a run record naming the folder the run was trained in and, for a run whose
+/// settings a protocol fixed before it ran, that protocol: `{"trained_in": PATH}` or
+/// `{"trained_in": PATH, "protocol": "PAGE @ COMMIT"}`.
 pub const RECORD_FILE: &str = "record.json";
 
 #[derive(serde::Deserialize)]
 struct Record {
     trained_in: PathBuf,
+    #[serde(default)]
+    protocol: Option<String>,
+}
+
+fn read_record(dir: &Path) -> Option<Record> {
+    let text = std::fs::read_to_string(dir.join(RECORD_FILE)).ok()?;
+    serde_json::from_str(&text).ok()
 }
 
 /// The folder the run recorded in `dir` was trained in, when `dir` holds a readable
 /// [`RECORD_FILE`].
 pub(super) fn recorded_from(dir: &Path) -> Option<PathBuf> {
-    let text = std::fs::read_to_string(dir.join(RECORD_FILE)).ok()?;
-    Some(serde_json::from_str::<Record>(&text).ok()?.trained_in)
+    Some(read_record(dir)?.trained_in)
 }
 
 /// `path` canonical when it exists here, else as written (a record's training folder may be
@@ -30,11 +39,17 @@ pub(super) fn comparable(path: &Path) -> PathBuf {
 /// The setting naming the run a continued run's cortex came from.
 pub const CONTINUED_FROM_KEY: &str = "continued_from";
 
+/// The setting naming the protocol that fixed a recorded run before it ran (its page and the
+/// commit that added it, from the record's [`RECORD_FILE`]); absent from a run measured before
+/// any protocol.
+pub const PROTOCOL_KEY: &str = "protocol";
+
 /// The settings of the run in `dir` whose resolved config is `config`, flattened to dotted keys
 /// ([`flatten`]), with [`CONTINUED_FROM_KEY`] when its cortex came from another run (named by
 /// its row in `rows` when it is there, [`continued_from`]). What `gather` shows and what the
 /// paper's figure for the run is looked up by ([`science::paper::reported_for_settings`]: the
-/// paper's figures for a continued run are those of a fresh one).
+/// paper's figures for a continued run are those of a fresh one), and with [`PROTOCOL_KEY`] when
+/// its record names the protocol it was run under.
 pub(crate) fn run_settings(
     dir: &Path,
     config: &toml::Value,
@@ -43,6 +58,9 @@ pub(crate) fn run_settings(
     let mut settings = flatten(config);
     if let Some(from) = continued_from(dir, rows) {
         settings.insert(CONTINUED_FROM_KEY.into(), from);
+    }
+    if let Some(protocol) = read_record(dir).and_then(|r| r.protocol) {
+        settings.insert(PROTOCOL_KEY.into(), protocol);
     }
     settings
 }

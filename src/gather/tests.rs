@@ -121,3 +121,29 @@ fn an_arm_measured_only_at_location_seeds_reads_as_their_median() {
         assert_eq!(run.dimension(), Some(dimension), "{record}");
     }
 }
+
+/// A record that names the protocol it was run under has that protocol among its settings; one
+/// without, or whose record does not read, has none (it was measured before any protocol).
+#[test]
+fn a_record_names_its_protocol() {
+    let dir = std::env::temp_dir().join(format!("cv_gather_protocol_{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let record = Path::new(env!("CARGO_MANIFEST_DIR")).join("results/LMS-main-surfaces-12k");
+    std::fs::copy(record.join("summary.json"), dir.join("summary.json")).unwrap();
+    let protocol = |text: &str| {
+        std::fs::write(dir.join(RECORD_FILE), text).unwrap();
+        let run = read_run(&dir, "x".into(), &BTreeMap::new());
+        run.settings.get(PROTOCOL_KEY).cloned()
+    };
+    let page = "docs/notebook/p.md @ f0603a6";
+    let with = format!(r#"{{"trained_in": "/elsewhere/x", "protocol": "{page}"}}"#);
+    assert_eq!(protocol(&with).as_deref(), Some(page));
+    assert_eq!(protocol(r#"{"trained_in": "/elsewhere/x"}"#), None);
+    assert_eq!(
+        protocol(r#"{"protocol": "#),
+        None,
+        "a record that does not read"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
