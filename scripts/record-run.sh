@@ -26,12 +26,9 @@ for f in config.toml run.json summary.json cmf_sim.json dimension.svg; do
 done
 json_string() { sed 's/[\\"]/\\&/g'; }   # a JSON string's content: \ and " escaped
 TRAINED_IN=$(cd "$RUN" && pwd | json_string)
-if [ -n "$PROTOCOL" ]; then
-    printf '{"trained_in": "%s", "protocol": "%s"}\n' "$TRAINED_IN" \
-        "$(printf '%s' "$PROTOCOL" | json_string)" > "$TMP/record.json"
-else
-    printf '{"trained_in": "%s"}\n' "$TRAINED_IN" > "$TMP/record.json"
-fi
+PROTOCOL_FIELD=""
+[ -z "$PROTOCOL" ] || PROTOCOL_FIELD=", \"protocol\": \"$(printf '%s' "$PROTOCOL" | json_string)\""
+printf '{"trained_in": "%s"%s}\n' "$TRAINED_IN" "$PROTOCOL_FIELD" > "$TMP/record.json"
 [ -f "$RUN/convergence/convergence.md" ] && cp "$RUN/convergence/convergence.md" "$TMP/"
 if [ -f "$RUN/convergence/cmf_over_checkpoints.json" ]; then
     mkdir "$TMP/convergence" && cp "$RUN/convergence/cmf_over_checkpoints.json" "$TMP/convergence/"

@@ -56,16 +56,23 @@ fn the_averaged_weights_figure_is_read_with_the_run() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// A fresh folder in the temporary directory holding only the default run's recorded summary:
+/// a finished run folder for a test to add files to.
+fn finished_run_folder(tag: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("cv_gather_{tag}_{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let record = Path::new(env!("CARGO_MANIFEST_DIR")).join("results/LMS-main-surfaces-12k");
+    std::fs::copy(record.join("summary.json"), dir.join("summary.json")).unwrap();
+    dir
+}
+
 /// The final checkpoint measured with other location seeds (a verdict on the border) makes the
 /// run's dimension the median of all; the run's own seed, another step's measurement, an even
 /// count and a file that does not read leave its own figure.
 #[test]
 fn other_location_seeds_on_the_final_checkpoint_give_the_median() {
-    let dir = std::env::temp_dir().join(format!("cv_gather_loc_{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    let record = Path::new(env!("CARGO_MANIFEST_DIR")).join("results/LMS-main-surfaces-12k");
-    std::fs::copy(record.join("summary.json"), dir.join("summary.json")).unwrap();
+    let dir = finished_run_folder("loc");
     let measure = |name: &str, text: &str| {
         std::fs::create_dir_all(dir.join(name)).unwrap();
         std::fs::write(dir.join(name).join("cmf_sim.json"), text).unwrap();
@@ -126,11 +133,7 @@ fn an_arm_measured_only_at_location_seeds_reads_as_their_median() {
 /// without, or whose record does not read, has none (it was measured before any protocol).
 #[test]
 fn a_record_names_its_protocol() {
-    let dir = std::env::temp_dir().join(format!("cv_gather_protocol_{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    let record = Path::new(env!("CARGO_MANIFEST_DIR")).join("results/LMS-main-surfaces-12k");
-    std::fs::copy(record.join("summary.json"), dir.join("summary.json")).unwrap();
+    let dir = finished_run_folder("protocol");
     let protocol = |text: &str| {
         std::fs::write(dir.join(RECORD_FILE), text).unwrap();
         let run = read_run(&dir, "x".into(), &BTreeMap::new());
