@@ -9,9 +9,18 @@
 //!
 //! Each run prints the observer calls and shows evaluated once, so the cost of a trained
 //! observer can be estimated as shows × (time per show of the retina + cortex).
+//! - `cmf_sim/paper_eye_16_shows_window` and `…_whole_field`: one batch of 16 shows (8 at each
+//!   of two patch locations, the cached noise-free path CMF-SIM takes) through the `paper`
+//!   preset's eye (256 × 256 cones) and its cortex (8 → 16/32/64/128 → 8 U-Net), decoder D on
+//!   the window each patch needs or on the whole field; their ratio is the saving per show.
 
 use colorimetry::analytic::ConeObserver;
+use colorimetry::observer::{Observer, Show, Stimulus};
 use colorimetry::{run_cmf_sim, CmfSimSettings, ConeClass, ConeTemplate, WavelengthGrid};
+use cortex::Cortex;
+use retina::Retina;
+use science::config::RunConfig;
+use science::observer::{EyeObserver, ObserverSettings};
 use criterion::{criterion_group, criterion_main, Criterion};
 use std::hint::black_box;
 use std::time::Duration;
@@ -57,5 +66,40 @@ fn bench(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, bench);
+/// 16 shows of monochromatic lights, 8 at each of two locations.
+fn paper_shows() -> Vec<Show> {
+    (0..16)
+        .map(|i| Show {
+            stimulus: Stimulus::monochromatic(420.0 + 17.0 * i as f64, 0.5),
+            location: if i % 2 == 0 { [0.3, -0.4] } else { [-0.5, 0.2] },
+            noise_seed: 0,
+        })
+        .collect()
+}
+
+fn paper_eye(c: &mut Criterion) {
+    let mut g = c.benchmark_group("cmf_sim");
+    g.sample_size(10).measurement_time(Duration::from_secs(20));
+    let config = RunConfig::preset("paper", "LMS").expect("paper preset");
+    let retina = Retina::new(config.retina.clone()).expect("paper eye");
+    let cortex = Cortex::new(config.cortex.clone()).expect("paper cortex");
+    let shows = paper_shows();
+    for (name, whole) in [("window", false), ("whole_field", true)] {
+        let mut o = EyeObserver::cortex(&retina, &cortex, ObserverSettings::default());
+        if whole {
+            o = o.decoding_whole_field();
+        }
+        let mut out = vec![0.0; shows.len() * o.percept_dim()];
+        o.percepts(&shows, &mut out); // fills the per-location cache
+        g.bench_function(format!("paper_eye_16_shows_{name}"), |b| {
+            b.iter(|| {
+                o.percepts(&shows, &mut out);
+                black_box(out[0])
+            })
+        });
+    }
+    g.finish();
+}
+
+criterion_group!(benches, bench, paper_eye);
 criterion_main!(benches);

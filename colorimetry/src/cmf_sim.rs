@@ -188,6 +188,18 @@ pub fn run_cmf_sim_until(
     progress: &mut dyn FnMut(&CmfSimProgress),
     stop: &AtomicBool,
 ) -> Result<CmfSimResult> {
+    run(observer, settings, progress, stop, true)
+}
+
+/// [`run_cmf_sim_until`], with the candidates of a failed K bounded by the best converged one
+/// or (`bound_candidates = false`, the reference in tests) every candidate solved fully.
+fn run(
+    observer: &dyn Observer,
+    settings: &CmfSimSettings,
+    progress: &mut dyn FnMut(&CmfSimProgress),
+    stop: &AtomicBool,
+    bound_candidates: bool,
+) -> Result<CmfSimResult> {
     validate_settings(settings, observer.grid())?;
     let start = Instant::now();
     let s = settings;
@@ -230,6 +242,7 @@ pub fn run_cmf_sim_until(
         base: &base,
         threshold: &threshold,
         stop,
+        bound_candidates,
     };
     let mut order = WavelengthOrder::by_energy_ratio(&base.energy, &threshold);
     let mut front = (s.reuse_base_pairs && s.front_end_jacobians)

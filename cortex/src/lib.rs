@@ -16,7 +16,8 @@
 //!   [`Trainer::resume`] (bit-identical), [`Trainer::continue_from`] (gene therapy / boosting:
 //!   same cortex, new data, fresh Adam), [`checkpoint::latest_checkpoint`].
 //! - Evaluation: [`Trainer::prediction_error`] (vs "next = current"),
-//!   [`Trainer::motion_error_ons_px`], [`Cortex::decode_frames`], [`Cortex::learned_c`],
+//!   [`Trainer::motion_error_ons_px`], [`Cortex::decode_frames`], [`Cortex::record_decode_windows`]
+//!   (D on the window a few cells need), [`Cortex::learned_c`],
 //!   [`Cortex::learned_positions`], [`Cortex::learned_w_kernel`]; the percepts of the last step
 //!   ([`Trainer::last_percept`]) for a Neural Scope fitted by the caller, who knows the scene
 //!   (`colorimetry::NeuralScope`; the cortex never learns from it).
@@ -36,6 +37,7 @@ pub mod rng;
 pub mod rule;
 pub mod synthetic;
 pub mod trainer;
+pub mod window;
 
 pub use config::CortexConfig;
 pub use data::{DataSource, OnsBatch};
@@ -44,3 +46,4 @@ pub use eval::MotionError;
 pub use model::Cortex;
 pub use rule::{RuleContext, RuleEntry, RuleName, RuleSettings};
 pub use trainer::{PredictionError, StepStats, Trainer};
+pub use window::Window;

@@ -91,7 +91,7 @@ pub const BUCKETS_IN_ORDER: [Bucket; BUCKETS] = [
 /// The buckets that hold parameters, in order.
 pub const LEARNED_BUCKETS: [Bucket; 4] = [Bucket::W, Bucket::C, Bucket::D, Bucket::P];
 
-fn enter(tape: &mut Tape<f32>, b: Bucket) {
+pub(crate) fn enter(tape: &mut Tape<f32>, b: Bucket) {
     tape.enter_scope(BUCKET_NAMES[b as usize]);
 }
 
@@ -205,11 +205,8 @@ impl Cortex {
 
     /// Records decode Φ of `ons (B, 1, n, n)` in the W, C and D scopes.
     pub fn record_decode(&self, tape: &mut Tape<f32>, ons: Var) -> Decoded {
-        enter(tape, Bucket::W);
-        let r = self.w.record(tape, &self.params);
-        let pa = self.w.decode(tape, r, ons);
-        tape.tag(pa, TAGS[0]);
-        let Some(cb) = &self.c else {
+        let (pa, x, r, c) = self.record_w_c(tape, ons);
+        let Some(c) = c else {
             return Decoded {
                 activations: pa,
                 injected: pa,
@@ -219,10 +216,6 @@ impl Cortex {
                 c: None,
             };
         };
-        enter(tape, Bucket::C);
-        let c = cb.record(tape, &self.params);
-        let x = cb.inject(tape, c, pa);
-        tape.tag(x, TAGS[1]);
         enter(tape, Bucket::D);
         let (v, blocks) = self.d.forward_blocks(tape, &self.params, x);
         Decoded {
@@ -233,6 +226,33 @@ impl Cortex {
             w: r,
             c: Some(c),
         }
+    }
+
+    /// Records decode Φ's W and C on `ons`: `(pa, X, W's response, C)`; without C (the
+    /// identity-percept baseline) `X = pa` and D is not applied after it.
+    fn record_w_c(
+        &self,
+        tape: &mut Tape<f32>,
+        ons: Var,
+    ) -> (Var, Var, Option<Var>, Option<Var>) {
+        enter(tape, Bucket::W);
+        let r = self.w.record(tape, &self.params);
+        let pa = self.w.decode(tape, r, ons);
+        tape.tag(pa, TAGS[0]);
+        let Some(cb) = &self.c else {
+            return (pa, pa, r, None);
+        };
+        enter(tape, Bucket::C);
+        let c = cb.record(tape, &self.params);
+        let x = cb.inject(tape, c, pa);
+        tape.tag(x, TAGS[1]);
+        (pa, x, r, Some(c))
+    }
+
+    /// `X = pa·C` of `ons`, and whether D follows it (module docs of [`crate::window`]).
+    pub(crate) fn record_injected(&self, tape: &mut Tape<f32>, ons: Var) -> (Var, bool) {
+        let (_, x, _, c) = self.record_w_c(tape, ons);
+        (x, c.is_some())
     }
 
     /// Estimates the motion of frames `(B, n, n)` each (no gradient). `oracle` is required in

@@ -20,7 +20,11 @@
 //! the ONS of a unit disc on plane c there. Each location keeps its `B_c` (for the cortex) or,
 //! for the decoders that are linear too, the readouts of `B_c` themselves; CMF-SIM shows every
 //! location many times. With noise every show is rendered and decoded. The cortex decodes in
-//! rayon jobs of at most `decode_batch` shows, split evenly over the threads.
+//! rayon jobs of at most `decode_batch` shows, split evenly over the threads, and runs its
+//! decoder D only on the window that the patch's read cones depend on
+//! ([`cortex::Cortex::record_decode_windows`]; W's inverse and C still cover the whole field):
+//! the percepts are the whole field's, at a fraction of the cost on a large eye (a patch of the
+//! 256 × 256 eye needs a 160 × 160 window).
 
 mod mixed_opsins;
 pub mod oracle;
@@ -154,6 +158,9 @@ pub struct EyeObserver<'a> {
     readout: Readout,
     intensity: f64,
     cache: Mutex<LocationCache>,
+    /// Whether the cortex decodes the whole field for every show rather than the window each
+    /// patch needs (the same percepts; the reference the windows are tested against).
+    whole_field: bool,
 }
 
 impl<'a> EyeObserver<'a> {
@@ -186,7 +193,15 @@ impl<'a> EyeObserver<'a> {
             settings,
             readout,
             cache: Mutex::new(LocationCache::default()),
+            whole_field: false,
         }
+    }
+
+    /// The same observer, its cortex decoding the whole field for every show (module docs,
+    /// **Speed**): the reference that windowed decoding is tested and timed against.
+    pub fn decoding_whole_field(mut self) -> Self {
+        self.whole_field = true;
+        self
     }
 
     /// The eye followed by the learned cortex.

@@ -340,3 +340,4 @@ impl UNet {
 
 #[cfg(test)]
 mod tests;
+mod window;

@@ -7,6 +7,16 @@
 //! at every wavelength, continuing where they stopped; the reported curve and margin are the best
 //! of those by their converged worst ratio. For a passing K the passing set is solved at every
 //! wavelength (it may have stopped below the threshold at the first sub-threshold iterate).
+//!
+//! **Bounded candidates.** Only the best candidate's curve is reported, so a candidate need
+//! not be converged once it cannot beat the best so far. Candidates go in increasing order of
+//! their lower bounds; the first is solved fully. Each later one is skipped when its lower bound
+//! already reaches the best converged ratio `r*`, and otherwise solved with early rejection
+//! against `r* · threshold` (continuing its earlier solves): a wavelength whose converged error
+//! reaches that bound proves its worst ratio is at least `r*`, and it is left there. One that
+//! stays below it everywhere is solved fully and becomes the best. Every solve continues along
+//! the path an uninterrupted solve takes ([`crate::matching`]), so the reported curve, margin
+//! and verdict are those of solving every candidate fully (tested); only the shows differ.
 
 use rand::{Rng, RngCore};
 
@@ -29,6 +39,9 @@ pub(super) struct Search<'a> {
     pub threshold: &'a [f64],
     /// Set by the caller to stop the search (checked before every primary set).
     pub stop: &'a AtomicBool,
+    /// Whether later candidates of a failed K are bounded by the best converged one (module
+    /// docs); `false` solves every candidate fully (the reference the bound is tested against).
+    pub bound_candidates: bool,
 }
 
 /// A set tried: its primaries, locations and seed, and what its evaluation found.
@@ -121,6 +134,91 @@ impl Search<'_> {
         evaluate_fully(&pb, &self.settings.solver, self.threshold, &options, front)
     }
 
+    /// Solve `t` fully if its converged worst ratio may lie below `best` (module docs, **Bounded
+    /// candidates**): `Ok` with the full outcome, or `Err` with what the bounded solve spent
+    /// when some wavelength's converged ratio reached `best`.
+    fn converge_below(
+        &self,
+        t: &Tried,
+        best: f64,
+        order: &WavelengthOrder,
+        mut front: Option<&mut FrontEnd<'_>>,
+    ) -> std::result::Result<SetOutcome, SetOutcome> {
+        if t.outcome.fully_evaluated || !(t.outcome.worst_ratio(self.threshold) < best) {
+            return match t.outcome.fully_evaluated {
+                true => Ok(t.outcome.clone()),
+                false => Err(SetOutcome::default()),
+            };
+        }
+        let bound: Vec<f64> = self.threshold.iter().map(|&x| best * x).collect();
+        let pb = self.problem(t);
+        let options = self.options(Some(&t.outcome.matches));
+        let s = &self.settings;
+        let bounded = evaluate_early(
+            &pb,
+            &s.solver,
+            &bound,
+            &options,
+            order,
+            s.first_round_wavelengths,
+            front.as_deref_mut(),
+        );
+        if !bounded.passed {
+            return Err(bounded);
+        }
+        let options = self.options(Some(&bounded.matches));
+        let mut full = evaluate_fully(&pb, &s.solver, self.threshold, &options, front);
+        full.observer_calls += bounded.observer_calls;
+        full.shows += bounded.shows;
+        Ok(full)
+    }
+
+    /// Converge the candidates `tried` (in order) and return the best curve by converged worst
+    /// ratio, the first of equals (module docs).
+    fn report(
+        &self,
+        k: usize,
+        tried: &[Tried],
+        order: &WavelengthOrder,
+        summary: &mut KSummary,
+        mut front: Option<&mut FrontEnd<'_>>,
+    ) -> Result<ErrorCurve> {
+        let mut reported: Option<ErrorCurve> = None;
+        for t in tried {
+            if self.stop.load(Ordering::Relaxed) {
+                return Err(ColorimetryError::Stopped);
+            }
+            let full = match (&reported, self.bound_candidates) {
+                (Some(best), true) => {
+                    self.converge_below(t, best.worst_ratio, order, front.as_deref_mut())
+                }
+                _ => Ok(self.converge(t, front.as_deref_mut())),
+            };
+            let full = match full {
+                Ok(full) => full,
+                Err(spent) => {
+                    summary.reported_curve_shows += spent.shows;
+                    summary.account(&spent);
+                    summary.sets_bounded_out += 1;
+                    continue;
+                }
+            };
+            if !t.outcome.fully_evaluated {
+                summary.reported_curve_shows += full.shows;
+                summary.account(&full);
+            }
+            summary.sets_fully_evaluated += 1;
+            let c = curve(k, t.index, &t.primaries, self.tests, self.threshold, &full);
+            if reported
+                .as_ref()
+                .is_none_or(|r| c.worst_ratio < r.worst_ratio)
+            {
+                reported = Some(c);
+            }
+        }
+        Ok(reported.expect("at least one set per K"))
+    }
+
     /// Step 2 for `k` primaries: the summary and the reported (converged) curve.
     pub fn search_k(
         &self,
@@ -176,26 +274,7 @@ impl Search<'_> {
             });
             tried.truncate(self.settings.converged_sets.max(1));
         }
-        let mut reported: Option<ErrorCurve> = None;
-        for t in &tried {
-            if self.stop.load(Ordering::Relaxed) {
-                return Err(ColorimetryError::Stopped);
-            }
-            let full = self.converge(t, front.as_deref_mut());
-            if !t.outcome.fully_evaluated {
-                summary.reported_curve_shows += full.shows;
-                summary.account(&full);
-            }
-            summary.sets_fully_evaluated += 1;
-            let c = curve(k, t.index, &t.primaries, self.tests, self.threshold, &full);
-            if reported
-                .as_ref()
-                .is_none_or(|r| c.worst_ratio < r.worst_ratio)
-            {
-                reported = Some(c);
-            }
-        }
-        let reported = reported.expect("at least one set per K");
+        let reported = self.report(k, &tried, order, &mut summary, front)?;
         summary.set_margin(&reported, self.tests, self.threshold);
         summary.seconds = t0.elapsed().as_secs_f64();
         Ok((summary, reported))

@@ -352,3 +352,48 @@ fn front_end_model_keeps_the_dimension_exact() {
         );
     }
 }
+
+#[test]
+fn bounded_candidates_report_what_converging_every_candidate_reports() {
+    let stop = AtomicBool::new(false);
+    let mut saved = 0;
+    for (i, (o, k)) in comparison_observers().iter().enumerate() {
+        let settings = CmfSimSettings {
+            location_pairs: 2,
+            converged_sets: 5,
+            ..fast(47 + i as u64)
+        };
+        let bounded = run(o.as_ref(), &settings, &mut |_| {}, &stop, true).unwrap();
+        let every = run(o.as_ref(), &settings, &mut |_| {}, &stop, false).unwrap();
+        assert_eq!((bounded.dimension, every.dimension), (*k, *k), "{}", o.name());
+        for (b, e) in bounded.per_k.iter().zip(&every.per_k) {
+            assert_eq!(b.sets, e.sets, "{}: the same sets tried", o.name());
+            assert_eq!(
+                (b.sets_fully_evaluated + b.sets_bounded_out, e.sets_bounded_out),
+                (e.sets_fully_evaluated, 0),
+                "{}: every candidate either converged or bounded out",
+                o.name()
+            );
+            assert!(b.shows <= e.shows, "{}: {} > {} shows", o.name(), b.shows, e.shows);
+            saved += e.shows - b.shows;
+        }
+        for (cb, ce) in bounded.curves.iter().zip(&every.curves) {
+            assert_eq!(
+                (cb.set_index, &cb.primaries_nm, cb.passed),
+                (ce.set_index, &ce.primaries_nm, ce.passed),
+                "{}: K = {}",
+                o.name(),
+                cb.n_primaries
+            );
+            for (a, b) in cb.errors.iter().zip(&ce.errors) {
+                assert!(
+                    (a - b).abs() <= 1e-12 * b.abs().max(1e-300),
+                    "{}: K = {}: {a} vs {b}",
+                    o.name(),
+                    cb.n_primaries
+                );
+            }
+        }
+    }
+    assert!(saved > 0, "the bound never spared a show");
+}

@@ -136,6 +136,11 @@ pub struct KSummary {
     /// Sets solved at every wavelength to convergence (the passing set, or the best rejected
     /// sets of a failed K).
     pub sets_fully_evaluated: usize,
+    /// Candidates of a failed K left unconverged because, at some wavelength, their converged
+    /// error already reached the best converged candidate's worst ratio: they cannot be the
+    /// reported set ([`crate::cmf_sim`] step 2).
+    #[serde(default)]
+    pub sets_bounded_out: usize,
     /// The reported set's `max error / threshold` over every test wavelength, after
     /// convergence (< 1: the set passes).
     pub converged_worst_ratio: f64,
@@ -161,6 +166,7 @@ impl KSummary {
             reported_curve_shows: 0,
             seconds: 0.0,
             sets_fully_evaluated: 0,
+            sets_bounded_out: 0,
             converged_worst_ratio: f64::INFINITY,
             failing_wavelengths: 0,
             worst_wavelength_nm: f64::NAN,

@@ -3,6 +3,8 @@
 //! and the batched decoding jobs behind [`Observer::percepts`].
 
 use super::*;
+use cortex::Window;
+use std::collections::BTreeMap;
 
 /// Entries by location (bit patterns of x, y) and the bytes they hold.
 #[derive(Default)]
@@ -15,6 +17,9 @@ pub(super) struct LocationCache {
 struct LocationEntry {
     /// The cones read.
     cells: Vec<usize>,
+    /// For the cortex: the window its decoder D runs on for this location, and the cones read
+    /// as indices inside it (`None`: the whole field).
+    window: Option<(Window, Vec<usize>)>,
     /// Noise-free, per cone-read plane: the ONS of a unit disc `(k × n·n)` for the cortex, the
     /// readout of its percept `(k × readout length)` for linear decoders; empty with noise.
     ons_basis: Vec<f32>,
@@ -92,18 +97,89 @@ impl EyeObserver<'_> {
                 }
             }
         }
+        let window = self.decode_window(&cells);
         let entry = Arc::new(LocationEntry {
             cells,
+            window,
             ons_basis,
             readout_basis,
         });
-        let bytes = entry.ons_basis.len() * 4 + entry.readout_basis.len() * 8;
+        let bytes = entry.ons_basis.len() * 4 + entry.readout_basis.len() * 8 + entry.cells.len() * 16;
         let mut cache = self.cache.lock().expect("cache lock");
         if cache.bytes + bytes <= CACHE_LIMIT_BYTES {
             cache.bytes += bytes;
             cache.entries.insert(key, entry.clone());
         }
         entry
+    }
+
+    /// The window the cortex decodes for a patch reading `cells` (`None`: the whole field).
+    fn decode_window(&self, cells: &[usize]) -> Option<(Window, Vec<usize>)> {
+        let Decoder::Cortex(cortex) = &self.decoder else {
+            return None;
+        };
+        if self.whole_field || cells.is_empty() {
+            return None;
+        }
+        let n = self.retina.n();
+        let (rows, cols) = cells.iter().fold(([n, 0], [n, 0]), |(r, c), &i| {
+            let (y, x) = (i / n, i % n);
+            ([r[0].min(y), r[1].max(y)], [c[0].min(x), c[1].max(x)])
+        });
+        let window = cortex.exact_window(rows, cols);
+        let local = cells
+            .iter()
+            .map(|&i| window.local_index(i, n).expect("a read cone lies in its window"))
+            .collect();
+        Some((window, local))
+    }
+
+    /// Decodes the shows `members` (indices into `shows`, whose entries' windows share a size)
+    /// through the cortex, D on each show's window, and reads them into their rows of `out`.
+    fn decode_cortex(
+        &self,
+        cortex: &Cortex,
+        shows: &[Show],
+        entries: &[Arc<LocationEntry>],
+        members: &[usize],
+        out: &mut [f64],
+    ) {
+        let (dim, n) = (self.decoder.dim(), self.retina.n());
+        let (nn, len) = (n * n, self.readout.len(dim));
+        let noise_free = self.settings.noise_ratio == 0.0;
+        let mut ons = vec![0f32; members.len() * nn];
+        for (&i, o) in members.iter().zip(ons.chunks_exact_mut(nn)) {
+            if noise_free {
+                for (c, &v) in self.values(&shows[i]).iter().enumerate() {
+                    let b = &entries[i].ons_basis[c * nn..(c + 1) * nn];
+                    o.iter_mut().zip(b).for_each(|(x, b)| *x += v as f32 * b);
+                }
+            } else {
+                o.copy_from_slice(&self.render(&shows[i]).1);
+            }
+        }
+        let mut tape = TAPE.take().unwrap_or_default();
+        tape.clear();
+        let o = tape.constant_from([members.len(), 1, n, n], &ons);
+        let windows: Option<Vec<Window>> = members
+            .iter()
+            .map(|&i| entries[i].window.as_ref().map(|(w, _)| *w))
+            .collect();
+        let v = match &windows {
+            Some(w) => cortex.record_decode_windows(&mut tape, o, w),
+            None => cortex.record_decode(&mut tape, o).percept,
+        };
+        let percept = tape.value(v).data();
+        let plane = percept.len() / members.len().max(1);
+        for (s, &i) in members.iter().enumerate() {
+            let e = &entries[i];
+            let cells = e.window.as_ref().map_or(&e.cells, |(_, local)| local);
+            let rows = &mut out[i * len..(i + 1) * len];
+            self.readout
+                .read(&percept[s * plane..(s + 1) * plane], dim, cells, rows);
+        }
+        tape.clear();
+        TAPE.set(Some(tape));
     }
 
     /// Class-plane values of a show's stimulus (the planes the cones read).
@@ -135,29 +211,15 @@ impl EyeObserver<'_> {
             return;
         }
         if let Decoder::Cortex(cortex) = &self.decoder {
-            let mut ons = vec![0f32; shows.len() * nn];
-            for ((show, entry), o) in shows.iter().zip(&entries).zip(ons.chunks_exact_mut(nn)) {
-                if noise_free {
-                    for (c, &v) in self.values(show).iter().enumerate() {
-                        let b = &entry.ons_basis[c * nn..(c + 1) * nn];
-                        o.iter_mut().zip(b).for_each(|(x, b)| *x += v as f32 * b);
-                    }
-                } else {
-                    o.copy_from_slice(&self.render(show).1);
-                }
+            // Shows whose windows share a size are decoded together (the whole field is one).
+            let mut groups: BTreeMap<(usize, usize), Vec<usize>> = BTreeMap::new();
+            for (i, e) in entries.iter().enumerate() {
+                let size = e.window.as_ref().map_or((nn, 0), |(w, _)| (w.height, w.width));
+                groups.entry(size).or_default().push(i);
             }
-            let mut tape = TAPE.take().unwrap_or_default();
-            tape.clear();
-            let n = self.retina.n();
-            let o = tape.constant_from([shows.len(), 1, n, n], &ons);
-            let v = cortex.record_decode(&mut tape, o).percept;
-            let percept = tape.value(v).data();
-            for (s, (entry, o)) in entries.iter().zip(out.chunks_exact_mut(len)).enumerate() {
-                let planes = &percept[s * dim * nn..(s + 1) * dim * nn];
-                self.readout.read(planes, dim, &entry.cells, o);
+            for members in groups.values() {
+                self.decode_cortex(cortex, shows, &entries, members, out);
             }
-            tape.clear();
-            TAPE.set(Some(tape));
             return;
         }
         for ((show, entry), o) in shows.iter().zip(&entries).zip(out.chunks_exact_mut(len)) {

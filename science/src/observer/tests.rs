@@ -111,3 +111,52 @@ fn cached_percepts_equal_direct_renders_for_every_decoder() {
         assert_close(&batched, &direct, name);
     }
 }
+
+#[test]
+fn windowed_cortex_percepts_equal_whole_field_ones() {
+    // The quick eye (64 × 64 cones) with a small patch and a one-level U-Net, so that a patch's
+    // window is a fraction of the field; every parameter moved off its initialisation.
+    let config = RunConfig::preset("quick", "LMS").unwrap();
+    let retina: &'static Retina = Box::leak(Box::new(Retina::new(config.retina.clone()).unwrap()));
+    let mut cc = config.cortex.clone();
+    cc.d.widths = vec![8, 16];
+    let mut cortex = Cortex::new(cc).unwrap();
+    let ids: Vec<_> = cortex.params.ids().collect();
+    let mut k = 5u32;
+    for id in ids {
+        for v in cortex.params.get_mut(id).data_mut() {
+            k = k.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            *v += ((k >> 8) as f32 / (1u32 << 24) as f32 - 0.5) * 0.2;
+        }
+    }
+    let cortex: &'static Cortex = Box::leak(Box::new(cortex));
+    let settings = ObserverSettings {
+        patch_radius_fraction: 1.0 / 16.0,
+        ..ObserverSettings::default()
+    };
+    let windowed = EyeObserver::cortex(retina, cortex, settings.clone());
+    let whole = EyeObserver::cortex(retina, cortex, settings).decoding_whole_field();
+    let shows = shows();
+    let n = retina.n();
+    for show in &shows {
+        let cells = windowed
+            .readout
+            .cells(&retina.layout, windowed.disc(show.location).centre_px);
+        let rows = cells.iter().map(|&i| i / n);
+        let cols = cells.iter().map(|&i| i % n);
+        let w = cortex.exact_window(
+            [rows.clone().min().unwrap(), rows.max().unwrap()],
+            [cols.clone().min().unwrap(), cols.max().unwrap()],
+        );
+        assert!(
+            w.height * w.width * 2 < n * n,
+            "window {w:?} of a {n} × {n} field"
+        );
+    }
+    let dim = windowed.percept_dim();
+    let (mut a, mut b) = (vec![0.0; shows.len() * dim], vec![0.0; shows.len() * dim]);
+    windowed.percepts(&shows, &mut a);
+    whole.percepts(&shows, &mut b);
+    assert!(b.iter().any(|&v| v != 0.0), "the percepts are all zero");
+    assert_close(&a, &b, "windowed vs whole field");
+}

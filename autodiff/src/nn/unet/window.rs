@@ -1,0 +1,190 @@
+//! Which input pixels a U-Net output pixel depends on, and the smallest window of a large field
+//! on which the network computes a box of outputs exactly as on the whole field. A caller that
+//! needs a few hundred outputs of a 256 × 256 field (CMF-SIM reads the cones one patch covers)
+//! decodes that window alone.
+//!
+//! Conventions: an interval is inclusive, `[first, last]`, in pixels along one axis at the
+//! input's resolution; rows and columns are independent (every op reaches along each axis on its
+//! own). From an output interval `[a, b]` back to the input of each op:
+//! - 3×3 conv with reflect padding: `[a − 1, b + 1]` (a reflection only reads pixels inside);
+//! - 2×2 max pool: `[2a, 2b + 1]`;
+//! - 2×2 stride-2 transposed conv: `[⌊a/2⌋, ⌊b/2⌋]`;
+//! - 1×1 conv: `[a, b]`; a concatenation needs the union of its inputs' reaches.
+//!
+//! The interval may reach past the image; the window is clamped to the image. A window decoded
+//! on its own must start and end on the pooling grid (multiples of [`UNet::alignment_px`]), or at
+//! the field's edges, where the window's reflect padding is the field's: then every pixel inside
+//! the returned interval sees exactly the values it sees in the whole field.
+
+use super::UNet;
+
+/// `[a − r, b + r]`.
+fn widen(iv: [i64; 2], r: i64) -> [i64; 2] {
+    [iv[0] - r, iv[1] + r]
+}
+
+/// The smallest interval holding both.
+fn union(a: [i64; 2], b: [i64; 2]) -> [i64; 2] {
+    [a[0].min(b[0]), a[1].max(b[1])]
+}
+
+impl UNet {
+    /// The pooling factor `2^(levels − 1)`: input sides and window offsets must be multiples of it.
+    pub fn alignment_px(&self) -> usize {
+        1 << self.downs.len()
+    }
+
+    /// The input interval (one axis, inclusive) that the output pixels `[a, b]` depend on
+    /// (module docs; unclamped).
+    pub fn input_interval(&self, output: [i64; 2]) -> [i64; 2] {
+        assert!(
+            output[0] <= output[1],
+            "UNet::input_interval: empty interval {output:?}"
+        );
+        // The 1×1 output conv reaches no further than the last decoder block's output.
+        self.decoder_reach(0, output)
+    }
+
+    /// The window `[start, end)` of a field of `size_px` pixels (one axis) on which the network
+    /// computes the outputs `[a, b]` exactly as on the whole field: the input interval widened to
+    /// the pooling grid and clamped to the field.
+    #[track_caller]
+    pub fn exact_window(&self, output: [usize; 2], size_px: usize) -> [usize; 2] {
+        let m = self.alignment_px();
+        assert!(
+            size_px % m == 0 && output[1] < size_px,
+            "UNet::exact_window: outputs {output:?} of a field of {size_px} (a multiple of {m})"
+        );
+        let [lo, hi] = self.input_interval([output[0] as i64, output[1] as i64]);
+        let m = m as i64;
+        let start = lo.div_euclid(m) * m;
+        let end = (hi + 1 + m - 1).div_euclid(m) * m;
+        [start.max(0) as usize, (end as usize).min(size_px)]
+    }
+
+    /// What the encoder's block at `level` (0: `inc`) needs of the input for its outputs `iv`.
+    fn encoder_reach(&self, level: usize, iv: [i64; 2]) -> [i64; 2] {
+        let iv = widen(iv, 2); // DoubleConv: two 3×3 convs.
+        if level == 0 {
+            iv
+        } else {
+            self.encoder_reach(level - 1, [2 * iv[0], 2 * iv[1] + 1]) // 2×2 max pool
+        }
+    }
+
+    /// What the decoder's output at `level` (the bottleneck at the deepest level) needs of the
+    /// input for its outputs `iv`.
+    fn decoder_reach(&self, level: usize, iv: [i64; 2]) -> [i64; 2] {
+        if level == self.downs.len() {
+            return self.encoder_reach(level, iv);
+        }
+        let cat = widen(iv, 2); // the up block's DoubleConv over [skip, up]
+        let skip = self.encoder_reach(level, cat);
+        let up = self.decoder_reach(level + 1, [cat[0].div_euclid(2), cat[1].div_euclid(2)]);
+        union(skip, up)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::{UNet, UNetConfig};
+    use crate::{ParamStore, Tape, Tensor};
+
+    fn net(widths: Vec<usize>) -> (UNet, ParamStore<f32>) {
+        let mut ps = ParamStore::<f32>::new();
+        let cfg = UNetConfig {
+            in_channels: 2,
+            out_channels: 3,
+            widths,
+            seed: 7,
+        };
+        (UNet::new(&mut ps, "u", cfg), ps)
+    }
+
+    /// The output `(C, H, W)` of one image `(2, h, w)`.
+    fn run(net: &UNet, ps: &ParamStore<f32>, x: &[f32], h: usize, w: usize) -> Vec<f32> {
+        let mut tape = Tape::<f32>::new();
+        let v = tape.constant_from([1, 2, h, w], x);
+        let y = net.forward(&mut tape, ps, v);
+        tape.value(y).data().to_vec()
+    }
+
+    fn image(h: usize, w: usize, seed: u32) -> Vec<f32> {
+        Tensor::<f32>::from_fn([2, h, w], |i| {
+            let k = (i as u32).wrapping_mul(2_654_435_761).wrapping_add(seed);
+            (k % 1000) as f32 / 500.0 - 1.0
+        })
+        .data()
+        .to_vec()
+    }
+
+    #[test]
+    fn reach_of_the_official_depths() {
+        // Worked by hand from the module docs' rules, level by level.
+        let (n2, _) = net(vec![4, 8]);
+        assert_eq!(n2.alignment_px(), 2);
+        assert_eq!(n2.input_interval([10, 10]), [2, 19]);
+        let (n4, _) = net(vec![4, 8, 16, 32]);
+        assert_eq!(n4.alignment_px(), 8);
+        assert_eq!(n4.input_interval([40, 40]), [-6, 85]);
+        assert_eq!(n4.exact_window([40, 40], 256), [0, 88]);
+        assert_eq!(n4.exact_window([100, 130], 256), [48, 184]);
+    }
+
+    #[test]
+    fn a_window_decodes_its_box_as_the_whole_field_does() {
+        let (net, ps) = net(vec![4, 8, 16]);
+        let n = 64;
+        let x = image(n, n, 3);
+        let full = run(&net, &ps, &x, n, n);
+        // Boxes in the middle, at a corner and at an edge.
+        for (rows, cols) in [([26, 33], [20, 29]), ([0, 5], [58, 63]), ([30, 31], [0, 9])] {
+            let [r0, r1] = net.exact_window(rows, n);
+            let [c0, c1] = net.exact_window(cols, n);
+            assert!(rows[0] == 0 || c1 - c0 < n, "window {c0}..{c1} is the whole field");
+            let (h, w) = (r1 - r0, c1 - c0);
+            let crop: Vec<f32> = (0..2)
+                .flat_map(|c| (r0..r1).flat_map(move |r| (c0..c1).map(move |k| (c, r, k))))
+                .map(|(c, r, k)| x[(c * n + r) * n + k])
+                .collect();
+            let win = run(&net, &ps, &crop, h, w);
+            for c in 0..3 {
+                for r in rows[0]..=rows[1] {
+                    for k in cols[0]..=cols[1] {
+                        let a = full[(c * n + r) * n + k];
+                        let b = win[(c * h + r - r0) * w + k - c0];
+                        assert!(
+                            (a - b).abs() <= 1e-6 * (1.0 + a.abs()),
+                            "box {rows:?}×{cols:?} channel {c} at ({r}, {k}): {a} whole, {b} window"
+                        );
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn outside_the_interval_nothing_reaches_the_box_and_at_its_edge_something_does() {
+        let (net, ps) = net(vec![4, 8, 16]);
+        let n = 64;
+        let x = image(n, n, 5);
+        let full = run(&net, &ps, &x, n, n);
+        let rows = [30usize, 32];
+        let [lo, hi] = net.input_interval([30, 32]);
+        let changed = |row: i64| {
+            let mut y = x.clone();
+            for c in 0..2 {
+                for k in 0..n {
+                    y[(c * n + row as usize) * n + k] += 5.0;
+                }
+            }
+            let out = run(&net, &ps, &y, n, n);
+            (0..3).any(|c| {
+                (rows[0]..=rows[1])
+                    .any(|r| (0..n).any(|k| out[(c * n + r) * n + k] != full[(c * n + r) * n + k]))
+            })
+        };
+        assert!(!changed(lo - 1) && !changed(hi + 1), "rows outside [{lo}, {hi}] reach the box");
+        assert!(changed(lo) && changed(hi), "the interval [{lo}, {hi}] is wider than the reach");
+    }
+}
