@@ -144,7 +144,12 @@ mod tests {
     #[test]
     fn the_replaced_plane_equals_the_fit_and_only_q_changes() {
         let tile = planes(16, 16, |l, m, s| (3.0 * l * m).sin() + s * s);
-        let fit = QFromLmsFit::fit(QFromLms::BeforeBalance, &[tile.clone()], 3, [0, 1, 2]);
+        let fit = QFromLmsFit::fit(
+            QFromLms::BeforeBalance,
+            std::slice::from_ref(&tile),
+            3,
+            [0, 1, 2],
+        );
         let mut replaced = tile.clone();
         fit.replace(&mut replaced);
         let hw = 16 * 16;

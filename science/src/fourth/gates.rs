@@ -9,7 +9,8 @@
 //! the span control `LMS+M_coexpress_L` the co-expressing ½L + ½M). Then:
 //! - **own share** within and across tiles ([`super::own_signal`]), held out;
 //! - **photon noise** at the Q cones, cone units², averaged over the eye's noise ratios:
-//!   `σ² = scale² · E[r²] · mean a` with `a` the Q cones' activation (`retina::cones`);
+//!   `σ² = scale² · E[r²] · mean a` with `a` the Q cones' activation (`retina::cones`), set
+//!   against the within- and across-tile residual variances;
 //! - **ONS own / noise**: in the optic nerve signal at the Q cones, the variance that Q's own
 //!   part (its across-tile residual, at the Q cones only, through the lateral inhibition) adds,
 //!   over the variance of the photon and LI noise there (measured at r = 1, times E[r²]);
@@ -53,16 +54,19 @@ pub enum GateScenes {
     NaturalHueSphereTenth,
     /// Natural scenes with a tenth of the tiles idealised (as trained).
     NaturalIdealisedTenth,
+    /// Natural scenes with half of the tiles from the hue sphere.
+    NaturalHueSphereHalf,
 }
 
 impl GateScenes {
     /// Every source, in table order.
-    pub const ALL: [GateScenes; 5] = [
+    pub const ALL: [GateScenes; 6] = [
         GateScenes::Natural,
         GateScenes::HueSphere,
         GateScenes::Idealised,
         GateScenes::NaturalHueSphereTenth,
         GateScenes::NaturalIdealisedTenth,
+        GateScenes::NaturalHueSphereHalf,
     ];
 
     /// A short name.
@@ -73,6 +77,7 @@ impl GateScenes {
             GateScenes::Idealised => "idealised tiles",
             GateScenes::NaturalHueSphereTenth => "natural + 10 % hue-sphere",
             GateScenes::NaturalIdealisedTenth => "natural + 10 % idealised",
+            GateScenes::NaturalHueSphereHalf => "natural + 50 % hue-sphere",
         }
     }
 
@@ -90,10 +95,12 @@ impl GateScenes {
             GateScenes::Idealised => mix(TetraEnvironment::Idealised, 1.0),
             GateScenes::NaturalHueSphereTenth => mix(TetraEnvironment::HueSphere, 0.1),
             GateScenes::NaturalIdealisedTenth => mix(TetraEnvironment::Idealised, 0.1),
+            GateScenes::NaturalHueSphereHalf => mix(TetraEnvironment::HueSphere, 0.5),
         }
     }
 
-    /// Tiles drawn: twice as many for a mix, so both halves hold some of its rare tiles.
+    /// Tiles drawn: twice as many for a mix of a tenth, so both halves hold some of its rare
+    /// tiles.
     pub fn tiles(self, base: usize) -> usize {
         match self {
             GateScenes::NaturalHueSphereTenth | GateScenes::NaturalIdealisedTenth => 2 * base,

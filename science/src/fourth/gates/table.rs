@@ -4,7 +4,7 @@ use super::GateRow;
 use retina::scene::q_from_lms::QFromLms;
 
 /// Markdown table header of [`markdown_row`].
-pub const MARKDOWN_HEADER: &str = "| eye | cones | scenes | balance | Q replaced | tiles | own share within | own share across | own var (across) | photon noise var | own / noise | ONS own / noise | demosaic var | own / demosaic |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|";
+pub const MARKDOWN_HEADER: &str = "| eye | cones | scenes | balance | Q replaced | tiles | own share within | own share across | own var within | own var across | photon noise var | within / noise | across / noise | ONS across / noise | demosaic var | across / demosaic |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|";
 
 /// CSV header of [`csv_row`].
 pub const CSV_HEADER: &str = "eye,cones_per_side,cones,scenes,white_balance,q_from_lms,tiles,own_share_within,own_share_across,own_var_within,own_var_across,q_var,photon_noise_var,own_over_noise,ons_own_over_noise,demosaic_var,own_over_demosaic,seconds";
@@ -44,7 +44,7 @@ fn sci(x: f64) -> String {
 /// One markdown line.
 pub fn markdown_row(r: &GateRow) -> String {
     format!(
-        "| {} ({}²) | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
+        "| {} ({}²) | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
         r.eye,
         r.cones_per_side,
         r.case.cones,
@@ -54,8 +54,10 @@ pub fn markdown_row(r: &GateRow) -> String {
         r.tiles,
         percent(r.own.within),
         percent(r.own.across),
+        sci(r.own.within_residual_var),
         sci(r.own.across_residual_var),
         sci(r.photon_noise_var),
+        sci(r.own.within_residual_var / r.photon_noise_var),
         sci(r.own.across_residual_var / r.photon_noise_var),
         sci(r.ons_own_over_noise),
         sci(r.demosaic_var),

@@ -76,7 +76,7 @@ fn the_noise_ratios_mean_square_is_the_eyes() {
 #[test]
 fn the_table_has_every_cone_set_scene_and_balance_and_the_controls() {
     let cases = gate_cases();
-    assert_eq!(cases.len(), 3 * 5 * 2 + 6);
+    assert_eq!(cases.len(), 3 * 6 * 2 + 6);
     assert!(cases
         .iter()
         .filter(|c| c.q_from_lms.is_some())
