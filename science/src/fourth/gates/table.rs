@@ -104,7 +104,7 @@ mod tests {
         assert_eq!(CSV_HEADER.split(',').count(), 18);
         assert_eq!(
             MARKDOWN_HEADER.lines().next().unwrap().matches('|').count(),
-            15
+            17
         );
     }
 }
