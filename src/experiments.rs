@@ -15,6 +15,7 @@
 //! | `stiles-burch` | fixed primaries 444.4/526.3/645.2 nm vs Stiles & Burch 1955 (analytic and trained) | RS-08, Fig. 11 |
 //! | `w-oracle-init` | diagnostic: W starts at the eye's true DoG; does the loss keep it? | §6 (W recovered) |
 //! | `cmf-ladder` | CMF-SIM's known-answer observers through the real eye ([`science::ladder`]) | S-04, S-05 |
+//! | `fourth-gates` | Q's own signal through the eye, no cortex ([`science::fourth::gates`]): each cone set × scenes × white balance, and the Q-replaced controls | S-07 |
 //!
 //! Every training experiment uses the `long` preset ([`EXPERIMENT_PRESET`]) unless `--preset`
 //! names another: `--preset large` runs it on an eye of 128×128 cones, where a dimension too
@@ -70,6 +71,10 @@ pub const EXPERIMENTS: &[(&str, &str)] = &[
     (
         "cmf-ladder",
         "CMF-SIM on observers whose answer is known (calibration), 5 location seeds",
+    ),
+    (
+        "fourth-gates",
+        "Q's own signal in the scenes through the eye (no cortex): share, noise, demosaicking",
     ),
 ];
 
@@ -316,6 +321,49 @@ fn cmf_ladder(options: &CommonOptions, out: &Path) -> Result<(), RunError> {
     Ok(())
 }
 
+/// Scene tiles per gate ([`science::fourth::gates::GateScenes::tiles`] doubles it for a mix).
+pub const GATE_TILES: usize = 32;
+
+/// `experiment fourth-gates`: Gate 1 of every case ([`science::fourth::gates::gate_cases`];
+/// only those of `--cones` when given) through the eye of `--preset` (default `quick`), tiles
+/// drawn from `--seed` (default 0); each row printed as it is measured; writes `gates.json`,
+/// `gates.csv` and `gates.md` under `out`.
+fn fourth_gates(options: &CommonOptions, out: &Path) -> Result<(), RunError> {
+    use science::fourth::gates::{gate_cases, measure_gate, table};
+    let config = CommonOptions {
+        cones: None,
+        ..options.clone()
+    }
+    .resolve("quick")?;
+    let seed = options.seed.unwrap_or(0);
+    let cases: Vec<_> = gate_cases()
+        .into_iter()
+        .filter(|c| options.cones.as_ref().is_none_or(|k| *k == c.cones))
+        .collect();
+    if cases.is_empty() {
+        return Err(RunError::invalid(
+            "--cones",
+            format!("the gates measure {:?}", science::fourth::gates::GATE_CONES),
+        ));
+    }
+    println!("{}", table::MARKDOWN_HEADER);
+    let mut rows = Vec::new();
+    for case in &cases {
+        let row = measure_gate(&config.retina, case, GATE_TILES, seed)?;
+        println!("{}", table::markdown_row(&row));
+        rows.push(row);
+    }
+    crate::io::write_json(&out.join("gates.json"), &rows)?;
+    let csv: Vec<String> = rows.iter().map(table::csv_row).collect();
+    let csv = format!("{}\n{}\n", table::CSV_HEADER, csv.join("\n"));
+    crate::io::write_atomic(&out.join("gates.csv"), csv.as_bytes())?;
+    let md: Vec<String> = rows.iter().map(table::markdown_row).collect();
+    let md = format!("{}\n{}\n", table::MARKDOWN_HEADER, md.join("\n"));
+    crate::io::write_atomic(&out.join("gates.md"), md.as_bytes())?;
+    println!("wrote {}/gates.md", out.display());
+    Ok(())
+}
+
 /// Runs experiment `name` (or prints the list).
 pub fn run_named(name: &str, options: &CommonOptions) -> Result<(), RunError> {
     let out = options
@@ -359,6 +407,7 @@ pub fn run_named(name: &str, options: &CommonOptions) -> Result<(), RunError> {
         "stiles-burch" => stiles_burch(options, &out),
         "w-oracle-init" => w_oracle_init(options, &out),
         "cmf-ladder" => cmf_ladder(options, &out),
+        "fourth-gates" => fourth_gates(options, &out),
         other => Err(RunError::invalid(
             "experiment",
             format!("`{other}` is not an experiment; `colorvision experiment list` shows them"),

@@ -108,6 +108,7 @@ fn pool(tiles: usize, tile_px: usize, refresh_every_batches: usize) -> ScenePool
         files: vec![],
         rgb_path: RgbPath::Display,
         white_balance: true,
+        q_from_lms: None,
         refresh_every_batches,
         file_scale: Default::default(),
         mat: Default::default(),
@@ -270,6 +271,18 @@ impl RetinaConfig {
     /// Checks the tetrachromatic environment: a fraction of tiles, and a hue sphere only for an
     /// eye with at least two classes.
     fn validate_tetra(&self) -> Result<()> {
+        if self.scenes.q_from_lms.is_some() {
+            let spec = crate::mosaic::MosaicSpec::parse(&self.cones)?;
+            if !spec.class_names().iter().any(|c| c.as_str() == "Q") {
+                return Err(RetinaError::setting(
+                    "scenes.q_from_lms",
+                    format!(
+                        "`{}` has no Q class whose plane could be replaced",
+                        self.cones
+                    ),
+                ));
+            }
+        }
         if let Some(t) = &self.scenes.tetra {
             if !(t.fraction.is_finite() && (0.0..=1.0).contains(&t.fraction)) {
                 return Err(RetinaError::setting(

@@ -35,6 +35,7 @@ mod png_io;
 pub mod pool;
 pub mod prepared;
 pub mod projection;
+pub mod q_from_lms;
 pub mod resize;
 pub mod rgb;
 pub mod sources;

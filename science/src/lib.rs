@@ -39,6 +39,7 @@
 pub mod budget;
 pub mod config;
 mod error;
+pub mod fourth;
 pub mod gamut;
 pub mod heldout;
 pub mod invariants;

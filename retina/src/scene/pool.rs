@@ -47,6 +47,7 @@ use super::library::ReflectanceLibrary;
 use super::prepared::PreparedScenes;
 pub use super::prepared::{FileScale, ProgressFn, SceneProgress};
 pub use super::projection::SceneProjection;
+use super::q_from_lms::{QFromLms, QFromLmsFit, Q_FIT_SEED, Q_FIT_TILES};
 use super::rgb::Display;
 use super::surfaces::surface_scene;
 use super::tetra::{
@@ -148,6 +149,8 @@ pub struct ScenePool {
     /// The order tile draws walk the files in (a permutation drawn once).
     file_order: Vec<usize>,
     next_refresh: usize,
+    /// The Q plane's replacement, when `config.q_from_lms` asks for one.
+    q_fit: Option<QFromLmsFit>,
 }
 
 impl std::fmt::Debug for ScenePool {
@@ -232,7 +235,9 @@ impl ScenePool {
             files,
             file_order,
             next_refresh: 0,
+            q_fit: None,
         };
+        pool.q_fit = pool.fit_q_from_lms()?;
         let seeds: Vec<u64> = (0..pool.config.tiles).map(|_| rng.random()).collect();
         let tiles = seeds
             .par_iter()
@@ -256,11 +261,79 @@ impl ScenePool {
     }
 
     /// Make the class planes of tile draw number `index`: the initial tiles are draws
-    /// `0..tiles`, each refresh the next draw (module docs).
+    /// `0..tiles`, each refresh the next draw (module docs); white balanced, and the Q plane
+    /// replaced where `q_from_lms` asks ([`super::q_from_lms`]).
     pub fn make_planes<R: Rng + ?Sized>(&self, index: usize, rng: &mut R) -> Result<ClassPlanes> {
+        let (mut planes, balance) = self.draw_planes(index, rng)?;
+        let replace = |stage: QFromLms, planes: &mut ClassPlanes| {
+            if let Some(fit) = self.q_fit.as_ref().filter(|f| f.stage == stage) {
+                fit.replace(planes);
+            }
+        };
+        replace(QFromLms::BeforeBalance, &mut planes);
+        if balance && self.config.white_balance {
+            planes.white_balance(&self.projection.white);
+        }
+        replace(QFromLms::AfterBalance, &mut planes);
+        Ok(planes)
+    }
+
+    /// The fixed replacement of the Q plane (`config.q_from_lms`), fitted on [`Q_FIT_TILES`]
+    /// tiles drawn from [`Q_FIT_SEED`] at the stage it applies at; `None` when unset. Error for
+    /// an eye without a class named Q, or a replacement before the balance of scene files
+    /// (balanced when they are prepared).
+    fn fit_q_from_lms(&self) -> Result<Option<QFromLmsFit>> {
+        let Some(stage) = self.config.q_from_lms else {
+            return Ok(None);
+        };
+        let proj = &self.projection;
+        let q_plane = proj.plane_classes[..proj.k]
+            .iter()
+            .position(|c| c.name == "Q")
+            .ok_or_else(|| {
+                RetinaError::setting(
+                    "scenes.q_from_lms",
+                    "the eye has no cone class named Q whose plane could be replaced",
+                )
+            })?;
+        if stage == QFromLms::BeforeBalance && self.files.is_some() {
+            return Err(RetinaError::setting(
+                "scenes.q_from_lms",
+                "`before_balance` needs synthetic scenes: scene files are balanced when prepared",
+            ));
+        }
+        let mut rng = StdRng::seed_from_u64(Q_FIT_SEED);
+        let tiles = (0..Q_FIT_TILES)
+            .map(|i| {
+                let (mut planes, balance) = self.draw_planes(i, &mut rng)?;
+                if stage == QFromLms::AfterBalance && balance && self.config.white_balance {
+                    planes.white_balance(&proj.white);
+                }
+                Ok(planes)
+            })
+            .collect::<Result<Vec<_>>>()?;
+        Ok(Some(QFromLmsFit::fit(
+            stage,
+            &tiles,
+            q_plane,
+            proj.reference_lms,
+        )))
+    }
+
+    /// The fitted replacement of the Q plane, if the pool has one.
+    pub fn q_from_lms_fit(&self) -> Option<&QFromLmsFit> {
+        self.q_fit.as_ref()
+    }
+
+    /// The class planes of draw `index` as drawn, and whether they are to be white balanced.
+    fn draw_planes<R: Rng + ?Sized>(
+        &self,
+        index: usize,
+        rng: &mut R,
+    ) -> Result<(ClassPlanes, bool)> {
         let size = self.config.tile_px;
         let proj = &self.projection;
-        let (mut planes, balance) = if let Some(files) = &self.files {
+        let (planes, balance) = if let Some(files) = &self.files {
             // Prepared planes are white balanced already (per image, not per crop).
             let p = files.planes(self.file_order[index % self.file_order.len()], proj)?;
             let data = random_crop(&p.planes, p.n_planes, p.h, p.w, size, rng);
@@ -321,10 +394,7 @@ impl ScenePool {
                 }
             }
         };
-        if balance && self.config.white_balance {
-            planes.white_balance(&proj.white);
-        }
-        Ok(planes)
+        Ok((planes, balance))
     }
 
     fn make_tile<R: Rng + ?Sized>(&self, index: usize, rng: &mut R) -> Result<MipStack> {

@@ -30,6 +30,7 @@ fn pool_config(tiles: usize, tile_px: usize, tetra: Option<TetraMix>) -> ScenePo
         files: vec![],
         rgb_path: RgbPath::Display,
         white_balance: true,
+        q_from_lms: None,
         refresh_every_batches: 0,
         file_scale: Default::default(),
         mat: Default::default(),
@@ -222,4 +223,94 @@ fn a_hue_sphere_pool_holds_more_tetrachromatic_contrast_than_natural_scenes() {
         .unwrap_err()
         .to_string();
     assert!(err.contains("scenes.tetra.environment"), "{err}");
+}
+
+/// The planes of tile draws `0..3` of a pigeon-Q pool with `q_from_lms` (seeded alike).
+fn pigeon_q_draws(
+    q_from_lms: Option<super::q_from_lms::QFromLms>,
+) -> (ScenePool, Vec<ClassPlanes>) {
+    let g = WavelengthGrid::default();
+    let classes = lms_plus(ConeClass::pigeon_q());
+    let proj = SceneProjection::new(&classes, &ConeTemplate::default(), &g).unwrap();
+    let cfg = ScenePoolConfig {
+        q_from_lms,
+        ..pool_config(1, 48, None)
+    };
+    let pool = ScenePool::new(cfg, proj, 1, &mut StdRng::seed_from_u64(3)).unwrap();
+    let mut rng = StdRng::seed_from_u64(4);
+    let draws = (0..3)
+        .map(|i| pool.make_planes(i, &mut rng).unwrap())
+        .collect();
+    (pool, draws)
+}
+
+#[test]
+fn q_from_lms_replaces_only_the_q_plane_with_its_fixed_fit() {
+    use super::q_from_lms::QFromLms;
+    let (plain, before) = pigeon_q_draws(None);
+    assert!(plain.q_from_lms_fit().is_none());
+    let (pool, after) = pigeon_q_draws(Some(QFromLms::AfterBalance));
+    let fit = *pool.q_from_lms_fit().unwrap();
+    assert_eq!((fit.q_plane, fit.lms_planes), (3, [0, 1, 2]));
+    let hw = 48 * 48;
+    let mut changed = false;
+    for (a, b) in before.iter().zip(&after) {
+        // The same scene: L, M, S untouched ...
+        assert_eq!(a.planes[..3 * hw], b.planes[..3 * hw]);
+        // ... and Q exactly the fit's prediction from them.
+        for i in 0..hw {
+            let want = fit.predict([b.planes[i], b.planes[hw + i], b.planes[2 * hw + i]]);
+            assert_eq!(b.planes[3 * hw + i], want);
+        }
+        changed |= a.planes[3 * hw..] != b.planes[3 * hw..];
+    }
+    assert!(changed, "natural Q is not exactly affine in L, M, S");
+}
+
+#[test]
+fn q_from_lms_before_the_balance_is_affine_within_each_tile_only() {
+    use super::q_from_lms::{QFromLms, QFromLmsFit};
+    let (pool, draws) = pigeon_q_draws(Some(QFromLms::BeforeBalance));
+    let fit = *pool.q_from_lms_fit().unwrap();
+    // Within one tile Q is affine in the balanced L, M, S (a per-tile fit leaves nothing) ...
+    let per_tile: Vec<QFromLmsFit> = draws
+        .iter()
+        .map(|d| {
+            QFromLmsFit::fit(
+                QFromLms::AfterBalance,
+                std::slice::from_ref(d),
+                3,
+                [0, 1, 2],
+            )
+        })
+        .collect();
+    let hw = 48 * 48;
+    for (d, f) in draws.iter().zip(&per_tile) {
+        let worst = (0..hw)
+            .map(|i| {
+                let p = f.predict([d.planes[i], d.planes[hw + i], d.planes[2 * hw + i]]);
+                (p - d.planes[3 * hw + i]).abs()
+            })
+            .fold(0.0f32, f32::max);
+        assert!(worst < 1e-4, "per-tile residual {worst}");
+    }
+    // ... with coefficients that differ from tile to tile (the balance's gains).
+    let c: Vec<[f64; 4]> = per_tile.iter().map(|f| f.coefficients).collect();
+    assert!(
+        c.windows(2).any(|w| (w[0][1] - w[1][1]).abs() > 1e-3),
+        "{c:?}"
+    );
+    assert_eq!(fit.stage, QFromLms::BeforeBalance);
+}
+
+#[test]
+fn q_from_lms_needs_a_q_class() {
+    let g = WavelengthGrid::default();
+    let proj = SceneProjection::new(&ConeClass::lms(), &ConeTemplate::default(), &g).unwrap();
+    let cfg = ScenePoolConfig {
+        q_from_lms: Some(super::q_from_lms::QFromLms::AfterBalance),
+        ..pool_config(1, 48, None)
+    };
+    let err = ScenePool::new(cfg, proj, 1, &mut StdRng::seed_from_u64(3)).unwrap_err();
+    assert!(err.to_string().contains("scenes.q_from_lms"), "{err}");
 }

@@ -211,7 +211,11 @@ const FIT_RCOND: f64 = 1e-6;
 
 /// Affine least squares `y ≈ x·β + c` on `fit`, applied to `apply`: the residuals there. The
 /// columns are standardised on `fit` first (the solution is the same up to the cut-off).
-fn affine_residuals(fit: (&[f64], &[f64]), apply: (&[f64], &[f64]), cols: usize) -> Vec<f64> {
+pub(crate) fn affine_residuals(
+    fit: (&[f64], &[f64]),
+    apply: (&[f64], &[f64]),
+    cols: usize,
+) -> Vec<f64> {
     let (xf, yf) = fit;
     let (xa, ya) = apply;
     let rows = yf.len();

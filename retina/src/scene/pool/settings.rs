@@ -9,6 +9,7 @@ use crate::scene::band_stack::BandStackOptions;
 use crate::scene::dead_leaves::DeadLeavesConfig;
 use crate::scene::mat_io::MatOptions;
 use crate::scene::prepared::FileScale;
+use crate::scene::q_from_lms::QFromLms;
 use crate::scene::surfaces::SurfacesConfig;
 use crate::scene::tetra::TetraEnvironment;
 
@@ -67,6 +68,11 @@ pub struct ScenePoolConfig {
     pub rgb_path: RgbPath,
     /// Per-image white balance of spectral sources.
     pub white_balance: bool,
+    /// A control: every tile's Q plane replaced by its fixed affine least-squares prediction
+    /// from L, M and S, before or after the white balance ([`crate::scene::q_from_lms`];
+    /// `None`, the default: scenes as drawn).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub q_from_lms: Option<QFromLms>,
     /// Replace one tile every this many batches (0 = never).
     pub refresh_every_batches: usize,
     /// How scene files are scaled when prepared (default: short side = `tile_px`).

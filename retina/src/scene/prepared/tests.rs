@@ -42,6 +42,7 @@ fn config(files: Vec<PathBuf>, tiles: usize, tile_px: usize, cache: &Path) -> Sc
         files,
         rgb_path: RgbPath::Display,
         white_balance: true,
+        q_from_lms: None,
         refresh_every_batches: 1,
         file_scale: FileScale::Tile,
         mat: MatOptions::default(),
