@@ -207,6 +207,7 @@ pub fn cmf_sim(options: &CmfSimOptions) -> Result<(), RunError> {
     }
     config.validate()?;
     install_signals()?;
+    crate::interrupt::during("CMF-SIM", "nothing was written");
     let stop = crate::interrupt::stop_flag();
     let r = science::ladder::measure_observer_until(&config, kind, trainer.as_ref(), stop)
         .map_err(|e| RunError::from(e).said_as_stop(|| "nothing was written".into()))?;
