@@ -20,6 +20,7 @@ pub fn simulate(options: &CommonOptions) -> Result<(), RunError> {
     let config = options.resolve("quick")?;
     let out = run::out_dir(&config, options.out.as_ref(), "simulate");
     crate::run::folder::refuse_file(&out)?;
+    run::check_memory(&config, false)?;
     let retina = crate::scene_bar::retina(config.retina.clone())?;
     let mut rng = <rand::rngs::StdRng as rand::SeedableRng>::seed_from_u64(config.seed);
     let mut written = Vec::new();
@@ -46,6 +47,7 @@ pub fn gamut(options: &CommonOptions) -> Result<(), RunError> {
     let config = options.resolve("quick")?;
     let out = run::out_dir(&config, options.out.as_ref(), "gamut");
     crate::run::folder::refuse_file(&out)?;
+    run::check_memory(&config, false)?;
     let s = &config.cmf_sim;
     let tests = colorimetry::WavelengthGrid::linspace(
         s.test_range_nm.0,
@@ -119,6 +121,8 @@ pub fn convergence(options: &ConvergenceOptions) -> Result<(), RunError> {
     };
     let mut runs = Vec::new();
     for dir in &options.run {
+        let config = crate::run::folder::read_valid_config(dir)?;
+        run::check_memory(&config, options.cmf)?;
         println!(
             "colorvision convergence: {}{}",
             dir.display(),
@@ -206,7 +210,9 @@ pub fn cmf_sim(options: &CmfSimOptions) -> Result<(), RunError> {
         };
     }
     config.validate()?;
+    run::check_memory(&config, true)?;
     install_signals()?;
+    crate::interrupt::during("CMF-SIM", "nothing was written");
     let stop = crate::interrupt::stop_flag();
     let r = science::ladder::measure_observer_until(&config, kind, trainer.as_ref(), stop)
         .map_err(|e| RunError::from(e).said_as_stop(|| "nothing was written".into()))?;

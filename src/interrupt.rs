@@ -8,20 +8,27 @@
 //! step or a CMF-SIM measurement can take a while to finish; a long stage (scene drawing, the
 //! held-out evaluation, CMF-SIM) still running [`STAGE_GRACE`] later is stopped unfinished
 //! through [`stop_flag`], which it checks in its loop, and the run ends within seconds from its
-//! last checkpoint.
+//! last checkpoint. A stage that does not return in time is left: [`STOP_DEADLINE`] after the
+//! signal the process ends on its own as a stop does ([`deadline`]).
 //!
 //! Fault injection for tests (`COLORVISION_FAULT`, read by [`install_fault_injection`]): a
 //! comma-separated list of `ACTION@POINT:STEP` (STEP counts the cortex's updates, so in a
 //! continued run it goes on from the run it continued), with ACTION `abort` (the process dies there, as under SIGKILL) or
 //! `interrupt` (as if SIGINT arrived there), POINT `step` (after the training step), `measured`
 //! (after the step's measurements), `lock-written` (step 0: the run folder's first write, the
-//! lock's temporary, before it becomes `.lock`) or a stage of a checkpoint write
+//! lock's temporary, before it becomes `.lock`), a stage of a checkpoint write
 //! (`params-written`, `files-written`, `old-moved-aside`, `renamed`; see
-//! `cortex::checkpoint::set_fault_hook`).
+//! `cortex::checkpoint::set_fault_hook`), or `write` / `rename`, where STEP counts the process's
+//! file writes instead: `abort@write:4` dies once the 4th file's bytes are in its temporary,
+//! before its rename; `abort@rename:4` once the 4th file (or checkpoint folder, or the lock) is
+//! in place under its real name (`atomic_io::set_fault_hook`).
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, OnceLock};
 use std::time::Duration;
+
+mod deadline;
+pub use deadline::{during, stand_down, STOP_DEADLINE};
 
 static INT: OnceLock<Arc<AtomicBool>> = OnceLock::new();
 static TERM: OnceLock<Arc<AtomicBool>> = OnceLock::new();
@@ -63,6 +70,8 @@ pub fn install() -> std::io::Result<()> {
                 announce();
                 std::thread::sleep(STAGE_GRACE);
                 flag(&STOP).store(true, Ordering::SeqCst);
+                std::thread::sleep(STOP_DEADLINE.saturating_sub(STAGE_GRACE));
+                deadline::leave_if_running(requested().unwrap_or("a stop request"));
             })?;
     }
     let _ = INSTALLED.set(());
@@ -104,9 +113,10 @@ pub fn announce() {
         if !ANNOUNCED.swap(true, Ordering::SeqCst) {
             eprintln!(
                 "\ncolorvision: {what} received: finishing the current step, then writing a \
-                 checkpoint; a stage still running in {} s stops unfinished (send it again to \
-                 stop at once, without one)",
-                STAGE_GRACE.as_secs()
+                 checkpoint; a stage still running in {} s stops unfinished, and the process \
+                 leaves by {} s (send it again to stop at once, without one)",
+                STAGE_GRACE.as_secs(),
+                STOP_DEADLINE.as_secs()
             );
         }
     }
@@ -162,7 +172,22 @@ pub fn install_fault_injection() -> Result<(), String> {
     let faults = text.split(',').map(parse_fault).collect::<Result<_, _>>()?;
     let _ = FAULTS.set(faults);
     cortex::checkpoint::set_fault_hook(fault_point);
+    atomic_io::set_fault_hook(file_step);
     Ok(())
+}
+
+/// Counts the process's file writes and renames (`atomic_io`'s fault points) and triggers the
+/// faults armed at `write:N` / `rename:N`.
+fn file_step(stage: &'static str) {
+    use std::sync::atomic::AtomicU64;
+    static WRITES: AtomicU64 = AtomicU64::new(0);
+    static RENAMES: AtomicU64 = AtomicU64::new(0);
+    let count = match stage {
+        "write" => &WRITES,
+        "rename" => &RENAMES,
+        _ => return,
+    };
+    fault_point(stage, count.fetch_add(1, Ordering::SeqCst) + 1);
 }
 
 /// Triggers the armed faults that are at `point` of `step`.

@@ -66,6 +66,7 @@ pub fn save_into<E: From<IoError>>(
     dir: &Path,
     save: impl FnOnce(&Path) -> Result<(), E>,
 ) -> Result<(), E> {
+    let _guard = atomic_io::WriteGuard::enter();
     fs::create_dir_all(dir).map_err(fs_err(dir))?;
     let staging = dir.join(format!(".staging{TEMP_MARK}{}", std::process::id()));
     if staging.exists() {
@@ -76,7 +77,8 @@ pub fn save_into<E: From<IoError>>(
     result
 }
 
-/// Moves every file under `staging` to the same place under `dir`, each synced then renamed.
+/// Moves every file under `staging` to the same place under `dir`, each synced then renamed
+/// (a folder's `config.toml` last).
 fn publish(staging: &Path, dir: &Path) -> Result<(), IoError> {
     if !staging.exists() {
         return Ok(());
@@ -85,7 +87,9 @@ fn publish(staging: &Path, dir: &Path) -> Result<(), IoError> {
         .map_err(fs_err(staging))?
         .collect::<Result<_, _>>()
         .map_err(fs_err(staging))?;
-    entries.sort_by_key(|e| e.file_name());
+    // Name order, but a run folder's `config.toml` last: it is what makes a folder a run folder
+    // (`crate::run::folder::MARKER_FILE`), so a folder that has it has everything else.
+    entries.sort_by_key(|e| (e.file_name() == "config.toml", e.file_name()));
     for entry in entries {
         let from = entry.path();
         let to = dir.join(entry.file_name());
@@ -97,6 +101,7 @@ fn publish(staging: &Path, dir: &Path) -> Result<(), IoError> {
                 .and_then(|f| f.sync_all())
                 .map_err(fs_err(&from))?;
             fs::rename(&from, &to).map_err(fs_err(&to))?;
+            atomic_io::fault_point("rename");
         }
     }
     Ok(sync_dir(dir)?)

@@ -40,6 +40,7 @@ pub fn main() {
         Command::Sweep(o) => commands::sweep(o),
         Command::Gather(o) => commands::gather(o),
     };
+    crate::interrupt::stand_down();
     if let Err(e) = result {
         // A long value the user gave is named, not echoed whole.
         let said = science::config::shortened(&e.to_string());

@@ -222,10 +222,16 @@ pub fn run_in(
             out.display()
         );
         let path = out.join("summary.json");
-        return Summary::read(&path).map_err(|e| RunError::Folder {
+        let summary = Summary::read(&path).map_err(|e| RunError::Folder {
             path: path.clone(),
             reason: format!("invalid summary: {e}; --force runs it again"),
-        });
+        })?;
+        // The report is written after summary.json: a run stopped between them gets it now.
+        if !out.join(crate::report::REPORT_FILE).is_file() {
+            crate::report::write(out, &summary)?;
+            println!("  wrote the report the stopped run had not written");
+        }
+        return Ok(summary);
     }
     // The eye is built (its scene files read) before the folder is touched: bad input stops
     // the run with nothing written.
@@ -237,6 +243,7 @@ pub fn run_in(
         let heldout = heldout_source_until(config, true, interrupt::stop_flag())?;
         Ok((source, heldout))
     };
+    interrupt::during("scene generation", "the run folder was not touched");
     let (source, heldout) =
         eyes().map_err(|e| e.said_as_stop(|| "the run folder was not touched".into()))?;
     std::fs::create_dir_all(out).map_err(crate::io::fs_err(out))?;
@@ -244,8 +251,11 @@ pub fn run_in(
     for line in cortex::checkpoint::recover(&out.join("checkpoints"))? {
         println!("  checkpoints: {line}");
     }
-    if opened == Opened::Fresh {
-        crate::io::write_atomic(&out.join("config.toml"), config.to_toml().as_bytes())?;
+    // The marker first, `config.toml` second (`folder::MARKER_FILE`): a start stopped between
+    // them leaves a folder a run starts afresh in. A resumed folder without its marker (a
+    // start stopped between them by an older version) gets it now, so `resume` reads it.
+    let marker_path = out.join(folder::MARKER_FILE);
+    if opened == Opened::Fresh || !marker_path.is_file() {
         let marker = RunMarker {
             cmf_sim: mode.cmf_sim,
             pictures: mode.pictures,
@@ -254,8 +264,19 @@ pub fn run_in(
                 Origin::Continue(p) => Some(std::path::absolute(p).unwrap_or(p.to_path_buf())),
             },
         };
-        crate::io::write_json(&out.join("run.json"), &marker)?;
+        crate::io::write_json(&marker_path, &marker)?;
     }
+    if opened == Opened::Fresh {
+        crate::io::write_atomic(&out.join("config.toml"), config.to_toml().as_bytes())?;
+    }
+    interrupt::during(
+        "the start of the run",
+        format!(
+            "no step is recorded yet. Continue with `colorvision resume {}` (or the same \
+             command with --resume)",
+            out.display()
+        ),
+    );
     let streams = (source, heldout);
     let state = RunState::open(config, out, mode, opened == Opened::Resume, origin, streams)?;
     state.drive()

@@ -68,6 +68,81 @@ pub fn sync_dir(dir: &Path) -> Result<(), FileError> {
     Ok(())
 }
 
+/// A function told of each file-system step this crate (and writers that publish files
+/// themselves) takes: `"write"` once a temporary holds its bytes, before the rename, and
+/// `"rename"` once a file is in place under its real name. Fault-injection tests kill the
+/// process at the Nth step; unset, nothing is called.
+pub type FaultHook = fn(&'static str);
+
+static FAULT_HOOK: std::sync::OnceLock<FaultHook> = std::sync::OnceLock::new();
+
+/// Sets the [`FaultHook`] for the rest of the process (the first call wins).
+pub fn set_fault_hook(hook: FaultHook) {
+    let _ = FAULT_HOOK.set(hook);
+}
+
+/// Tells the [`FaultHook`], if one is set, of the step `stage` (`"write"` or `"rename"`).
+pub fn fault_point(stage: &'static str) {
+    if let Some(hook) = FAULT_HOOK.get() {
+        hook(stage);
+    }
+}
+
+static IN_FLIGHT: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+static CLOSED: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+thread_local! {
+    static DEPTH: std::cell::Cell<usize> = const { std::cell::Cell::new(0) };
+}
+
+/// Held while a writer has temporaries on disk ([`write_via`], and writers that publish files
+/// themselves: a checkpoint folder, a staging folder, a lock): [`close_writes`] waits for every
+/// guard to drop, and once it was called a new outermost guard never returns, so a process
+/// leaving on its own (a stop whose stage did not end in time) leaves no temporary behind.
+/// Guards nest within a thread.
+#[must_use = "the guard covers the writes until it is dropped"]
+pub struct WriteGuard(());
+
+impl WriteGuard {
+    /// Enters a write; blocks forever once [`close_writes`] was called (the process is
+    /// leaving), unless this thread is inside a write already.
+    pub fn enter() -> WriteGuard {
+        use std::sync::atomic::Ordering::SeqCst;
+        let depth = DEPTH.with(|d| d.get());
+        IN_FLIGHT.fetch_add(1, SeqCst);
+        if depth == 0 && CLOSED.load(SeqCst) {
+            IN_FLIGHT.fetch_sub(1, SeqCst);
+            loop {
+                std::thread::park();
+            }
+        }
+        DEPTH.with(|d| d.set(depth + 1));
+        WriteGuard(())
+    }
+}
+
+impl Drop for WriteGuard {
+    fn drop(&mut self) {
+        DEPTH.with(|d| d.set(d.get() - 1));
+        IN_FLIGHT.fetch_sub(1, std::sync::atomic::Ordering::SeqCst);
+    }
+}
+
+/// Lets no new write start ([`WriteGuard::enter`] blocks) and waits, up to `limit`, for the
+/// writes under way to end; returns whether they did.
+pub fn close_writes(limit: std::time::Duration) -> bool {
+    use std::sync::atomic::Ordering::SeqCst;
+    CLOSED.store(true, SeqCst);
+    let start = std::time::Instant::now();
+    while IN_FLIGHT.load(SeqCst) > 0 {
+        if start.elapsed() > limit {
+            return false;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(5));
+    }
+    true
+}
+
 /// `write` fills a temporary sibling of `path` (whose parent folders are created first), which
 /// is synced and renamed over `path`; the folder is synced. On an error the temporary is
 /// removed and `path` is untouched.
@@ -79,12 +154,15 @@ pub fn write_via<E: From<FileError>>(
     if !dir.as_os_str().is_empty() {
         fs::create_dir_all(dir).map_err(file_err(dir))?;
     }
+    let _guard = WriteGuard::enter();
     let tmp = temp_sibling(path);
     let result = write(&tmp).and_then(|()| {
         fs::File::open(&tmp)
             .and_then(|f| f.sync_all())
             .map_err(file_err(&tmp))?;
+        fault_point("write");
         fs::rename(&tmp, path).map_err(file_err(path))?;
+        fault_point("rename");
         Ok(sync_dir(dir)?)
     });
     if result.is_err() {

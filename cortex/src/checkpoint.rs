@@ -197,6 +197,7 @@ fn write_files(
     let (text, _) = meta.sealed_json(&m)?;
     std::fs::write(&m, text).map_err(io(&m))?;
     sync(&m)?;
+    atomic_io::fault_point("write");
     sync(tmp)
 }
 
@@ -206,6 +207,7 @@ pub fn write_checkpoint(
     meta: &CheckpointMeta,
     state: &CheckpointState<'_>,
 ) -> Result<PathBuf, CortexError> {
+    let _guard = atomic_io::WriteGuard::enter();
     std::fs::create_dir_all(dir).map_err(io(dir))?;
     let name = checkpoint_name(meta.step);
     let fin = dir.join(&name);
@@ -227,11 +229,14 @@ pub fn write_checkpoint(
             std::fs::remove_dir_all(&old).map_err(io(&old))?;
         }
         std::fs::rename(&fin, &old).map_err(io(&fin))?;
+        atomic_io::fault_point("rename");
         fault_point("old-moved-aside", meta.step);
         std::fs::rename(&tmp, &fin).map_err(io(&fin))?;
+        atomic_io::fault_point("rename");
         let _ = std::fs::remove_dir_all(&old);
     } else {
         std::fs::rename(&tmp, &fin).map_err(io(&fin))?;
+        atomic_io::fault_point("rename");
     }
     sync(dir)?;
     fault_point("renamed", meta.step);

@@ -284,6 +284,15 @@ impl ClassPlanes {
         }
     }
 
+    /// The first value that is not finite, as (plane, x, y, value): what a radiance too large
+    /// for `f32` sums (finite in the file, infinite once summed over wavelengths) leaves.
+    pub fn first_non_finite(&self) -> Option<(usize, usize, usize, f32)> {
+        let hw = (self.h * self.w).max(1);
+        let i = self.planes.iter().position(|v| !v.is_finite())?;
+        let w = self.w.max(1);
+        Some((i / hw, (i % hw) % w, (i % hw) / w, self.planes[i]))
+    }
+
     /// Plane `p`, `(h, w)`.
     pub fn plane(&self, p: usize) -> &[f32] {
         let hw = self.h * self.w;

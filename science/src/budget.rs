@@ -8,9 +8,16 @@
 //! decode of the observer (each thread's tape over `observer.decode_batch` shows); the two never
 //! overlap. The coefficients are peak resident memory measured on the `tiny` and `quick` presets
 //! (2 threads; `tests/memory_budget.rs` checks the estimate within ±30 % of the measured peak).
+//! Two parts that grow without bound at the tops of their ranges are modelled from their shapes
+//! instead: P's flow parameters and their copies ([`flow`], `cortex.p.hidden`), and CMF-SIM's
+//! shows, readouts and per-location cache ([`cmf_sim`], `cmf_sim.location_pairs` ×
+//! `cmf_sim.n_test_wavelengths`), which CMF-SIM holds beside its decodes.
 
 use crate::config::RunConfig;
 use retina::foveation::{ConeLayout, ConeSampler};
+
+pub mod cmf_sim;
+pub mod flow;
 
 const MIB: f64 = 1024.0 * 1024.0;
 
@@ -44,12 +51,20 @@ pub struct Estimate {
     pub step_bytes: f64,
     /// The observer's decodes during CMF-SIM (0 without CMF-SIM).
     pub decode_bytes: f64,
+    /// P's flow parameters and their copies ([`flow`]).
+    pub flow_bytes: f64,
+    /// CMF-SIM's shows, readouts and location cache beside the decodes ([`cmf_sim`]; 0
+    /// without CMF-SIM).
+    pub cmf_sim_bytes: f64,
 }
 
 impl Estimate {
     /// The estimated peak: the fixed part, the scenes and the larger of a step and a decode.
     pub fn total_bytes(&self) -> f64 {
-        self.fixed_bytes + self.scenes_bytes + self.step_bytes.max(self.decode_bytes)
+        self.fixed_bytes
+            + self.scenes_bytes
+            + self.flow_bytes
+            + self.step_bytes.max(self.decode_bytes + self.cmf_sim_bytes)
     }
 
     /// The parts in words, each with the settings that drive it.
@@ -58,20 +73,23 @@ impl Estimate {
             "scenes {:.0} MiB (retina.scenes.tiles × tile_px² × cone classes, twice), training \
              step {:.0} MiB (cortex.train.batch_size × cones_per_side² × cortex.d.widths), \
              CMF-SIM decodes {:.0} MiB (observer.decode_batch × threads × cones_per_side⁵), \
-             the rest {:.0} MiB",
+             CMF-SIM shows and location cache {:.0} MiB (cmf_sim.location_pairs × \
+             cmf_sim.n_test_wavelengths), P's flow {:.0} MiB (cortex.p.couplings × \
+             cortex.p.hidden²), the rest {:.0} MiB",
             self.scenes_bytes / MIB,
             self.step_bytes / MIB,
             self.decode_bytes / MIB,
+            self.cmf_sim_bytes / MIB,
+            self.flow_bytes / MIB,
             self.fixed_bytes / MIB
         )
     }
 }
 
-/// Mip levels a tile holds for the eye of `config` (its layout's coarsest cone spacing).
-fn mip_levels(config: &RunConfig) -> usize {
+/// The cone layout of the eye of `config`.
+fn layout(config: &RunConfig) -> ConeLayout {
     let r = &config.retina;
-    let layout = ConeLayout::compute(&r.layout, r.cones_per_side, r.field_px, r.layout_seed);
-    ConeSampler::compute(&layout).levels_needed()
+    ConeLayout::compute(&r.layout, r.cones_per_side, r.field_px, r.layout_seed)
 }
 
 /// The estimate for `config`; `cmf_sim` when the run measures CMF-SIM, on `threads` threads.
@@ -81,10 +99,10 @@ pub fn estimate(config: &RunConfig, cmf_sim: bool, threads: usize) -> Estimate {
         .map(|s| s.class_names().len())
         .unwrap_or(3) as f64;
     let s = &config.retina.scenes;
-    let tile_bytes = (mip_levels(config) as f64 + TILE_PLANES_PER_CLASS)
-        * classes
-        * (s.tile_px as f64).powi(2)
-        * 4.0;
+    let layout = layout(config);
+    let mip_levels = ConeSampler::compute(&layout).levels_needed();
+    let tile_bytes =
+        (mip_levels as f64 + TILE_PLANES_PER_CLASS) * classes * (s.tile_px as f64).powi(2) * 4.0;
     let channels: f64 = config
         .cortex
         .d
@@ -101,11 +119,22 @@ pub fn estimate(config: &RunConfig, cmf_sim: bool, threads: usize) -> Estimate {
     } else {
         0.0
     };
+    // The larger of the measurements during training and the final one.
+    let cmf_sim_bytes = if cmf_sim {
+        [false, true]
+            .map(|last| cmf_sim::bytes(config, &config.cmf_settings(last), &layout))
+            .into_iter()
+            .fold(0.0, f64::max)
+    } else {
+        0.0
+    };
     Estimate {
         fixed_bytes: FIXED_BYTES + PER_CONE_BYTES * n * n,
         scenes_bytes: 2.0 * s.tiles as f64 * tile_bytes,
         step_bytes: config.cortex.train.batch_size as f64 * per_sample,
         decode_bytes: decode,
+        flow_bytes: flow::bytes(config),
+        cmf_sim_bytes,
     }
 }
 
@@ -175,6 +204,53 @@ mod tests {
         assert!((estimate(&c, true, 2).step_bytes - 2.0 * e.step_bytes).abs() < 1.0);
         assert_eq!(estimate(&base, false, 2).decode_bytes, 0.0);
         assert!(estimate(&base, true, 4).decode_bytes > e.decode_bytes);
+    }
+
+    #[test]
+    fn the_flow_part_counts_the_parameters_realnvp_makes() {
+        let mut c = RunConfig::preset("tiny", "LMS").unwrap();
+        for hidden in [16, 64] {
+            c.cortex.p.hidden = hidden;
+            let mut store = autodiff::ParamStore::<f32>::new();
+            let flow = autodiff::nn::realnvp::RealNvp::new(
+                &mut store,
+                "p",
+                autodiff::nn::realnvp::RealNvpConfig {
+                    blocks: c.cortex.p.couplings,
+                    hidden,
+                    log_scale_bound: None,
+                },
+                &mut <rand::rngs::StdRng as rand::SeedableRng>::seed_from_u64(0),
+            );
+            let params_bytes = 4.0 * flow.num_params() as f64;
+            let per_coupling = params_bytes / c.cortex.p.couplings as f64;
+            let points = (c.cortex.train.batch_size * c.cortex.ons_size_px.pow(2)) as f64;
+            let partials = (points / autodiff::nn::coupling::BLOCK as f64).ceil() * per_coupling;
+            assert!((flow::bytes(&c) - (10.0 * params_bytes + partials)).abs() < 1.0);
+        }
+    }
+
+    #[test]
+    fn the_cmf_sim_part_grows_with_the_pairs_until_the_cache_is_full() {
+        let c = RunConfig::preset("tiny", "LMS").unwrap();
+        let layout = layout(&c);
+        let at = |pairs: usize| {
+            let mut s = c.cmf_settings(true);
+            s.location_pairs = pairs;
+            cmf_sim::bytes(&c, &s, &layout)
+        };
+        // Tiny's 32² cones and 3 classes: 12 KiB of basis per location, 2 locations per pair
+        // and wavelength; the cache fills at about 87 000 locations.
+        let (a, b) = (at(4), at(8));
+        assert!((b / a - 2.0).abs() < 1e-9, "{a} {b}");
+        let top = at(4096);
+        let cache_limit = crate::observer::CACHE_LIMIT_BYTES as f64;
+        assert!(top > cache_limit && top < 1.5 * cache_limit, "{top}");
+        let slope = |a: usize, b: usize| (at(b) - at(a)) / (b - a) as f64;
+        assert!(
+            slope(4096, 8192) < 0.1 * slope(512, 1024),
+            "past the cap only the shows grow"
+        );
     }
 
     #[test]

@@ -50,7 +50,7 @@ use std::collections::HashMap;
 use std::sync::{Arc, Mutex};
 
 /// Largest total size of the per-location cache, bytes (beyond it, shows render directly).
-const CACHE_LIMIT_BYTES: usize = 1 << 30;
+pub const CACHE_LIMIT_BYTES: usize = 1 << 30;
 
 /// The observers CMF-SIM tests through an eye: the learned cortex, or one whose colour
 /// dimension is known ([`crate::ladder`]).

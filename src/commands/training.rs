@@ -75,15 +75,33 @@ pub fn resolve_run(
 /// experiment) as its `run.json` and `config.toml` say.
 pub fn resume(options: &ResumeOptions) -> Result<(), RunError> {
     let dir = &options.dir;
-    let marker_path = dir.join("run.json");
+    let marker_path = dir.join(crate::run::folder::MARKER_FILE);
+    if let Some(pid) = crate::run::lock::live_holder(dir) {
+        return Err(RunError::Folder {
+            path: dir.clone(),
+            reason: format!(
+                "is in use by process {pid}, which is training into it: wait for it to \
+                 finish or stop it"
+            ),
+        });
+    }
     if crate::run::temporaries::holds_only_temporaries(dir)? {
         return Err(crate::run::temporaries::never_started(dir));
     }
-    if !dir.join("config.toml").is_file() || !marker_path.is_file() {
+    if !dir.join("config.toml").is_file() {
         return Err(RunError::Folder {
             path: dir.clone(),
-            reason: "is not a run folder (no config.toml and run.json); an experiment's folder \
-                     continues with `experiment NAME --out DIR --resume`"
+            reason: "is not a run folder (no config.toml); an experiment's folder continues \
+                     with `experiment NAME --out DIR --resume`"
+                .into(),
+        });
+    }
+    if !marker_path.is_file() {
+        return Err(RunError::Folder {
+            path: dir.clone(),
+            reason: "holds config.toml but no run.json, so how it was run is not known (a \
+                     start stopped between the two by an older version): continue it with \
+                     `colorvision run --out DIR --resume` (or `train`), which writes run.json"
                 .into(),
         });
     }

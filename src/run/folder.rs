@@ -55,9 +55,14 @@ pub(crate) fn run_entries(dir: &Path) -> Result<Vec<std::path::PathBuf>, IoError
     Ok(paths)
 }
 
-/// Whether `dir` is absent or holds nothing but a run lock and temporaries this program writes
-/// (`.NAME.tmp-PID`: a run killed at its first write leaves only those; they are removed when
-/// the run starts, [`crate::io::clean_stale_temps`]).
+/// The run's marker, `run.json` ([`crate::run::RunMarker`]). A run starting writes it first and
+/// `config.toml` second: `config.toml` is what makes a folder a run folder, and a folder that
+/// has it has its marker too.
+pub const MARKER_FILE: &str = "run.json";
+
+/// Whether `dir` is absent or holds nothing but what a start stopped before its `config.toml`
+/// leaves: a run lock, temporaries this program writes (`.NAME.tmp-PID`; removed when the run
+/// starts, [`crate::io::clean_stale_temps`]) and the marker [`MARKER_FILE`].
 pub fn is_empty(dir: &Path) -> Result<bool, IoError> {
     if !dir.exists() {
         return Ok(true);
@@ -65,7 +70,7 @@ pub fn is_empty(dir: &Path) -> Result<bool, IoError> {
     Ok(run_entries(dir)?.iter().all(|p| {
         p.is_file()
             && p.file_name()
-                .is_some_and(|n| crate::io::is_temporary(&n.to_string_lossy()))
+                .is_some_and(|n| n == MARKER_FILE || crate::io::is_temporary(&n.to_string_lossy()))
     }))
 }
 

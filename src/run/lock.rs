@@ -27,6 +27,37 @@ pub struct RunLock {
     path: PathBuf,
     /// The folder did not exist before the lock was taken.
     created_dir: bool,
+    /// The lock was taken (a guard dropped on the way to a refusal holds none).
+    taken: bool,
+}
+
+/// The locks this process holds, for [`release_held`]: path and whether its folder was made
+/// for it.
+static HELD: std::sync::Mutex<Vec<(PathBuf, bool)>> = std::sync::Mutex::new(Vec::new());
+
+fn held() -> std::sync::MutexGuard<'static, Vec<(PathBuf, bool)>> {
+    HELD.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+/// Releases every lock this process holds, as dropping them would: for a process that leaves
+/// without unwinding (a stop whose stage did not end in time, `crate::interrupt`).
+pub fn release_held() {
+    for (path, created_dir) in held().drain(..) {
+        release(&path, created_dir);
+    }
+}
+
+/// Removes the lock at `path` if this process holds it, and its folder if it was made for it
+/// and is empty.
+fn release(path: &Path, created_dir: bool) {
+    if holder(path) == Some(std::process::id()) {
+        let _ = std::fs::remove_file(path);
+    }
+    if created_dir {
+        if let Some(dir) = path.parent() {
+            let _ = std::fs::remove_dir(dir);
+        }
+    }
 }
 
 /// The process id a lock file names, if it names one.
@@ -51,12 +82,22 @@ fn before_boot(path: &Path) -> bool {
     matches!((written, boot_time()), (Some(w), Some(b)) if w.as_secs() < b)
 }
 
+/// The running process that holds the lock of `dir`, if one does (a stale lock names none).
+pub fn live_holder(dir: &Path) -> Option<u32> {
+    let path = dir.join(LOCK_FILE);
+    holder(&path).filter(|&p| process_alive(p) && !before_boot(&path))
+}
+
 /// Links a file holding this process's id to `lock`; `Ok(false)` when `lock` exists.
 fn try_create(lock: &Path) -> Result<bool, IoError> {
+    let _guard = atomic_io::WriteGuard::enter();
     let tmp = atomic_io::temp_sibling(lock);
     atomic_io::write_atomic(&tmp, format!("{}\n", std::process::id()).as_bytes())?;
     crate::interrupt::fault_point("lock-written", 0);
     let linked = std::fs::hard_link(&tmp, lock);
+    if linked.is_ok() {
+        atomic_io::fault_point("rename");
+    }
     let _ = std::fs::remove_file(&tmp);
     match linked {
         Ok(()) => Ok(true),
@@ -68,6 +109,7 @@ fn try_create(lock: &Path) -> Result<bool, IoError> {
 /// Removes the stale lock of the dead process `dead`, unless another process replaced it
 /// meanwhile (then it is put back).
 fn remove_stale(lock: &Path, dead: Option<u32>) -> Result<(), IoError> {
+    let _guard = atomic_io::WriteGuard::enter();
     let aside = lock.with_file_name(format!("{LOCK_FILE}.stale-{}", std::process::id()));
     match std::fs::rename(lock, &aside) {
         Ok(()) => {}
@@ -88,9 +130,15 @@ impl RunLock {
         let created_dir = !dir.exists();
         std::fs::create_dir_all(dir).map_err(fs_err(dir))?;
         let path = dir.join(LOCK_FILE);
-        let mut guard = RunLock { path, created_dir };
+        let mut guard = RunLock {
+            path,
+            created_dir,
+            taken: false,
+        };
         for _ in 0..3 {
             if try_create(&guard.path)? {
+                guard.taken = true;
+                held().push((guard.path.clone(), guard.created_dir));
                 return Ok(guard);
             }
             let pid = holder(&guard.path);
@@ -127,10 +175,10 @@ impl RunLock {
 
 impl Drop for RunLock {
     fn drop(&mut self) {
-        if holder(&self.path) == Some(std::process::id()) {
-            let _ = std::fs::remove_file(&self.path);
-        }
-        if self.created_dir {
+        if self.taken {
+            held().retain(|(p, _)| p != &self.path);
+            release(&self.path, self.created_dir);
+        } else if self.created_dir {
             if let Some(dir) = self.path.parent() {
                 let _ = std::fs::remove_dir(dir);
             }

@@ -16,12 +16,14 @@ impl RunState<'_> {
         }
         while k < steps {
             k += 1;
+            self.during("a training step", k);
             self.train_step(k).map_err(|e| self.said_as_stop(e, k))?;
             interrupt::fault_point("step", self.trainer.step_count());
             if self.checkpoint_due(k) {
                 self.save(k, false)?;
             }
             self.stop_if_asked(k, false)?;
+            self.during("the step's measurements", k);
             let stop_early = self.measure(k).map_err(|e| self.said_as_stop(e, k))?;
             interrupt::fault_point("measured", self.trainer.step_count());
             self.stop_if_asked(k, true)?;
@@ -134,6 +136,7 @@ impl RunState<'_> {
             let final_step = k == self.config.steps;
             let settings = self.config.cmf_settings(final_step);
             self.bar.set_message(format!("step {k} · CMF-SIM…"));
+            self.during("CMF-SIM", k);
             let r = measure(&settings, self.config, &self.source.retina, &self.trainer)?;
             let dir = self.out.join("cmf_sim").join(format!("step_{k:06}"));
             crate::io::save_into(&dir, |staging| -> Result<(), RunError> {
@@ -228,17 +231,26 @@ impl RunState<'_> {
     /// last checkpoint, from which the run resumes.
     fn said_as_stop(&mut self, e: RunError, k: u64) -> RunError {
         self.bar.abandon_with_message("stopped");
+        e.said_as_stop(|| self.kept_at(k))
+    }
+
+    /// What a stop inside step `k` keeps, and how to go on.
+    fn kept_at(&self, k: u64) -> String {
         let out = self.out.display();
         let kept = match &self.saved {
             Some((s, _, path)) => format!("its last checkpoint is {} (step {s})", path.display()),
             None => "no checkpoint was written yet".to_string(),
         };
-        e.said_as_stop(|| {
-            format!(
-                "step {k} is not recorded and {kept}. Continue with `colorvision resume {out}` \
-                 (or the same command with --resume)"
-            )
-        })
+        format!(
+            "step {k} is not recorded and {kept}. Continue with `colorvision resume {out}` (or \
+             the same command with --resume)"
+        )
+    }
+
+    /// Records, for a stop that has to leave without the stage ([`interrupt::during`]), that
+    /// the run is in `stage` of step `k`.
+    fn during(&self, stage: &'static str, k: u64) {
+        interrupt::during(stage, self.kept_at(k));
     }
 
     /// After step `k` (before or after its measurements): when a signal asked to stop, make

@@ -324,6 +324,18 @@ pub const CASES: &[Case] = &[
         &["huge.exr", "100000×100000"],
     ),
     case(
+        "scene EXR values near f32::MAX",
+        Some("[retina.scenes]\nfiles = [\"overflow.exr\"]"),
+        &[],
+        &["overflow.exr", "pixel (x", "too large"],
+    ),
+    case(
+        "scene a symlink to /dev/zero",
+        Some("[retina.scenes]\nfiles = [\"zero.exr\"]"),
+        &[],
+        &["zero.exr", "/dev/zero", "character device"],
+    ),
+    case(
         "scene EXR truncated",
         Some("[retina.scenes]\nfiles = [\"truncated.exr\"]"),
         &[],

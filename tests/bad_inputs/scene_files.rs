@@ -1,6 +1,7 @@
-//! Scene files the bad inputs name: spectral EXRs holding a NaN, a negative value, half their
-//! bytes, or a header declaring 100 000² pixels; a PNG declaring as many; a PNG of garbage;
-//! MATLAB v7.3 cubes cut short, without a `cube`, holding a NaN, and a MATLAB v5 file.
+//! Scene files the bad inputs name: spectral EXRs holding a NaN, a negative value, values near
+//! `f32::MAX`, half their bytes, or a header declaring 100 000² pixels; a symbolic link to
+//! `/dev/zero`; a PNG declaring as many pixels; a PNG of garbage; MATLAB v7.3 cubes cut short,
+//! without a `cube`, holding a NaN, and a MATLAB v5 file.
 
 use std::path::Path;
 
@@ -36,6 +37,12 @@ pub fn write_scene_files(dir: &Path) {
     let mut negative = image(0.5);
     negative.data[7] = -1.0;
     retina::scene::exr_io::write_spectral_exr(&negative, dir.join("negative.exr")).unwrap();
+    // Finite in the file, infinite once summed over wavelengths.
+    let mut overflow = image(0.5);
+    overflow.data.iter_mut().for_each(|v| *v *= 3e38);
+    retina::scene::exr_io::write_spectral_exr(&overflow, dir.join("overflow.exr")).unwrap();
+    #[cfg(unix)]
+    std::os::unix::fs::symlink("/dev/zero", dir.join("zero.exr")).unwrap();
     let good = dir.join("good.exr");
     retina::scene::exr_io::write_spectral_exr(&image(0.5), &good).unwrap();
     let bytes = std::fs::read(&good).unwrap();

@@ -10,6 +10,7 @@
 #[path = "../common/mod.rs"]
 mod common;
 mod harness;
+mod kill_points;
 mod stop_stages;
 
 use common::{text, BIN};

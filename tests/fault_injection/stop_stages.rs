@@ -140,3 +140,40 @@ fn sigterm_stops_cmf_sim_within_seconds() {
     assert!(!dir.join("out").exists(), "{}", text(&o));
     std::fs::remove_dir_all(dir).ok();
 }
+
+/// A stop must end a process whose stage does not check the stop flag (the deadline,
+/// `colorvision::interrupt::STOP_DEADLINE`, 4 s) within this long.
+const DEADLINE_BOUND: Duration = Duration::from_secs(8);
+
+/// Asserts a process the deadline ended: exit 130 within [`DEADLINE_BOUND`] of the signal,
+/// the stop message, and no temporary or lock left in `out` (when there is one).
+fn assert_left_by_the_deadline(o: &Output, took: Duration, out: &Path) {
+    let log = text(o);
+    assert_eq!(exit_code(o), Some(130), "{log}");
+    assert!(
+        took < DEADLINE_BOUND,
+        "stopped {took:?} after SIGTERM: {log}"
+    );
+    assert!(log.contains("stopped by SIGTERM during"), "{log}");
+    if out.exists() {
+        super::harness::assert_files_parse(out, false);
+    }
+}
+
+#[test]
+fn sigterm_inside_a_training_step_that_never_checks_leaves_by_the_deadline() {
+    let dir = scratch("stop_wide_step");
+    // P's couplings at their widest (4096): the first step takes minutes and checks no flag.
+    let config = "preset = \"tiny\"\nsteps = 2\n[cortex.p]\nhidden = 4096\n";
+    // The folder's config.toml is in place just before the first step.
+    let (o, took) = sigterm_during(
+        &dir,
+        "train",
+        config,
+        |d| d.join("out/config.toml").exists(),
+        Duration::from_millis(1500),
+    );
+    assert_left_by_the_deadline(&o, took, &dir.join("out"));
+    assert!(text(&o).contains("colorvision resume out"), "{}", text(&o));
+    std::fs::remove_dir_all(dir).ok();
+}

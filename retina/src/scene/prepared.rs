@@ -45,7 +45,7 @@ use super::resize::{resize, short_side_size};
 use super::rgb::{class_planes_by_matrix, Display, RgbImage};
 use super::sources::{expand, SceneFormat};
 use super::ClassPlanes;
-use crate::error::Result;
+use crate::error::{Result, RetinaError};
 
 /// How scene files are scaled at preparation (module docs, step 3).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -226,6 +226,7 @@ fn prepare_one(path: &Path, ctx: &Context<'_>) -> Result<(PreparedScene, bool)> 
         }
     }
     let mut planes = read_planes(path, format, ctx)?;
+    check_finite(path, &planes, ctx.projection, "")?;
     let (nh, nw) = match ctx.config.file_scale {
         FileScale::Tile => short_side_size(planes.h, planes.w, ctx.config.tile_px),
         FileScale::Native if planes.h.min(planes.w) < ctx.config.tile_px => {
@@ -238,6 +239,12 @@ fn prepare_one(path: &Path, ctx: &Context<'_>) -> Result<(PreparedScene, bool)> 
     if format != SceneFormat::Png && ctx.config.white_balance {
         planes.white_balance(&ctx.projection.white);
     }
+    check_finite(
+        path,
+        &planes,
+        ctx.projection,
+        " once resized and white balanced",
+    )?;
     let cached = CachedPlanes {
         n_planes: planes.n_planes,
         h: nh,
@@ -246,6 +253,38 @@ fn prepare_one(path: &Path, ctx: &Context<'_>) -> Result<(PreparedScene, bool)> 
     };
     ctx.cache.write(&key, &cached)?;
     Ok((entry(nh, nw), false))
+}
+
+/// Refuses planes holding a value that is not finite, naming the file, the pixel (`at` says of
+/// which image: the file's own, or the prepared one) and the cone class: radiance that is
+/// finite in the file can still overflow `f32` once summed over wavelengths (values near 3e38),
+/// and would reach training as NaN.
+fn check_finite(
+    path: &Path,
+    planes: &ClassPlanes,
+    projection: &SceneProjection,
+    at: &str,
+) -> Result<()> {
+    let Some((p, x, y, v)) = planes.first_non_finite() else {
+        return Ok(());
+    };
+    let class = projection
+        .plane_classes
+        .get(p)
+        .map_or_else(|| format!("plane {p}"), |c| format!("class {}", c.name));
+    let largest = planes
+        .planes
+        .iter()
+        .filter(|v| v.is_finite())
+        .fold(0f32, |m, v| m.max(v.abs()));
+    Err(RetinaError::Radiance {
+        path: path.to_path_buf(),
+        message: format!(
+            "pixel (x {x}, y {y}){at}: the cone excitation of {class} is {v} (the largest finite \
+             one is {largest:e}): the radiance is too large to sum in 32-bit floats; scale the \
+             scene's values down"
+        ),
+    })
 }
 
 /// A file's planes at its own resolution (module docs, steps 1–2).

@@ -106,7 +106,7 @@ fn expand_one(entry: &Path) -> Result<Vec<PathBuf>> {
         return Ok(found);
     }
     if !entry.is_file() {
-        return Err(bad(entry, "no such file or folder"));
+        return Err(bad(entry, not_a_file(entry)));
     }
     if SceneFormat::of(entry).is_none() {
         return Err(bad(
@@ -115,6 +115,52 @@ fn expand_one(entry: &Path) -> Result<Vec<PathBuf>> {
         ));
     }
     Ok(vec![entry.to_path_buf()])
+}
+
+/// What `path`, which is neither a regular file nor a folder, is: missing, a dangling symbolic
+/// link, a device, a pipe or a socket (reading a device such as `/dev/zero` would never end).
+fn not_a_file(path: &Path) -> String {
+    let link = std::fs::symlink_metadata(path)
+        .ok()
+        .filter(|m| m.file_type().is_symlink())
+        .and_then(|_| std::fs::read_link(path).ok());
+    let via = link.as_ref().map_or_else(String::new, |t| {
+        format!("a symbolic link to `{}`, which ", t.display())
+    });
+    let what = match std::fs::metadata(path) {
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+            return if link.is_some() {
+                format!("{via}does not exist")
+            } else {
+                "no such file or folder".into()
+            };
+        }
+        Err(e) => return format!("{via}cannot be read: {e}"),
+        Ok(m) => kind_of(&m.file_type()),
+    };
+    format!("{via}is {what}, not a scene file or folder")
+}
+
+/// The kind of a file that is neither regular nor a folder, in words.
+fn kind_of(t: &std::fs::FileType) -> &'static str {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::FileTypeExt;
+        if t.is_char_device() {
+            return "a character device";
+        }
+        if t.is_block_device() {
+            return "a block device";
+        }
+        if t.is_fifo() {
+            return "a named pipe";
+        }
+        if t.is_socket() {
+            return "a socket";
+        }
+    }
+    let _ = t;
+    "not a regular file"
 }
 
 /// Whether the last component of `path` starts with a dot.
@@ -156,6 +202,9 @@ fn scene_files_in(dir: &Path, entry: &Path, keep: impl Fn(&str) -> bool) -> Resu
             continue;
         };
         if !name.starts_with('.') && keep(name) && SceneFormat::of(&path).is_some() {
+            if !path.is_file() && !path.is_dir() {
+                return Err(bad(&path, not_a_file(&path)));
+            }
             found.push(if dir == Path::new(".") {
                 PathBuf::from(name)
             } else {
@@ -207,6 +256,36 @@ mod tests {
         assert!(!matches("a*b*c", "aXbYbZ"));
         assert!(matches("*", ""));
         assert!(!matches("?", ""));
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn a_device_a_dangling_link_and_a_missing_file_are_each_named_for_what_they_are() {
+        let dir = std::env::temp_dir().join(format!("cv_sources_kinds_{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(dir.join("folder")).unwrap();
+        let zero = dir.join("zero.exr");
+        std::os::unix::fs::symlink("/dev/zero", &zero).unwrap();
+        std::os::unix::fs::symlink("/dev/zero", dir.join("folder/zero.exr")).unwrap();
+        let dangling = dir.join("gone.exr");
+        std::os::unix::fs::symlink(dir.join("nowhere.exr"), &dangling).unwrap();
+        let err = |p: &Path| expand(&[p.to_path_buf()]).unwrap_err().to_string();
+        let e = err(&zero);
+        assert!(
+            e.contains("zero.exr")
+                && e.contains("a symbolic link to `/dev/zero`, which is a character device"),
+            "{e}"
+        );
+        let e = err(&dir.join("folder"));
+        assert!(
+            e.contains("folder/zero.exr") && e.contains("character device"),
+            "{e}"
+        );
+        let e = err(&dangling);
+        assert!(e.contains("nowhere.exr`, which does not exist"), "{e}");
+        let e = err(&dir.join("missing.exr"));
+        assert!(e.contains("missing.exr`: no such file or folder"), "{e}");
+        std::fs::remove_dir_all(dir).ok();
     }
 
     fn fixtures() -> PathBuf {
