@@ -29,45 +29,6 @@ pub struct Eye {
     source: Mutex<Option<RetinaSource>>,
 }
 
-/// One `KEY=VALUE` of `--set` from a Python key and value (`__` in a key reads as `.`).
-fn setting(key: &str, value: &Bound<'_, PyAny>) -> PyResult<String> {
-    Ok(format!("{}={}", key.replace("__", "."), toml_value(value)?))
-}
-
-/// A Python value as TOML: bool, int, float, str, and lists or dicts of them.
-fn toml_value(v: &Bound<'_, PyAny>) -> PyResult<toml::Value> {
-    if let Ok(b) = v.downcast::<pyo3::types::PyBool>() {
-        return Ok(toml::Value::Boolean(b.is_true()));
-    }
-    if let Ok(i) = v.extract::<i64>() {
-        return Ok(toml::Value::Integer(i));
-    }
-    if let Ok(f) = v.extract::<f64>() {
-        return Ok(toml::Value::Float(f));
-    }
-    if let Ok(s) = v.extract::<String>() {
-        return Ok(toml::Value::String(s));
-    }
-    if let Ok(d) = v.downcast::<PyDict>() {
-        let mut t = toml::Table::new();
-        for (k, x) in d.iter() {
-            t.insert(k.extract::<String>()?, toml_value(&x)?);
-        }
-        return Ok(toml::Value::Table(t));
-    }
-    if let Ok(items) = v.try_iter() {
-        return Ok(toml::Value::Array(
-            items
-                .map(|x| toml_value(&x?))
-                .collect::<PyResult<Vec<_>>>()?,
-        ));
-    }
-    Err(PyValueError::new_err(format!(
-        "a setting's value must be a bool, number, string, list or dict, not {}",
-        crate::arrays::type_name(v)
-    )))
-}
-
 impl Eye {
     /// The eye of resolved settings (its scene-free retina built at once, interruptibly).
     pub(crate) fn from_config(py: Python<'_>, config: RunConfig) -> PyResult<Eye> {
@@ -174,7 +135,7 @@ impl Eye {
         let mut set = Vec::new();
         for dict in settings.into_iter().chain(more) {
             for (k, v) in dict.iter() {
-                set.push(setting(&k.extract::<String>()?, &v)?);
+                set.push(crate::settings::setting(&k.extract::<String>()?, &v)?);
             }
         }
         let overrides = Overrides {

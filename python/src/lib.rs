@@ -24,6 +24,7 @@ pub mod errors;
 pub mod eye;
 pub mod measure;
 pub mod result;
+pub mod settings;
 
 /// The extension module.
 #[pymodule]
