@@ -227,24 +227,32 @@ pub fn cmf_sim(options: &CmfSimOptions) -> Result<(), RunError> {
 
 /// The verdict, the base error against the energy, and each K's converged margin, in words.
 pub fn print_cmf_sim(r: &CmfSimResult) {
-    let (base, energy): (f64, f64) = (r.base_error.iter().sum(), r.energy.iter().sum());
-    println!(
-        "{}: dimension {} — {} ({} shows in {:.1} s)",
-        r.observer, r.dimension, r.verdict, r.shows, r.seconds
-    );
-    println!(
-        "  base error (the same light at two locations) summed over wavelengths = {:.3} of the percept energy{}",
-        base / energy.max(f64::MIN_POSITIVE),
-        if r.no_colour_constancy {
-            " (≥ 1: no colour constancy)"
-        } else {
-            ""
-        }
-    );
-    let nw = r.test_wavelengths_nm.len();
-    for k in &r.per_k {
-        println!("  {}", k.describe(nw));
+    for line in cmf_sim_lines(r) {
+        println!("{line}");
     }
+}
+
+/// The lines [`print_cmf_sim`] prints.
+pub fn cmf_sim_lines(r: &CmfSimResult) -> Vec<String> {
+    let (base, energy): (f64, f64) = (r.base_error.iter().sum(), r.energy.iter().sum());
+    let mut lines = vec![
+        format!(
+            "{}: dimension {} — {} ({} shows in {:.1} s)",
+            r.observer, r.dimension, r.verdict, r.shows, r.seconds
+        ),
+        format!(
+            "  base error (the same light at two locations) summed over wavelengths = {:.3} of the percept energy{}",
+            base / energy.max(f64::MIN_POSITIVE),
+            if r.no_colour_constancy {
+                " (≥ 1: no colour constancy)"
+            } else {
+                ""
+            }
+        ),
+    ];
+    let nw = r.test_wavelengths_nm.len();
+    lines.extend(r.per_k.iter().map(|k| format!("  {}", k.describe(nw))));
+    lines
 }
 
 /// `colorvision scope`: Neural Scope pictures and invariants of a trained run (the percept's

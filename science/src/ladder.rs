@@ -23,8 +23,9 @@ use crate::config::RunConfig;
 use crate::observer::{Decoder, EyeObserver, ObserverKind, OracleDecoder, ReadoutMode};
 use crate::Error;
 use colorimetry::analytic::ConeObserver;
+use colorimetry::cmf_sim::CmfSimProgress;
 use colorimetry::{run_cmf_sim_until, CmfSimResult};
-use cortex::Trainer;
+use cortex::{Cortex, Trainer};
 use retina::Retina;
 use serde::Serialize;
 use std::sync::atomic::AtomicBool;
@@ -190,14 +191,26 @@ pub fn measure_observer_until(
     trainer: Option<&Trainer>,
     stop: &AtomicBool,
 ) -> Result<CmfSimResult, Error> {
+    measure_observer_with(config, kind, trainer.map(|t| &t.cortex), &mut |_| {}, stop)
+}
+
+/// [`measure_observer_until`] with the learned cortex given directly and CMF-SIM's progress
+/// reported (after every primary set).
+pub fn measure_observer_with(
+    config: &RunConfig,
+    kind: ObserverKind,
+    cortex: Option<&Cortex>,
+    progress: &mut dyn FnMut(&CmfSimProgress),
+    stop: &AtomicBool,
+) -> Result<CmfSimResult, Error> {
     let mut eye = config.retina.clone();
-    if trainer.is_none() {
+    if cortex.is_none() {
         eye.scenes.tiles = 1; // the stimuli are discs: no scenes needed
     }
     let retina = Retina::with_progress_until(eye, &|_| {}, stop)?;
     let oracle = |interpolate: bool| oracle_decoder(&retina, config, interpolate);
-    let decoder = match (kind, trainer) {
-        (ObserverKind::Cortex, Some(t)) => Decoder::Cortex(&t.cortex),
+    let decoder = match (kind, cortex) {
+        (ObserverKind::Cortex, Some(c)) => Decoder::Cortex(c),
         (ObserverKind::Cortex, None) => panic!("measure_observer: the cortex needs a trainer"),
         (ObserverKind::Identity, _) => Decoder::Ons,
         (ObserverKind::Cones, _) => Decoder::Cones,
@@ -208,18 +221,30 @@ pub fn measure_observer_until(
             return Ok(run_cmf_sim_until(
                 &observer,
                 &config.cmf_sim,
-                &mut |_| {},
+                progress,
                 stop,
             )?);
         }
     };
-    let observer = EyeObserver::new(&retina, decoder, config.observer.clone());
-    Ok(run_cmf_sim_until(
-        &observer,
-        &config.cmf_sim,
-        &mut |_| {},
-        stop,
-    )?)
+    measure_decoder_until(&retina, decoder, config, progress, stop)
+}
+
+/// CMF-SIM (`config.cmf_sim`) of `retina` followed by `decoder` (`config.observer`). An
+/// external decoder's failure — an error it returned, a non-finite percept — is the error,
+/// not a failed match.
+pub fn measure_decoder_until(
+    retina: &Retina,
+    decoder: Decoder<'_>,
+    config: &RunConfig,
+    progress: &mut dyn FnMut(&CmfSimProgress),
+    stop: &AtomicBool,
+) -> Result<CmfSimResult, Error> {
+    let observer = EyeObserver::new(retina, decoder, config.observer.clone());
+    let result = run_cmf_sim_until(&observer, &config.cmf_sim, progress, stop);
+    if let Some(why) = observer.decoder_failure() {
+        return Err(Error::invalid("decoder", why));
+    }
+    Ok(result?)
 }
 
 /// One rung measured at one location seed.

@@ -25,6 +25,12 @@
 //! ([`cortex::Cortex::record_decode_windows`]; W's inverse and C still cover the whole field):
 //! the percepts are the whole field's, at a fraction of the cost on a large eye (a patch of the
 //! 256 × 256 eye needs a 160 × 160 window).
+//!
+//! **Decoders from outside** ([`ExternalDecoder`]: a batch function, e.g. a Python model) are
+//! nonlinear observers by construction: only the eye's own linearity is used (the ONS of a show
+//! is rendered from the unit-disc responses), never a cached readout, and the observer offers no
+//! linear front end, so CMF-SIM shows every primary. Their percepts are checked for shape and
+//! finite values; a failure stops CMF-SIM and is its error ([`crate::ladder::measure_decoder_until`]).
 
 mod mixed_opsins;
 pub mod oracle;
@@ -36,6 +42,7 @@ mod tests;
 
 pub use oracle::OracleDecoder;
 pub use readout::{Readout, ReadoutMode};
+pub use render::external::{BatchDecodeFn, ExternalDecoder};
 use render::LocationCache;
 pub use settings::ObserverSettings;
 
@@ -111,6 +118,9 @@ pub enum Decoder<'a> {
     Cones,
     /// An oracle built from the true eye ([`oracle`]).
     Oracle(OracleDecoder),
+    /// A batch function from outside (a Python model): nonlinear, decoded in batches on the
+    /// thread that asks for the percepts ([`ExternalDecoder`]).
+    External(ExternalDecoder<'a>),
 }
 
 impl Decoder<'_> {
@@ -120,17 +130,20 @@ impl Decoder<'_> {
             Decoder::Cortex(c) => c.percept_dim(),
             Decoder::Ons | Decoder::Cones => 1,
             Decoder::Oracle(_) => oracle::ORACLE_PERCEPT_DIM,
+            Decoder::External(x) => x.dim(),
         }
     }
 
-    /// Whether the percept is linear in the ONS (every decoder but the cortex).
+    /// Whether the percept is linear in the ONS: the known-answer decoders only (the cortex,
+    /// an external decoder and any decoder added later are not).
     fn is_linear(&self) -> bool {
-        !matches!(self, Decoder::Cortex(_))
+        matches!(self, Decoder::Ons | Decoder::Cones | Decoder::Oracle(_))
     }
 
     fn describe(&self) -> String {
         match self {
             Decoder::Cortex(_) => "learned cortex".into(),
+            Decoder::External(x) => x.name().into(),
             Decoder::Ons => "identity (percept = ONS)".into(),
             Decoder::Cones => "cone activations (no lateral inhibition)".into(),
             Decoder::Oracle(o) if o.solves_mixtures() => format!(
@@ -214,6 +227,15 @@ impl<'a> EyeObserver<'a> {
         &self.readout
     }
 
+    /// Why an external decoder failed during the last measurement (an error it returned, a
+    /// percept of the wrong length or a non-finite value); `None` for the other decoders.
+    pub fn decoder_failure(&self) -> Option<String> {
+        match &self.decoder {
+            Decoder::External(x) => x.failure(),
+            _ => None,
+        }
+    }
+
     fn disc(&self, location: [f64; 2]) -> Disc {
         let f = self.retina.layout.field_px as f64;
         let (mid, half) = ((f - 1.0) / 2.0, f / 2.0);
@@ -260,6 +282,9 @@ impl Observer for EyeObserver<'_> {
         if shows.is_empty() {
             return;
         }
+        if let Decoder::External(x) = &self.decoder {
+            return self.external_percepts(x, shows, out);
+        }
         // Even jobs over the threads, none larger than decode_batch.
         let threads = rayon::current_num_threads().max(1);
         let jobs = shows
@@ -279,7 +304,12 @@ impl Observer for EyeObserver<'_> {
     /// The class planes the cones read: the eye sees a spectrum only through them (with or
     /// without noise, whose seed is the show's). Built from unit spectra, one per wavelength:
     /// [`Retina::class_values`] is linear in the spectrum (a tested property).
+    ///
+    /// None for an external decoder: nothing about it is assumed (module docs).
     fn linear_front_end(&self) -> Option<Vec<Vec<f64>>> {
+        if matches!(self.decoder, Decoder::External(_)) {
+            return None;
+        }
         let (g, k) = (self.retina.grid().len(), self.retina.classes_read());
         let mut rows = vec![vec![0.0; g]; k];
         for i in 0..g {

@@ -6,6 +6,8 @@ use super::*;
 use cortex::Window;
 use std::collections::BTreeMap;
 
+pub(super) mod external;
+
 /// Entries by location (bit patterns of x, y) and the bytes they hold.
 #[derive(Default)]
 pub(super) struct LocationCache {
@@ -67,7 +69,9 @@ impl EyeObserver<'_> {
                 o.decode(&a, &mut out);
                 out
             }
-            Decoder::Cortex(_) => unreachable!("the cortex is decoded in batches"),
+            Decoder::Cortex(_) | Decoder::External(_) => {
+                unreachable!("the cortex and external decoders are decoded in batches")
+            }
         }
     }
 
