@@ -18,10 +18,10 @@ use colorimetry::analytic::ConeObserver;
 use colorimetry::observer::{Observer, Show, Stimulus};
 use colorimetry::{run_cmf_sim, CmfSimSettings, ConeClass, ConeTemplate, WavelengthGrid};
 use cortex::Cortex;
+use criterion::{criterion_group, criterion_main, Criterion};
 use retina::Retina;
 use science::config::RunConfig;
 use science::observer::{EyeObserver, ObserverSettings};
-use criterion::{criterion_group, criterion_main, Criterion};
 use std::hint::black_box;
 use std::time::Duration;
 

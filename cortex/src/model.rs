@@ -230,11 +230,7 @@ impl Cortex {
 
     /// Records decode Φ's W and C on `ons`: `(pa, X, W's response, C)`; without C (the
     /// identity-percept baseline) `X = pa` and D is not applied after it.
-    fn record_w_c(
-        &self,
-        tape: &mut Tape<f32>,
-        ons: Var,
-    ) -> (Var, Var, Option<Var>, Option<Var>) {
+    fn record_w_c(&self, tape: &mut Tape<f32>, ons: Var) -> (Var, Var, Option<Var>, Option<Var>) {
         enter(tape, Bucket::W);
         let r = self.w.record(tape, &self.params);
         let pa = self.w.decode(tape, r, ons);

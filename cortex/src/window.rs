@@ -91,9 +91,9 @@ impl Cortex {
             .expect("Cortex::record_decode_windows: no windows");
         assert!(
             windows.len() == b
-                && windows.iter().all(|v| (v.height, v.width) == (h, w)
-                    && v.top + h <= n
-                    && v.left + w <= n),
+                && windows
+                    .iter()
+                    .all(|v| (v.height, v.width) == (h, w) && v.top + h <= n && v.left + w <= n),
             "Cortex::record_decode_windows: {} windows of one size inside {n} × {n} for {b} frames",
             windows.len()
         );
@@ -101,7 +101,11 @@ impl Cortex {
         let ch = tape.shape(x).dims()[1];
         let whole = tape.value(x).data();
         let mut cut = vec![0f32; b * ch * h * w];
-        for (f, (v, out)) in windows.iter().zip(cut.chunks_exact_mut(ch * h * w)).enumerate() {
+        for (f, (v, out)) in windows
+            .iter()
+            .zip(cut.chunks_exact_mut(ch * h * w))
+            .enumerate()
+        {
             for (c, out) in out.chunks_exact_mut(h * w).enumerate() {
                 let plane = &whole[(f * ch + c) * n * n..(f * ch + c + 1) * n * n];
                 for (r, row) in out.chunks_exact_mut(w).enumerate() {

@@ -365,16 +365,30 @@ fn bounded_candidates_report_what_converging_every_candidate_reports() {
         };
         let bounded = run(o.as_ref(), &settings, &mut |_| {}, &stop, true).unwrap();
         let every = run(o.as_ref(), &settings, &mut |_| {}, &stop, false).unwrap();
-        assert_eq!((bounded.dimension, every.dimension), (*k, *k), "{}", o.name());
+        assert_eq!(
+            (bounded.dimension, every.dimension),
+            (*k, *k),
+            "{}",
+            o.name()
+        );
         for (b, e) in bounded.per_k.iter().zip(&every.per_k) {
             assert_eq!(b.sets, e.sets, "{}: the same sets tried", o.name());
             assert_eq!(
-                (b.sets_fully_evaluated + b.sets_bounded_out, e.sets_bounded_out),
+                (
+                    b.sets_fully_evaluated + b.sets_bounded_out,
+                    e.sets_bounded_out
+                ),
                 (e.sets_fully_evaluated, 0),
                 "{}: every candidate either converged or bounded out",
                 o.name()
             );
-            assert!(b.shows <= e.shows, "{}: {} > {} shows", o.name(), b.shows, e.shows);
+            assert!(
+                b.shows <= e.shows,
+                "{}: {} > {} shows",
+                o.name(),
+                b.shows,
+                e.shows
+            );
             saved += e.shows - b.shows;
         }
         for (cb, ce) in bounded.curves.iter().zip(&every.curves) {

@@ -108,7 +108,8 @@ impl EyeObserver<'_> {
             ons_basis,
             readout_basis,
         });
-        let bytes = entry.ons_basis.len() * 4 + entry.readout_basis.len() * 8 + entry.cells.len() * 16;
+        let bytes =
+            entry.ons_basis.len() * 4 + entry.readout_basis.len() * 8 + entry.cells.len() * 16;
         let mut cache = self.cache.lock().expect("cache lock");
         if cache.bytes + bytes <= CACHE_LIMIT_BYTES {
             cache.bytes += bytes;
@@ -133,7 +134,11 @@ impl EyeObserver<'_> {
         let window = cortex.exact_window(rows, cols);
         let local = cells
             .iter()
-            .map(|&i| window.local_index(i, n).expect("a read cone lies in its window"))
+            .map(|&i| {
+                window
+                    .local_index(i, n)
+                    .expect("a read cone lies in its window")
+            })
             .collect();
         Some((window, local))
     }
@@ -218,7 +223,10 @@ impl EyeObserver<'_> {
             // Shows whose windows share a size are decoded together (the whole field is one).
             let mut groups: BTreeMap<(usize, usize), Vec<usize>> = BTreeMap::new();
             for (i, e) in entries.iter().enumerate() {
-                let size = e.window.as_ref().map_or((nn, 0), |(w, _)| (w.height, w.width));
+                let size = e
+                    .window
+                    .as_ref()
+                    .map_or((nn, 0), |(w, _)| (w.height, w.width));
                 groups.entry(size).or_default().push(i);
             }
             for members in groups.values() {

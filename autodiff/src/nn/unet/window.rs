@@ -141,7 +141,10 @@ mod tests {
         for (rows, cols) in [([26, 33], [20, 29]), ([0, 5], [58, 63]), ([30, 31], [0, 9])] {
             let [r0, r1] = net.exact_window(rows, n);
             let [c0, c1] = net.exact_window(cols, n);
-            assert!(rows[0] == 0 || c1 - c0 < n, "window {c0}..{c1} is the whole field");
+            assert!(
+                rows[0] == 0 || c1 - c0 < n,
+                "window {c0}..{c1} is the whole field"
+            );
             let (h, w) = (r1 - r0, c1 - c0);
             let crop: Vec<f32> = (0..2)
                 .flat_map(|c| (r0..r1).flat_map(move |r| (c0..c1).map(move |k| (c, r, k))))
@@ -184,7 +187,13 @@ mod tests {
                     .any(|r| (0..n).any(|k| out[(c * n + r) * n + k] != full[(c * n + r) * n + k]))
             })
         };
-        assert!(!changed(lo - 1) && !changed(hi + 1), "rows outside [{lo}, {hi}] reach the box");
-        assert!(changed(lo) && changed(hi), "the interval [{lo}, {hi}] is wider than the reach");
+        assert!(
+            !changed(lo - 1) && !changed(hi + 1),
+            "rows outside [{lo}, {hi}] reach the box"
+        );
+        assert!(
+            changed(lo) && changed(hi),
+            "the interval [{lo}, {hi}] is wider than the reach"
+        );
     }
 }
