@@ -231,7 +231,7 @@ mod tests {
     }
 
     #[test]
-    fn the_cmf_sim_part_grows_with_the_pairs_until_the_cache_is_full() {
+    fn the_cmf_sim_part_grows_with_the_pairs_and_holds_the_measured_top() {
         let c = RunConfig::preset("tiny", "LMS").unwrap();
         let layout = layout(&c);
         let at = |pairs: usize| {
@@ -239,18 +239,13 @@ mod tests {
             s.location_pairs = pairs;
             cmf_sim::bytes(&c, &s, &layout)
         };
-        // Tiny's 32² cones and 3 classes: 12 KiB of basis per location, 2 locations per pair
-        // and wavelength; the cache fills at about 87 000 locations.
-        let (a, b) = (at(4), at(8));
-        assert!((b / a - 2.0).abs() < 1e-9, "{a} {b}");
+        // More pairs, more shows and cached locations.
+        assert!(at(8) > at(4), "{} {}", at(4), at(8));
+        // At the top of its range the estimate must not fall below what was measured there: a
+        // tiny run with 4 096 location pairs had reached 2 375 MiB when it was stopped
+        // unfinished (docs/memory-tops.md), a lower bound on its peak.
         let top = at(4096);
-        let cache_limit = crate::observer::CACHE_LIMIT_BYTES as f64;
-        assert!(top > cache_limit && top < 1.5 * cache_limit, "{top}");
-        let slope = |a: usize, b: usize| (at(b) - at(a)) / (b - a) as f64;
-        assert!(
-            slope(4096, 8192) < 0.1 * slope(512, 1024),
-            "past the cap only the shows grow"
-        );
+        assert!(top >= 2375.0 * 1024.0 * 1024.0, "{top} bytes");
     }
 
     #[test]
