@@ -157,51 +157,18 @@ pub fn evaluate_early(
     options: &MatchOptions<'_>,
     order: &WavelengthOrder,
     first_round: usize,
-    front: Option<&mut FrontEnd<'_>>,
+    mut front: Option<&mut FrontEnd<'_>>,
 ) -> SetOutcome {
+    let order = order.as_slice();
     let opts = MatchOptions {
         stop_below: Some(threshold),
         ..*options
     };
-    in_rounds(pb, solver, threshold, &opts, order, first_round, front)
-}
-
-/// Like [`evaluate_early`], but every wavelength is solved to convergence (no stop below a
-/// threshold), so each solve, continued later, takes exactly the path of one solve from
-/// `options.resume`: the set fails at the first round where a converged error reaches `bound`.
-pub fn evaluate_converged_until(
-    pb: &MatchProblem<'_>,
-    solver: &SolverSettings,
-    bound: &[f64],
-    options: &MatchOptions<'_>,
-    order: &WavelengthOrder,
-    first_round: usize,
-    front: Option<&mut FrontEnd<'_>>,
-) -> SetOutcome {
-    let opts = MatchOptions {
-        stop_below: None,
-        ..*options
-    };
-    in_rounds(pb, solver, bound, &opts, order, first_round, front)
-}
-
-/// Solve along `order` in rounds of 1, 2, 4, … × `first_round` with `opts`; stop after the
-/// first round in which some error reaches `threshold`.
-fn in_rounds(
-    pb: &MatchProblem<'_>,
-    solver: &SolverSettings,
-    threshold: &[f64],
-    opts: &MatchOptions<'_>,
-    order: &WavelengthOrder,
-    first_round: usize,
-    mut front: Option<&mut FrontEnd<'_>>,
-) -> SetOutcome {
-    let order = order.as_slice();
     let (mut matches, mut calls, mut shows) = (Vec::new(), 0, 0);
     let (mut done, mut size) = (0, first_round.max(1));
     while done < order.len() {
         let round = &order[done..(done + size).min(order.len())];
-        let (r, c, n) = solve(pb, solver, round, opts, &mut front);
+        let (r, c, n) = solve(pb, solver, round, &opts, &mut front);
         calls += c;
         shows += n;
         let failed = r.iter().any(|m| !(m.error < threshold[m.wavelength]));
