@@ -25,7 +25,18 @@ for f in config.toml run.json summary.json cmf_sim.json dimension.svg; do
     [ -f "$RUN/$f" ] && cp "$RUN/$f" "$TMP/"
 done
 json_string() { sed 's/[\\"]/\\&/g'; }   # a JSON string's content: \ and " escaped
-TRAINED_IN=$(cd "$RUN" && pwd | json_string)
+# A record names folders relative to the repository root, never as absolute paths of the
+# machine it was made on: the folder the run was trained in, and in its run.json the checkpoint
+# a continued run started from (`gather` links the two).
+from_root() { realpath -m --relative-to="$ROOT" "$1"; }
+TRAINED_IN=$(from_root "$RUN" | json_string)
+if [ -f "$TMP/run.json" ]; then
+    FROM=$(sed -n 's/.*"continued_from": *"\([^"]*\)".*/\1/p' "$TMP/run.json")
+    case "$FROM" in
+        /*) REL=$(from_root "$FROM" | sed 's/[\\&#]/\\&/g')
+            sed -i "s#\"continued_from\": *\"[^\"]*\"#\"continued_from\": \"$REL\"#" "$TMP/run.json" ;;
+    esac
+fi
 PROTOCOL_FIELD=""
 [ -z "$PROTOCOL" ] || PROTOCOL_FIELD=", \"protocol\": \"$(printf '%s' "$PROTOCOL" | json_string)\""
 printf '{"trained_in": "%s"%s}\n' "$TRAINED_IN" "$PROTOCOL_FIELD" > "$TMP/record.json"

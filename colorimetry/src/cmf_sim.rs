@@ -188,10 +188,9 @@ pub fn run_cmf_sim_until(
     progress: &mut dyn FnMut(&CmfSimProgress),
     stop: &AtomicBool,
 ) -> Result<CmfSimResult> {
-    // The bound on a failed K's candidates stays off: on a trained cortex it left the verdict
-    // and margins as they were but changed the reported curve below its worst wavelength
-    // (docs/notebook/2026-12-02-cmf-sim-on-large-eyes.md).
-    run(observer, settings, progress, stop, false)
+    // A failed K's candidates are bounded by the best converged one: every solve is the one
+    // converging every candidate takes, so only the shows differ (cmf_sim/search.rs).
+    run(observer, settings, progress, stop, true)
 }
 
 /// [`run_cmf_sim_until`], with the candidates of a failed K bounded by the best converged one

@@ -9,7 +9,9 @@ use std::path::{Path, PathBuf};
 
 /// The file of a run record naming the folder the run was trained in and, for a run whose
 /// settings a protocol fixed before it ran, that protocol: `{"trained_in": PATH}` or
-/// `{"trained_in": PATH, "protocol": "PAGE @ COMMIT"}`.
+/// `{"trained_in": PATH, "protocol": "PAGE @ COMMIT"}`. `scripts/record-run.sh` writes PATH,
+/// and the checkpoint path in the record's `run.json`, relative to the repository root, so
+/// `gather` links a recorded run to the record it continued when run from that root.
 pub const RECORD_FILE: &str = "record.json";
 
 #[derive(serde::Deserialize)]

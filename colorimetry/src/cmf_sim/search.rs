@@ -11,20 +11,22 @@
 //! **Bounded candidates.** Only the best candidate's curve is reported, so a candidate need
 //! not be converged once it cannot beat the best so far. Candidates go in increasing order of
 //! their lower bounds; the first is solved fully. Each later one is skipped when its lower bound
-//! already reaches the best converged ratio `r*`, and otherwise solved with early rejection
-//! against `r* · threshold` (continuing its earlier solves): a wavelength whose converged error
-//! reaches that bound proves its worst ratio is at least `r*`, and it is left there. One that
-//! stays below it everywhere is solved fully and becomes the best. Every solve continues along
-//! the path an uninterrupted solve takes ([`crate::matching`]), so the reported curve, margin
-//! and verdict are those of solving every candidate fully (tested on analytic observers); only
-//! the shows differ. It is off ([`super::run_cmf_sim_until`]): on a trained cortex, whose solves
-//! have several minima, a solve stopped twice below a threshold took another path and the
-//! reported curve changed below its worst wavelength.
+//! already reaches the best converged ratio `r*`, and otherwise solved in rounds along the
+//! wavelength order, every wavelength to convergence from where its earlier solve stopped —
+//! exactly the solve converging it fully takes, never stopped below a threshold
+//! ([`super::sets::evaluate_converged_until`]). A round in which a converged error reaches
+//! `r* · threshold` proves the candidate cannot be reported, and it is left there; one that
+//! reaches its last round is converged everywhere and competes with the best. So the reported
+//! curve, margin and verdict are those of converging every candidate, solve for solve (tested
+//! on analytic observers, and on a trained cortex, whose solves have several minima); only the
+//! shows differ.
 
 use rand::{Rng, RngCore};
 
 use super::base::Base;
-use super::sets::{evaluate_early, evaluate_fully, FrontEnd, SetOutcome, WavelengthOrder};
+use super::sets::{
+    evaluate_converged_until, evaluate_early, evaluate_fully, FrontEnd, SetOutcome, WavelengthOrder,
+};
 use super::{curve, stratified_primaries, CmfSimProgress, CmfSimSettings, ErrorCurve, KSummary};
 use super::{SetRecord, WavelengthPairs};
 use crate::error::{ColorimetryError, Result};
@@ -145,35 +147,29 @@ impl Search<'_> {
         t: &Tried,
         best: f64,
         order: &WavelengthOrder,
-        mut front: Option<&mut FrontEnd<'_>>,
+        front: Option<&mut FrontEnd<'_>>,
     ) -> std::result::Result<SetOutcome, SetOutcome> {
-        if t.outcome.fully_evaluated || !(t.outcome.worst_ratio(self.threshold) < best) {
-            return match t.outcome.fully_evaluated {
-                true => Ok(t.outcome.clone()),
-                false => Err(SetOutcome::default()),
-            };
+        if t.outcome.fully_evaluated {
+            return Ok(t.outcome.clone());
+        }
+        if !(t.outcome.worst_ratio(self.threshold) < best) {
+            return Err(SetOutcome::default());
         }
         let bound: Vec<f64> = self.threshold.iter().map(|&x| best * x).collect();
-        let pb = self.problem(t);
-        let options = self.options(Some(&t.outcome.matches));
         let s = &self.settings;
-        let bounded = evaluate_early(
-            &pb,
+        let bounded = evaluate_converged_until(
+            &self.problem(t),
             &s.solver,
             &bound,
-            &options,
+            &self.options(Some(&t.outcome.matches)),
             order,
             s.first_round_wavelengths,
-            front.as_deref_mut(),
+            front,
         );
-        if !bounded.passed {
-            return Err(bounded);
+        match bounded.fully_evaluated {
+            true => Ok(bounded.judged(self.threshold)),
+            false => Err(bounded),
         }
-        let options = self.options(Some(&bounded.matches));
-        let mut full = evaluate_fully(&pb, &s.solver, self.threshold, &options, front);
-        full.observer_calls += bounded.observer_calls;
-        full.shows += bounded.shows;
-        Ok(full)
     }
 
     /// Converge the candidates `tried` (in order) and return the best curve by converged worst

@@ -76,6 +76,12 @@ pub struct SetOutcome {
 }
 
 impl SetOutcome {
+    /// The same solves judged against `threshold`.
+    pub fn judged(self, threshold: &[f64]) -> SetOutcome {
+        let (fully, calls, shows) = (self.fully_evaluated, self.observer_calls, self.shows);
+        outcome(self.matches, threshold, fully, calls, shows)
+    }
+
     /// `max error / threshold` over the solved wavelengths.
     pub fn worst_ratio(&self, threshold: &[f64]) -> f64 {
         self.matches
@@ -157,18 +163,61 @@ pub fn evaluate_early(
     options: &MatchOptions<'_>,
     order: &WavelengthOrder,
     first_round: usize,
-    mut front: Option<&mut FrontEnd<'_>>,
+    front: Option<&mut FrontEnd<'_>>,
 ) -> SetOutcome {
-    let order = order.as_slice();
     let opts = MatchOptions {
         stop_below: Some(threshold),
         ..*options
     };
+    let (matches, calls, shows) =
+        in_rounds(pb, solver, threshold, &opts, order, first_round, front);
+    outcome(matches, threshold, false, calls, shows)
+}
+
+/// Like [`evaluate_early`], but every wavelength is solved to convergence (never stopped below
+/// a threshold), so each solve is exactly the one [`evaluate_fully`] with the same `options`
+/// takes: stops after the first round in which a converged error reaches `bound`. The outcome
+/// is judged against `bound`; when it reaches the last round every wavelength is converged, and
+/// judged against the threshold ([`SetOutcome::judged`]) it is [`evaluate_fully`]'s, matches,
+/// errors and shows alike.
+pub fn evaluate_converged_until(
+    pb: &MatchProblem<'_>,
+    solver: &SolverSettings,
+    bound: &[f64],
+    options: &MatchOptions<'_>,
+    order: &WavelengthOrder,
+    first_round: usize,
+    front: Option<&mut FrontEnd<'_>>,
+) -> SetOutcome {
+    let opts = MatchOptions {
+        stop_below: None,
+        ..*options
+    };
+    let (mut matches, calls, shows) =
+        in_rounds(pb, solver, bound, &opts, order, first_round, front);
+    let all = matches.len() == pb.test_wavelengths_nm.len();
+    matches.sort_by_key(|m| m.wavelength);
+    outcome(matches, bound, all, calls, shows)
+}
+
+/// Solve along `order` in rounds of 1, 2, 4, … × `first_round` with `opts`; stop after the
+/// first round in which some error reaches `threshold`. The matches in order of solving, the
+/// observer calls and the shows.
+fn in_rounds(
+    pb: &MatchProblem<'_>,
+    solver: &SolverSettings,
+    threshold: &[f64],
+    opts: &MatchOptions<'_>,
+    order: &WavelengthOrder,
+    first_round: usize,
+    mut front: Option<&mut FrontEnd<'_>>,
+) -> (Vec<WavelengthMatch>, usize, usize) {
+    let order = order.as_slice();
     let (mut matches, mut calls, mut shows) = (Vec::new(), 0, 0);
     let (mut done, mut size) = (0, first_round.max(1));
     while done < order.len() {
         let round = &order[done..(done + size).min(order.len())];
-        let (r, c, n) = solve(pb, solver, round, &opts, &mut front);
+        let (r, c, n) = solve(pb, solver, round, opts, &mut front);
         calls += c;
         shows += n;
         let failed = r.iter().any(|m| !(m.error < threshold[m.wavelength]));
@@ -179,5 +228,5 @@ pub fn evaluate_early(
             break;
         }
     }
-    outcome(matches, threshold, false, calls, shows)
+    (matches, calls, shows)
 }

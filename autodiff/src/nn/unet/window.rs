@@ -52,7 +52,7 @@ impl UNet {
     pub fn exact_window(&self, output: [usize; 2], size_px: usize) -> [usize; 2] {
         let m = self.alignment_px();
         assert!(
-            size_px % m == 0 && output[1] < size_px,
+            size_px.is_multiple_of(m) && output[1] < size_px,
             "UNet::exact_window: outputs {output:?} of a field of {size_px} (a multiple of {m})"
         );
         let [lo, hi] = self.input_interval([output[0] as i64, output[1] as i64]);
