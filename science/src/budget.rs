@@ -35,10 +35,11 @@ const TILE_PLANES_PER_CLASS: f64 = 1.6;
 /// channel of the U-Net summed over its levels at their resolution (measured: the slope of
 /// peak memory in `cortex.train.batch_size` on `tiny` and `quick`).
 const STEP_F32_PER_PIXEL: (f64, f64) = (10.0, 17.4);
-/// A decode of one show by the cortex, bytes, on the `tiny` eye (32² cones; measured: the slope
-/// of peak memory in `observer.decode_batch`), and its growth with the cone lattice's side
-/// (measured between `tiny` and `quick`: ×34 for twice the side).
-const DECODE_SHOW_BYTES: (f64, f64) = (0.67 * MIB, 5.07);
+/// A decode of one show by the cortex, in `f32`s per ONS pixel (cones_per_side²): the slope of
+/// CMF-SIM's peak memory in `observer.decode_batch` (a 12-show batch against one show), measured
+/// as 171 on `tiny` (32²), 141–194 on `quick` (64²) and 148–203 on `paper` (256², D on its
+/// windows), the last two between 11 and 15 extra shows a batch (docs/memory-tops.md); the top.
+const DECODE_F32_PER_PIXEL: f64 = 205.0;
 
 /// The estimated peak memory of a run and its parts.
 #[derive(Clone, Debug, PartialEq)]
@@ -72,7 +73,7 @@ impl Estimate {
         format!(
             "scenes {:.0} MiB (retina.scenes.tiles × tile_px² × cone classes, twice), training \
              step {:.0} MiB (cortex.train.batch_size × cones_per_side² × cortex.d.widths), \
-             CMF-SIM decodes {:.0} MiB (observer.decode_batch × threads × cones_per_side⁵), \
+             CMF-SIM decodes {:.0} MiB (observer.decode_batch × threads × cones_per_side²), \
              CMF-SIM shows and location cache {:.0} MiB (cmf_sim.location_pairs × \
              cmf_sim.n_test_wavelengths), P's flow {:.0} MiB (cortex.p.couplings × \
              cortex.p.hidden²), the rest {:.0} MiB",
@@ -113,9 +114,8 @@ pub fn estimate(config: &RunConfig, cmf_sim: bool, threads: usize) -> Estimate {
         .sum();
     let (a, b) = STEP_F32_PER_PIXEL;
     let per_sample = n * n * 4.0 * (a + b * channels);
-    let (show, growth) = DECODE_SHOW_BYTES;
     let decode = if cmf_sim {
-        threads as f64 * config.observer.decode_batch as f64 * show * (n / 32.0).powf(growth)
+        threads as f64 * config.observer.decode_batch as f64 * n * n * 4.0 * DECODE_F32_PER_PIXEL
     } else {
         0.0
     };
