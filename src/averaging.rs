@@ -210,7 +210,7 @@ pub fn command(options: &AverageOptions) -> Result<(), RunError> {
     for line in recovery.describe() {
         println!("  {line}");
     }
-    let r = science::ladder::measure_observer(&config, ObserverKind::Cortex, Some(&last))?;
+    let r = science::measure::measure_observer(&config, ObserverKind::Cortex, Some(&last))?;
     crate::io::save_into(&out, |d| Ok::<_, RunError>(r.save(d).map(|_| ())?))?;
     let margins: Vec<(usize, f64)> = r
         .per_k

@@ -159,8 +159,10 @@ pub fn cmf_sim(options: &CmfSimOptions) -> Result<(), RunError> {
         match (&options.run, kind) {
             (Some(dir), ObserverKind::Cortex) => {
                 let out = measurement_dir(dir, options.common.out.as_ref(), "cmf-sim")?;
+                refuse_eye_options_with_run(&options.common)?;
                 let (config, trainer, checkpoint) =
                     crate::run::folder::load_run_step(dir, options.checkpoint_step)?;
+                let config = config.with_measurement_settings(&options.common.set)?;
                 println!(
                     "colorvision cmf-sim: {} (checkpoint {})",
                     dir.display(),
@@ -214,7 +216,7 @@ pub fn cmf_sim(options: &CmfSimOptions) -> Result<(), RunError> {
     install_signals()?;
     crate::interrupt::during("CMF-SIM", "nothing was written");
     let stop = crate::interrupt::stop_flag();
-    let r = science::ladder::measure_observer_until(&config, kind, trainer.as_ref(), stop)
+    let r = science::measure::measure_observer_until(&config, kind, trainer.as_ref(), stop)
         .map_err(|e| RunError::from(e).said_as_stop(|| "nothing was written".into()))?;
     r.save(&out)?;
     print_cmf_sim(&r);
@@ -223,6 +225,30 @@ pub fn cmf_sim(options: &CmfSimOptions) -> Result<(), RunError> {
         out.display()
     );
     Ok(())
+}
+
+/// With `--run` the eye and the cortex are the run's: an option that would change them is an
+/// error naming it (only `--set cmf_sim.*`/`observer.*` and `--out` apply).
+fn refuse_eye_options_with_run(common: &crate::cli::CommonOptions) -> Result<(), RunError> {
+    let given = [
+        ("--preset", common.preset.is_some()),
+        ("--cones", common.cones.is_some()),
+        ("--seed", common.seed.is_some()),
+        ("--steps", common.steps.is_some()),
+        ("--config", common.config.is_some()),
+        ("--scene", common.scene.is_some()),
+        ("--resume", common.resume),
+        ("--force", common.force),
+    ];
+    match given.iter().find(|(_, on)| *on) {
+        Some((option, _)) => Err(RunError::invalid(
+            *option,
+            "a measurement of --run DIR uses the run's own eye and cortex (its config.toml); \
+             use --location-seed for other draws, --set cmf_sim.KEY=VALUE or \
+             --set observer.KEY=VALUE for the measurement's settings",
+        )),
+        None => Ok(()),
+    }
 }
 
 /// The verdict, the base error against the energy, and each K's converged margin, in words.

@@ -145,7 +145,7 @@ fn measure_checkpoint(
     let cmf = if let Some(kept) = kept.and_then(|row| row.cmf) {
         Some(kept)
     } else if with_cmf {
-        let r = science::ladder::measure_observer(config, ObserverKind::Cortex, Some(&trainer))?;
+        let r = science::measure::measure_observer(config, ObserverKind::Cortex, Some(&trainer))?;
         let (base, energy): (f64, f64) = (r.base_error.iter().sum(), r.energy.iter().sum());
         Some(CmfPoint {
             dimension: r.dimension,

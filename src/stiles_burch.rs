@@ -26,7 +26,7 @@ use colorimetry::{compare_stiles_burch, ConeTemplate, Observer, StilesBurchSetti
 use cortex::Cortex;
 use retina::Retina;
 use science::config::RunConfig;
-use science::ladder::{oracle_decoder, own_fundamentals};
+use science::measure::{oracle_decoder, own_fundamentals};
 use science::observer::{Decoder, EyeObserver};
 use serde::{Deserialize, Serialize};
 use std::path::Path;

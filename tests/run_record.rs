@@ -123,6 +123,39 @@ fn measurements_of_a_run_never_touch_its_record() {
     assert_eq!(o.status.code(), Some(1), "{}", text(&o));
     assert!(text(&o).contains("patch_radius_fraction"), "{}", text(&o));
     assert!(!dir.join("w").exists(), "a refused measurement wrote w/");
+    // The measurement's own settings apply; the eye's and the cortex's are the run's.
+    let o = colorvision(
+        &dir,
+        &["cmf-sim", "--run", "run", "--sets-per-k", "2", "--set"]
+            .into_iter()
+            .chain(["cmf_sim.n_test_wavelengths=7", "--out", "v"])
+            .collect::<Vec<_>>(),
+    );
+    assert!(o.status.success(), "{}", text(&o));
+    let measured: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("v/cmf_sim.json")).unwrap())
+            .unwrap();
+    assert_eq!(measured["test_wavelengths_nm"].as_array().unwrap().len(), 7);
+    for (refused, named) in [
+        (
+            &["--set", "retina.scenes.tetra.fraction=0.5"][..],
+            "retina.scenes.tetra.fraction",
+        ),
+        (&["--preset", "quick"], "--preset"),
+        (&["--cones", "LM"], "--cones"),
+    ] {
+        let args: Vec<&str> = ["cmf-sim", "--run", "run", "--out", "u"]
+            .into_iter()
+            .chain(refused.iter().copied())
+            .collect();
+        let o = colorvision(&dir, &args);
+        assert_eq!(o.status.code(), Some(1), "{args:?}: {}", text(&o));
+        assert!(text(&o).contains(named), "{args:?}: {}", text(&o));
+        assert!(
+            !dir.join("u").exists(),
+            "{args:?}: a refused measurement wrote u/"
+        );
+    }
     assert_eq!(
         snapshot(&run, &["cmf-sim", "scope", "stiles-burch"]),
         before

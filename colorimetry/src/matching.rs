@@ -58,7 +58,7 @@ use state::State;
 
 /// Solver settings.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(default)]
+#[serde(default, deny_unknown_fields)]
 pub struct SolverSettings {
     /// Maximum LM iterations (trial evaluations) per wavelength.
     pub max_iterations: usize,

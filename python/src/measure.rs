@@ -119,7 +119,7 @@ pub fn cmf_sim(
         let config = measurement_config(eye.config.clone(), budget, location_seed)?;
         let kind = known.get().kind;
         run_beside_python(py, None, progress, |tx, stop| {
-            science::ladder::measure_observer_with(
+            science::measure::measure_observer_with(
                 &config,
                 kind,
                 None,
@@ -141,7 +141,7 @@ pub fn cmf_sim(
         let config = measurement_config(config, budget, location_seed)?;
         let cortex = &run.cortex;
         run_beside_python(py, None, progress, |tx, stop| {
-            science::ladder::measure_observer_with(
+            science::measure::measure_observer_with(
                 &config,
                 ObserverKind::Cortex,
                 Some(cortex),
@@ -166,7 +166,7 @@ pub fn cmf_sim(
                 decode_via(&sender, ons, shows, out)
             };
             let external = ExternalDecoder::new(name, channels, batch_size, stop, Box::new(batch));
-            science::ladder::measure_decoder_until(
+            science::measure::measure_decoder_until(
                 retina,
                 Decoder::External(external),
                 &config,

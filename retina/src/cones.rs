@@ -30,6 +30,7 @@ pub const PHOTON_NOISE_SIGMA_FLOOR: f32 = 1e-10;
 
 /// Noise settings of the retina (photon noise and the multiplicative noise after LI).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct NoiseConfig {
     /// Whether any noise is added.
     pub enabled: bool,

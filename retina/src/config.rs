@@ -31,6 +31,7 @@ use crate::spikes::LifConfig;
 
 /// A uniform wavelength grid, nm.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct GridConfig {
     /// First wavelength, nm.
     pub start_nm: f64,
@@ -64,6 +65,7 @@ impl GridConfig {
 
 /// Everything that defines a simulated eye.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct RetinaConfig {
     /// Preset name this came from (informational).
     pub name: String,

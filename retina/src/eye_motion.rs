@@ -26,6 +26,7 @@ pub const OFFICIAL_MAX_SHIFT_CONES: f64 = 7.5;
 
 /// Eye-motion settings.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct EyeMotionConfig {
     /// Shifts are drawn from `[−max_shift_px, max_shift_px − 1]` per axis, px of the field.
     pub max_shift_px: i32,

@@ -42,6 +42,7 @@ pub enum ConvMethod {
 
 /// DoG settings.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct DogConfig {
     /// Centre Gaussian σ, lattice cells.
     pub sigma_centre_cells: f64,

@@ -35,6 +35,7 @@ pub const DEFAULT_LIF_DRIVE_GAIN: f32 = 4.0;
 
 /// LIF settings.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct LifConfig {
     /// V ← decay·V + …
     pub decay: f32,

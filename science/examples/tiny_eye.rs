@@ -10,7 +10,7 @@ use cortex::{DataSource, OnsBatch, Trainer};
 use retina::Retina;
 use science::config::RunConfig;
 use science::heldout::{heldout_error, heldout_source};
-use science::ladder::measure_observer;
+use science::measure::measure_observer;
 use science::observer::ObserverKind;
 use science::source::RetinaSource;
 

@@ -19,7 +19,7 @@ mod ranges;
 mod resolve;
 mod validate;
 
-pub use overrides::{parse_setting, set_dotted, Overrides};
+pub use overrides::{parse_setting, set_dotted, Overrides, MEASUREMENT_SECTIONS};
 
 pub use presets::{LONG_STEPS, MAIN_STEPS, PRESETS};
 

@@ -26,7 +26,7 @@
 //!
 //! ```no_run
 //! use science::config::RunConfig;
-//! use science::ladder::measure_observer;
+//! use science::measure::measure_observer;
 //! use science::observer::ObserverKind;
 //!
 //! // The oracle decoder of the tiny LMS eye reads three colour dimensions.
@@ -44,6 +44,7 @@ pub mod gamut;
 pub mod heldout;
 pub mod invariants;
 pub mod ladder;
+pub mod measure;
 pub mod observer;
 pub mod paper;
 pub mod source;

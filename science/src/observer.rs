@@ -30,7 +30,7 @@
 //! nonlinear observers by construction: only the eye's own linearity is used (the ONS of a show
 //! is rendered from the unit-disc responses), never a cached readout, and the observer offers no
 //! linear front end, so CMF-SIM shows every primary. Their percepts are checked for shape and
-//! finite values; a failure stops CMF-SIM and is its error ([`crate::ladder::measure_decoder_until`]).
+//! finite values; a failure stops CMF-SIM and is its error ([`crate::measure::measure_decoder_until`]).
 
 mod mixed_opsins;
 pub mod oracle;

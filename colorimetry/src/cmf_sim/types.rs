@@ -6,7 +6,7 @@ use crate::matching::SolverSettings;
 
 /// CMF-SIM settings; defaults from the paper (S-04) and docs/references.md#cmf-sim-defaults.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(default)]
+#[serde(default, deny_unknown_fields)]
 pub struct CmfSimSettings {
     /// Number of test wavelengths (paper: 100).
     pub n_test_wavelengths: usize,

@@ -35,6 +35,7 @@ pub const CURCIO_PEAK_TO_1MM_DENSITY_RATIO: f64 = 10.0;
 
 /// `d(r) = peak · (1 + r/scale)^(−2)` (module docs).
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct RadialDensity {
     /// Density at the centre, cones/deg².
     pub peak_density_per_deg2: f64,

@@ -52,6 +52,7 @@ pub const CENTRE_BLOCK_HALF: usize = 1;
 
 /// Perlin jitter settings (authors' code, docs/references.md#foveation).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct JitterConfig {
     /// Number of octaves (official 6).
     pub octaves: usize,
@@ -76,6 +77,7 @@ impl Default for JitterConfig {
 
 /// Foveated layout settings.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct FoveationConfig {
     /// Radial density profile.
     pub density: RadialDensity,

@@ -36,6 +36,7 @@ mod leaf;
 
 /// Dead-leaves settings (module docs; every number is a modelling choice of ours unless noted).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct DeadLeavesConfig {
     /// Scene side, px.
     pub size_px: usize,

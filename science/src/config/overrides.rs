@@ -149,6 +149,47 @@ impl Overrides {
     }
 }
 
+/// The sections of a run's settings that a measurement of its trained cortex may change:
+/// CMF-SIM's budget and draws (`cmf_sim.*`) and how the observer shows lights and reads the
+/// percept (`observer.*`). The eye, the cortex and the training are the run's own.
+pub const MEASUREMENT_SECTIONS: [&str; 2] = ["cmf_sim", "observer"];
+
+impl RunConfig {
+    /// `settings` (`KEY=VALUE`, read as `--set` reads them) laid over these settings, for a
+    /// measurement of a trained run. A key outside [`MEASUREMENT_SECTIONS`] is refused, naming
+    /// `--set` and the key: it would measure a cortex through an eye it was not trained on. The
+    /// result is validated as a resolved run's is.
+    pub fn with_measurement_settings(&self, settings: &[String]) -> Result<RunConfig, ConfigError> {
+        if settings.is_empty() {
+            return Ok(self.clone());
+        }
+        let mut value = toml::Value::try_from(self).expect("a RunConfig serialises to TOML");
+        for item in settings {
+            let (key, setting) = parse_setting(item)?;
+            let section = key.split('.').next().unwrap_or_default();
+            if !MEASUREMENT_SECTIONS.contains(&section) || !key.contains('.') {
+                return Err(ConfigError::Parse {
+                    path: format!("--set {item}"),
+                    message: format!(
+                        "`{key}` is a setting of the trained run, which a measurement keeps; \
+                         only `cmf_sim.*` and `observer.*` may be set here"
+                    ),
+                });
+            }
+            set_dotted(&mut value, &key, setting);
+        }
+        let config: RunConfig =
+            value
+                .try_into()
+                .map_err(|e: toml::de::Error| ConfigError::Parse {
+                    path: format!("--set {}", settings.join(" --set ")),
+                    message: one_line(&e.to_string()),
+                })?;
+        config.validate()?;
+        Ok(config)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -189,5 +230,33 @@ mod tests {
         set_dotted(&mut root, "a.d", toml::Value::Integer(2));
         assert_eq!(root["a"]["b"]["c"].as_integer(), Some(1));
         assert_eq!(root["a"]["d"].as_integer(), Some(2));
+    }
+
+    #[test]
+    fn a_measurement_may_set_cmf_sim_and_observer_and_nothing_else() {
+        let base = RunConfig::preset("tiny", "LMS").unwrap();
+        let set = |items: &[&str]| {
+            let items: Vec<String> = items.iter().map(|s| s.to_string()).collect();
+            base.with_measurement_settings(&items)
+        };
+        let measured = set(&["cmf_sim.sets_per_k=7", "observer.decode_batch=3"]).unwrap();
+        assert_eq!(measured.cmf_sim.sets_per_k, 7);
+        assert_eq!(measured.observer.decode_batch, 3);
+        assert_eq!(measured.retina, base.retina);
+        assert_eq!(measured.cortex, base.cortex);
+        assert_eq!(set(&[]).unwrap(), base);
+        for refused in [
+            "retina.noise=false",
+            "cortex.train.learning_rate=1",
+            "steps=3",
+            "cmf_sim=1",
+        ] {
+            let e = set(&[refused]).unwrap_err().to_string();
+            assert!(e.contains(refused) && e.contains("keeps"), "{refused}: {e}");
+        }
+        let e = set(&["cmf_sim.no_such_key=1"]).unwrap_err().to_string();
+        assert!(e.contains("no_such_key"), "{e}");
+        let e = set(&["cmf_sim.sets_per_k=0"]).unwrap_err().to_string();
+        assert!(e.contains("sets_per_k"), "{e}");
     }
 }

@@ -149,6 +149,24 @@ fn a_wrong_setting_given_with_set_names_set_and_the_key() {
         e.starts_with("--set cortex.train.learning_rat=3e-4: ") && e.contains("learning_rat"),
         "{e}"
     );
+    // A misspelt key is an error at every depth, in the eye's and CMF-SIM's settings too.
+    for typo in [
+        "cmf_sim.n_test_wavelenghts=7",
+        "cmf_sim.solver.max_iteration=3",
+        "retina.cones_per_sid=8",
+        "retina.scenes.tile=4",
+        "retina.scenes.dead_leaves.size=8",
+        "retina.noise.photon_noise=0.1",
+        "retina.layout.Foveated.jitter.octave=2",
+        "retina.lateral_inhibition.sigma=1",
+    ] {
+        let e = resolve(&[typo]);
+        let key = typo.split('=').next().unwrap().rsplit('.').next().unwrap();
+        assert!(
+            e.starts_with(&format!("--set {typo}: ")) && e.contains(&format!("`{key}`")),
+            "{typo}: {e}"
+        );
+    }
     let e = resolve(&["steps=many"]);
     assert!(e.starts_with("--set steps=many: "), "{e}");
     let e = resolve(&["cortex.train.learning_rate=-1"]);

@@ -37,6 +37,7 @@ pub enum SceneGenerator {
 
 /// Tetrachromatic augmentation.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct TetraMix {
     /// Which environment.
     pub environment: TetraEnvironment,
@@ -46,6 +47,7 @@ pub struct TetraMix {
 
 /// Pool settings.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct ScenePoolConfig {
     /// Number of tiles.
     pub tiles: usize,

@@ -256,7 +256,7 @@ mod tests {
             Ok(())
         };
         let external = ExternalDecoder::new("sqrt", 1, 64, &stop, Box::new(sqrt_of_bright));
-        let e = crate::ladder::measure_decoder_until(
+        let e = crate::measure::measure_decoder_until(
             &retina,
             Decoder::External(external),
             &config,
@@ -279,7 +279,7 @@ mod tests {
         let stop = AtomicBool::new(false);
         let refuses = |_: &[f32], _: usize, _: &mut [f32]| Err("out of memory".to_string());
         let external = ExternalDecoder::new("refuses", 1, 64, &stop, Box::new(refuses));
-        let e = crate::ladder::measure_decoder_until(
+        let e = crate::measure::measure_decoder_until(
             &retina,
             Decoder::External(external),
             &config,
