@@ -57,8 +57,16 @@ arm() {
     esac
 }
 
+# An arm stopped on another machine continues from its kept copy (runs-kept/fourth/, in the
+# repository: its config, metrics and newest checkpoint; scripts/keep-run.sh makes one).
+restore() {
+    local kept="$ROOT/runs-kept/fourth/$1-seed$S"
+    [ -d "$kept" ] && [ ! -d "$R/$1-seed$S" ] && cp -r "$kept" "$R/$1-seed$S" || true
+}
+
 mkdir -p "$R"
 for a in ${ARMS:-A0 A0i C1b C1c C2 A3 A4 C1a A2a A2b}; do
     echo "== fourth-screen: arm $a, seed $S ($(date -u +%FT%TZ))"
+    restore "$a"
     arm "$a"
 done

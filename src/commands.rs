@@ -212,7 +212,7 @@ pub fn cmf_sim(options: &CmfSimOptions) -> Result<(), RunError> {
         };
     }
     config.validate()?;
-    run::check_memory(&config, true)?;
+    run::check_memory(&science::measure::measurement_config(&config), true)?;
     install_signals()?;
     crate::interrupt::during("CMF-SIM", "nothing was written");
     let stop = crate::interrupt::stop_flag();

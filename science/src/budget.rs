@@ -41,6 +41,13 @@ const STEP_F32_PER_PIXEL: (f64, f64) = (10.0, 17.4);
 /// windows), the last two between 11 and 15 extra shows a batch (docs/memory-tops.md); the top.
 const DECODE_F32_PER_PIXEL: f64 = 205.0;
 
+/// One thread's decode of `decode_batch` shows by the cortex of an eye of `cones_per_side²`
+/// cones, bytes ([`DECODE_F32_PER_PIXEL`] per ONS pixel a show). The observer keeps at most
+/// this much idle in each thread's decoding tape between decodes.
+pub fn decode_tape_bytes(decode_batch: usize, cones_per_side: usize) -> f64 {
+    decode_batch as f64 * (cones_per_side as f64).powi(2) * 4.0 * DECODE_F32_PER_PIXEL
+}
+
 /// The estimated peak memory of a run and its parts.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Estimate {
@@ -115,7 +122,8 @@ pub fn estimate(config: &RunConfig, cmf_sim: bool, threads: usize) -> Estimate {
     let (a, b) = STEP_F32_PER_PIXEL;
     let per_sample = n * n * 4.0 * (a + b * channels);
     let decode = if cmf_sim {
-        threads as f64 * config.observer.decode_batch as f64 * n * n * 4.0 * DECODE_F32_PER_PIXEL
+        threads as f64
+            * decode_tape_bytes(config.observer.decode_batch, config.retina.cones_per_side)
     } else {
         0.0
     };

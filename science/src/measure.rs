@@ -40,6 +40,16 @@ pub fn own_fundamentals(retina: &Retina, config: &RunConfig) -> Result<ConeObser
     )?)
 }
 
+/// The settings a measurement builds its eye with: `config` with one scene tile. CMF-SIM
+/// shows discs of light, never scenes, so the scene pool (the larger part of building a
+/// trained run's eye, in time and memory) is not drawn; every other part of the eye is the
+/// same (the scenes are drawn from their own seed, after the mosaic and the layout).
+pub fn measurement_config(config: &RunConfig) -> RunConfig {
+    let mut c = config.clone();
+    c.retina.scenes.tiles = 1;
+    c
+}
+
 /// CMF-SIM of one observer through the eye of `config` (the cortex from `trainer`).
 pub fn measure_observer(
     config: &RunConfig,
@@ -69,10 +79,7 @@ pub fn measure_observer_with(
     progress: &mut dyn FnMut(&CmfSimProgress),
     stop: &AtomicBool,
 ) -> Result<CmfSimResult, Error> {
-    let mut eye = config.retina.clone();
-    if cortex.is_none() {
-        eye.scenes.tiles = 1; // the stimuli are discs: no scenes needed
-    }
+    let eye = measurement_config(config).retina;
     let retina = Retina::with_progress_until(eye, &|_| {}, stop)?;
     let oracle = |interpolate: bool| oracle_decoder(&retina, config, interpolate);
     let decoder = match (kind, cortex) {

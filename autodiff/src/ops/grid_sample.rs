@@ -147,25 +147,38 @@ impl<T: Float> Op<T> for GridSample {
 /// half to even) lies inside the `h × w` image, else 0 (authors' code, docs/references.md#warp). No gradient.
 #[track_caller]
 pub fn grid_sample_mask<T: Float>(grid: &Tensor<T>, h: usize, w: usize) -> Tensor<T> {
+    let mut mask = Tensor::zeros(mask_shape(grid));
+    fill_grid_sample_mask(grid, h, w, &mut mask);
+    mask
+}
+
+/// The shape `(B, 1, Ho, Wo)` of the mask of `grid (B, Ho, Wo, 2)`.
+#[track_caller]
+fn mask_shape<T: Float>(grid: &Tensor<T>) -> Shape {
     let g = grid.dims();
     assert!(
         g.len() == 4 && g[3] == 2,
         "grid_sample_mask: expected a grid (B, Ho, Wo, 2), got {:?}",
         grid.shape()
     );
+    Shape::new(&[g[0], 1, g[1], g[2]])
+}
+
+/// [`grid_sample_mask`] written into `mask` (every element).
+fn fill_grid_sample_mask<T: Float>(grid: &Tensor<T>, h: usize, w: usize, mask: &mut Tensor<T>) {
     let (sx, sy) = scales::<f64>(h, w);
     let inside = |v: T, s: f64, n: usize| {
         let p = ((v.as_f64() + 1.0) * s).round_ties_even();
         p >= 0.0 && p <= n as f64 - 1.0
     };
-    Tensor::from_fn([g[0], 1, g[1], g[2]], |p| {
+    for (p, m) in mask.data_mut().iter_mut().enumerate() {
         let (x, y) = (grid.data()[2 * p], grid.data()[2 * p + 1]);
-        if inside(x, sx, w) && inside(y, sy, h) {
+        *m = if inside(x, sx, w) && inside(y, sy, h) {
             T::one()
         } else {
             T::zero()
-        }
-    })
+        };
+    }
 }
 
 impl<T: Float> Tape<T> {
@@ -178,8 +191,13 @@ impl<T: Float> Tape<T> {
 
     /// [`grid_sample_mask`] of the value of `grid`, recorded as a constant.
     #[track_caller]
+    /// The mask is made in a buffer of the tape's pool, so that a step recording it every time
+    /// takes back the buffer its last clear returned (a tensor made outside the pool would add
+    /// one buffer to it per step).
     pub fn grid_sample_mask(&mut self, grid: Var, h: usize, w: usize) -> Var {
-        let m = grid_sample_mask(self.value(grid), h, w);
+        let shape = mask_shape(self.value(grid));
+        let mut m = self.pool().uninit(shape);
+        fill_grid_sample_mask(self.value(grid), h, w, &mut m);
         self.constant(m)
     }
 }

@@ -188,6 +188,8 @@ impl EyeObserver<'_> {
                 .read(&percept[s * plane..(s + 1) * plane], dim, cells, rows);
         }
         tape.clear();
+        let idle = crate::budget::decode_tape_bytes(self.settings.decode_batch, n);
+        tape.pool().trim(idle as usize);
         TAPE.set(Some(tape));
     }
 

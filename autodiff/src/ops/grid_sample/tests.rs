@@ -142,6 +142,34 @@ fn mask_uses_nearest_pixel() {
 }
 
 #[test]
+fn a_tape_recording_the_mask_every_step_holds_the_same_pool_after_each_clear() {
+    // A step that warps and masks, as the cortex's P does: the tape's idle buffers after each
+    // clear must not grow with the steps (the mask was once made outside the pool, and every
+    // clear added its buffer to it).
+    let mut tape = Tape::<f32>::new();
+    let mut idle = Vec::new();
+    for step in 0..5 {
+        tape.clear();
+        let shift = 0.1 * step as f64;
+        let grid = Tensor::from_fn([2, 6, 6, 2], |i| ((i as f64 * 0.37 + shift).sin()) as f32);
+        let img = tape.constant_from([2, 1, 6, 6], &[0.5f32; 72]);
+        let g = tape.constant_from([2, 6, 6, 2], grid.data());
+        let warped = tape.grid_sample(img, g);
+        let mask = tape.grid_sample_mask(g, 6, 6);
+        let masked = tape.mul(warped, mask);
+        let m = grid_sample_mask(tape.value(g), 6, 6);
+        assert_eq!(tape.value(mask).data(), m.data(), "step {step}");
+        let _ = tape.sum(masked);
+        tape.clear();
+        idle.push(tape.pool().free_bytes());
+    }
+    assert!(
+        idle.windows(2).all(|w| w[0] == w[1]),
+        "idle bytes by step: {idle:?}"
+    );
+}
+
+#[test]
 #[should_panic(
     expected = "grid_sample: expected a grid (B, Ho, Wo, 2) with B = 2 for the image (2, 1, 4, 4), got (3, 4, 4, 2)"
 )]

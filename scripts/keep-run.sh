@@ -1,0 +1,26 @@
+#!/bin/bash
+# Keeps a stopped run in the repository so that it continues on another machine: its settings,
+# start, per-step metrics and newest checkpoint go to runs-kept/<GROUP>/<NAME>/ (about 3 MB for a
+# quick-eye run). `colorvision train --resume --out DIR …` (or `colorvision resume DIR`) on a copy
+# of that folder continues the run from the kept checkpoint, bit for bit as if it had never
+# stopped (same thread count); scripts/fourth-screen.sh restores its arms from runs-kept/fourth/.
+# Usage: scripts/keep-run.sh RUN_DIR GROUP        e.g. scripts/keep-run.sh runs/fourth/A0-seed21 fourth
+set -euo pipefail
+RUN=${1:?usage: scripts/keep-run.sh RUN_DIR GROUP}
+GROUP=${2:?usage: scripts/keep-run.sh RUN_DIR GROUP}
+ROOT=$(cd "$(dirname "$0")/.." && pwd)
+[ -f "$RUN/config.toml" ] || { echo "keep-run.sh: $RUN: not a run folder (no config.toml)" >&2; exit 1; }
+NEWEST=$(ls -d "$RUN"/checkpoints/step_* 2>/dev/null | sort | tail -1)
+[ -n "$NEWEST" ] || { echo "keep-run.sh: $RUN: no checkpoint to keep" >&2; exit 1; }
+DEST="$ROOT/runs-kept/$GROUP/$(basename "$RUN")"
+TMP=$(mktemp -d "$ROOT/runs-kept/.tmp.XXXXXX" 2>/dev/null || { mkdir -p "$ROOT/runs-kept"; mktemp -d "$ROOT/runs-kept/.tmp.XXXXXX"; })
+trap 'rm -rf "$TMP"' EXIT
+for f in config.toml run.json metrics.csv; do
+    [ -f "$RUN/$f" ] && cp "$RUN/$f" "$TMP/"
+done
+mkdir "$TMP/checkpoints" && cp -r "$NEWEST" "$TMP/checkpoints/"
+rm -rf "$DEST"
+mkdir -p "$(dirname "$DEST")"
+mv "$TMP" "$DEST"
+trap - EXIT
+echo "kept $RUN at $(basename "$NEWEST") in ${DEST#$ROOT/}"
