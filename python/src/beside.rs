@@ -119,14 +119,15 @@ fn serve(
                     }
                 }
             }
-            Err(RecvTimeoutError::Timeout) => {
-                if failure.is_none() {
-                    if let Err(e) = py.check_signals() {
-                        fail(e, failure);
-                    }
-                }
-            }
+            Err(RecvTimeoutError::Timeout) => {}
             Err(RecvTimeoutError::Disconnected) => return,
+        }
+        // After every turn, not only when none came: progress reports or decoder calls that
+        // arrive faster than POLL_MS would otherwise hold a Ctrl-C back until they slow down.
+        if failure.is_none() {
+            if let Err(e) = py.check_signals() {
+                fail(e, failure);
+            }
         }
     }
 }

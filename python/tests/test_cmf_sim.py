@@ -150,5 +150,5 @@ def test_progress_reaches_the_callback_and_ctrl_c_interrupts_within_seconds():
             cv.cmf_sim(eye, cv.oracle(), progress=reports.append)
     finally:
         timer.cancel()
-    assert time.monotonic() - start < 6.0
+    assert time.monotonic() - start < 3.0  # the interrupt at 1 s, seen within about a second
     assert reports and {"message", "n_primaries", "sets_tried", "best_worst_ratio"} <= set(reports[0])
