@@ -189,11 +189,11 @@ impl<T: Float> Tape<T> {
         self.apply(GridSample, &[img, grid])
     }
 
-    /// [`grid_sample_mask`] of the value of `grid`, recorded as a constant.
+    /// [`grid_sample_mask`] of the value of `grid`, recorded as a constant. The mask is made in
+    /// a buffer of the tape's pool, so that a step recording it every time takes back the buffer
+    /// its last clear returned (a tensor made outside the pool would add one buffer to it per
+    /// step).
     #[track_caller]
-    /// The mask is made in a buffer of the tape's pool, so that a step recording it every time
-    /// takes back the buffer its last clear returned (a tensor made outside the pool would add
-    /// one buffer to it per step).
     pub fn grid_sample_mask(&mut self, grid: Var, h: usize, w: usize) -> Var {
         let shape = mask_shape(self.value(grid));
         let mut m = self.pool().uninit(shape);
