@@ -144,7 +144,8 @@ pub struct CommonOptions {
     pub scene: Option<PathBuf>,
     /// Any setting of a --config file, dotted, e.g. `--set cortex.train.learning_rate=3e-4`
     /// (repeatable; laid over the file's settings, validated as they are, and written into the
-    /// run's config.toml).
+    /// run's config.toml). With `cmf-sim --run DIR` only `cmf_sim.*` and `observer.*` apply: the
+    /// eye and cortex are the run's, and any other key is refused.
     #[arg(long = "set", value_name = "KEY=VALUE")]
     pub set: Vec<String>,
     /// Continue the run in the output folder from its newest checkpoint that verifies (run,

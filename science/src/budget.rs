@@ -10,8 +10,9 @@
 //! (2 threads; `tests/memory_budget.rs` checks the estimate within ±30 % of the measured peak).
 //! Two parts that grow without bound at the tops of their ranges are modelled from their shapes
 //! instead: P's flow parameters and their copies ([`flow`], `cortex.p.hidden`), and CMF-SIM's
-//! shows, readouts and per-location cache ([`cmf_sim`], `cmf_sim.location_pairs` ×
-//! `cmf_sim.n_test_wavelengths`), which CMF-SIM holds beside its decodes.
+//! shows, readouts, per-location cache and solver states ([`cmf_sim`], `cmf_sim.location_pairs`
+//! × `cmf_sim.n_test_wavelengths` × `cmf_sim.max_primaries`), which CMF-SIM holds beside its
+//! decodes.
 
 use crate::config::RunConfig;
 use retina::foveation::{ConeLayout, ConeSampler};
@@ -61,8 +62,8 @@ pub struct Estimate {
     pub decode_bytes: f64,
     /// P's flow parameters and their copies ([`flow`]).
     pub flow_bytes: f64,
-    /// CMF-SIM's shows, readouts and location cache beside the decodes ([`cmf_sim`]; 0
-    /// without CMF-SIM).
+    /// CMF-SIM's shows, readouts, location cache and solver states beside the decodes
+    /// ([`cmf_sim`]; 0 without CMF-SIM).
     pub cmf_sim_bytes: f64,
 }
 
@@ -81,8 +82,8 @@ impl Estimate {
             "scenes {:.0} MiB (retina.scenes.tiles × tile_px² × cone classes, twice), training \
              step {:.0} MiB (cortex.train.batch_size × cones_per_side² × cortex.d.widths), \
              CMF-SIM decodes {:.0} MiB (observer.decode_batch × threads × cones_per_side²), \
-             CMF-SIM shows and location cache {:.0} MiB (cmf_sim.location_pairs × \
-             cmf_sim.n_test_wavelengths), P's flow {:.0} MiB (cortex.p.couplings × \
+             CMF-SIM shows, solver and location cache {:.0} MiB (cmf_sim.location_pairs × \
+             cmf_sim.n_test_wavelengths × cmf_sim.max_primaries), P's flow {:.0} MiB (cortex.p.couplings × \
              cortex.p.hidden²), the rest {:.0} MiB",
             self.scenes_bytes / MIB,
             self.step_bytes / MIB,
@@ -254,6 +255,35 @@ mod tests {
         // unfinished (docs/memory-tops.md), a lower bound on its peak.
         let top = at(4096);
         assert!(top >= 2375.0 * 1024.0 * 1024.0, "{top} bytes");
+    }
+
+    #[test]
+    fn the_cmf_sim_part_counts_the_solvers_states_per_primary() {
+        let c = RunConfig::preset("quick", "LMSQ,Q:506").unwrap();
+        let layout = layout(&c);
+        let s = c.cmf_settings(true);
+        let rows = (s.n_test_wavelengths * s.location_pairs) as f64
+            * cmf_sim::readout_len(&c, &layout) as f64;
+        let at = |k: usize| {
+            let mut s = s.clone();
+            s.max_primaries = k;
+            cmf_sim::bytes(&c, &s, &layout)
+        };
+        // Each primary more: two Jacobian columns in every state and two readouts a row in the
+        // Jacobian pass, f64.
+        assert!(at(4) - at(3) >= 4.0 * rows * 8.0, "{} {}", at(3), at(4));
+        let mut off = s.clone();
+        off.front_end_jacobians = false;
+        assert!(cmf_sim::bytes(&c, &off, &layout) < at(s.max_primaries));
+    }
+
+    #[test]
+    fn a_quick_tetrachromat_reading_is_estimated_at_its_measured_peak() {
+        // Measured (docs/memory-tops.md): one thread, `cmf-sim --run` on a 2 000-step
+        // `--preset main --cones LMSQ,Q:506` checkpoint, location seed 0: peak 461 MiB.
+        let c = RunConfig::preset("main", "LMSQ,Q:506").unwrap();
+        let e = estimate(&crate::measure::measurement_config(&c), true, 1).total_bytes() / MIB;
+        assert!((461.0..=1.3 * 461.0).contains(&e), "{e:.0} MiB");
     }
 
     #[test]

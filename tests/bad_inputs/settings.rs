@@ -18,6 +18,18 @@ pub const RANGE_CASES: &[Case] = &[
         &["bad.toml", "retina.grid.step_nm"],
     ),
     case(
+        "grid to 900 nm, inside its range but past the eye's tables",
+        None,
+        &["--set", "retina.grid.end_nm=900"],
+        &["retina.grid.end_nm", "390–830 nm"],
+    ),
+    case(
+        "grid from 300 nm, past the eye's tables",
+        Some("[retina.grid]\nstart_nm = 300"),
+        &[],
+        &["bad.toml", "retina.grid.start_nm", "390–830 nm"],
+    ),
+    case(
         "location pairs 100 000",
         Some("[cmf_sim]\nlocation_pairs = 100000"),
         &[],

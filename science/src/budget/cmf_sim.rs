@@ -9,6 +9,17 @@
 //! [`crate::observer::CACHE_LIMIT_BYTES`] of bases) the ONS of a unit disc per class read,
 //! `(classes × n²)` f32 for the cortex, beside the cones it reads; the 2·W·P locations are all
 //! distinct (drawn per wavelength).
+//!
+//! The search (`colorimetry::matching`) adds, with K = `max_primaries` and m = classes:
+//! - the front end's model (`FrontEndJacobians`), kept for every wavelength once measured:
+//!   `G_a`, `G_b` and the offset, `W·P·R·(2m + 1)` f64; measuring it shows `2m` spectra per
+//!   (wavelength, pair), each a full grid of f64, and reads their readouts (`W·P·2m·R` f64);
+//! - one Levenberg–Marquardt state per wavelength solved at once (`matching::state`): the two
+//!   sides' readouts at α and at the trial, the model's offset and the two Jacobians,
+//!   `W·P·R·(5 + 2K)` f64;
+//! - the Jacobian pass's `2K` shows per (wavelength, pair) and their readouts.
+//!
+//! The front end's shows end before the states begin, so the larger of the two counts.
 
 use crate::config::RunConfig;
 use crate::observer::Readout;
@@ -38,6 +49,11 @@ fn readout_samples(config: &RunConfig, layout: &ConeLayout) -> usize {
     readout.samples()
 }
 
+/// Length of one show's readout, f64s: samples × percept channels.
+pub fn readout_len(config: &RunConfig, layout: &ConeLayout) -> usize {
+    readout_samples(config, layout) * config.cortex.percept_dim()
+}
+
 /// Bytes CMF-SIM with `settings` holds beyond the decodes, on the cortex of `config`.
 pub fn bytes(config: &RunConfig, settings: &CmfSimSettings, layout: &ConeLayout) -> f64 {
     let r = &config.retina;
@@ -46,7 +62,7 @@ pub fn bytes(config: &RunConfig, settings: &CmfSimSettings, layout: &ConeLayout)
         .unwrap_or(3) as f64;
     let n2 = (r.cones_per_side as f64).powi(2);
     let samples = readout_samples(config, layout) as f64;
-    let readout_len = samples * config.cortex.percept_dim() as f64;
+    let readout_len = readout_len(config, layout) as f64;
     let pairs = settings.n_test_wavelengths as f64 * settings.location_pairs as f64;
     let shows = 3.0 * pairs;
     let base = shows * (SHOW_BYTES + 8.0 * readout_len)
@@ -57,5 +73,33 @@ pub fn bytes(config: &RunConfig, settings: &CmfSimSettings, layout: &ConeLayout)
     let limit = crate::observer::CACHE_LIMIT_BYTES as f64;
     let cached = locations.min((limit / basis).floor());
     let cache = cached * (basis + ENTRY_BYTES + samples * 8.0);
-    base + cache
+    let grid_len = config.retina.grid.grid().map(|g| g.len()).unwrap_or(0) as f64;
+    base + cache + search_bytes(settings, classes, pairs, readout_len, grid_len)
+}
+
+/// Bytes of the search's solver (module docs) for `classes` cone classes over `pairs` = W·P
+/// (wavelength, location pair)s, each read as `readout_len` f64, on a grid of `grid_len`
+/// wavelengths.
+fn search_bytes(
+    settings: &CmfSimSettings,
+    classes: f64,
+    pairs: f64,
+    readout_len: f64,
+    grid_len: f64,
+) -> f64 {
+    let k = settings.max_primaries as f64;
+    let rows = pairs * readout_len;
+    let (front_end_kept, front_end_shows) = if settings.front_end_jacobians {
+        let shows = pairs * 2.0 * classes;
+        (
+            rows * (2.0 * classes + 1.0) * 8.0,
+            shows * (SHOW_BYTES + 8.0 * grid_len + 8.0 * readout_len),
+        )
+    } else {
+        (0.0, 0.0)
+    };
+    let states = rows * (5.0 + 2.0 * k) * 8.0;
+    let jacobian_shows = pairs * 2.0 * k * (SHOW_BYTES + (k + 1.0) * LINE_BYTES);
+    let jacobian_readouts = rows * 2.0 * k * 8.0;
+    front_end_kept + front_end_shows.max(states + jacobian_shows + jacobian_readouts)
 }
