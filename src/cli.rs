@@ -68,6 +68,10 @@ pub enum Command {
     /// plateau) and measure the averaged cortex: CMF-SIM with the run's full budget and the
     /// learned invariants (into --out, or DIR/average/).
     Average(AverageOptions),
+    /// How alike two runs' percepts of the same held-out frames are at every checkpoint step
+    /// both have (a learning rule's run `--run` against backprop's `--against`): affine R² both
+    /// ways and linear CKA, into RUN/percept-alignment/.
+    PerceptAlignment(PerceptAlignmentOptions),
     /// Run a named experiment of the paper (see `colorvision experiment list`).
     Experiment(ExperimentOptions),
     /// Continue a stopped `run` or `train` from the newest valid checkpoint of its folder
@@ -323,6 +327,20 @@ pub struct WDcGaugeOptions {
     /// Training steps of each arm.
     #[arg(long, default_value_t = 2000)]
     pub steps: u64,
+}
+
+/// Options of `percept-alignment`.
+#[derive(Debug, Clone, Args)]
+pub struct PerceptAlignmentOptions {
+    /// The run whose percept is compared (e.g. a learning rule's).
+    #[arg(long)]
+    pub run: PathBuf,
+    /// The run it is compared against (e.g. backprop's, through the same eye).
+    #[arg(long)]
+    pub against: PathBuf,
+    /// Held-out batches (of the run's batch size) whose first frames are decoded.
+    #[arg(long, default_value_t = 4)]
+    pub batches: usize,
 }
 
 /// Options of `experiment`.

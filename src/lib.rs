@@ -16,6 +16,7 @@ pub mod experiments;
 pub mod gather;
 pub mod interrupt;
 pub mod io;
+pub mod percept_alignment;
 pub mod pictures;
 pub mod program;
 pub mod report;

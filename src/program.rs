@@ -35,6 +35,9 @@ pub fn main() {
         Command::WDcGauge(o) => crate::w_gauge::w_dc_gauge(&o.run, o.steps).map(|_| ()),
         Command::StilesBurch(o) => crate::stiles_burch::command(o).map(|_| ()),
         Command::Average(o) => crate::averaging::command(o),
+        Command::PerceptAlignment(o) => {
+            crate::percept_alignment::command(&o.run, &o.against, o.batches).map(|_| ())
+        }
         Command::Experiment(o) => commands::experiment(o),
         Command::Resume(o) => commands::resume(o),
         Command::Sweep(o) => commands::sweep(o),

@@ -3,7 +3,8 @@
 //! Layout of `DIR/step_00000100/`:
 //! - `params.safetensors` — every parameter (`w.response`, `c.raw`, `d.*`, `p.*`), opens in
 //!   PyTorch/NumPy;
-//! - `optim.safetensors` — Adam's `m`, `v` per parameter and its step counts;
+//! - `optim.safetensors` — the optimiser's state per parameter (Adam's `m`, `v`; SGD's
+//!   `velocity`) and its step counts;
 //! - `rule.safetensors` — the learning rule's state (`autodiff::learn::RuleState`: feedback
 //!   matrices, counters; empty for backprop), keyed by parameter names;
 //! - `meta.json` — [`CheckpointMeta`]: step, the full config, the trainer's RNG state, the data
@@ -20,10 +21,10 @@
 //! why it skipped the newer ones.
 
 use crate::config::CortexConfig;
+use crate::optimizer::CortexOptimizer;
 use crate::rng::CortexRng;
 use crate::CortexError;
 use autodiff::learn::RuleState;
-use autodiff::optim::{Adam, Optimizer};
 use autodiff::ParamStore;
 use serde::{Deserialize, Serialize};
 use sha2::{Digest, Sha256};
@@ -159,8 +160,8 @@ fn sync(path: &Path) -> Result<(), CortexError> {
 pub struct CheckpointState<'a> {
     /// The parameters.
     pub params: &'a ParamStore<f32>,
-    /// Adam and its state.
-    pub optim: &'a Optimizer<f32, Adam>,
+    /// The optimiser and its state.
+    pub optim: &'a CortexOptimizer,
     /// The learning rule's state.
     pub rule: &'a RuleState<f32>,
 }
@@ -334,7 +335,7 @@ pub fn load_rule_state(
 /// Loads the optimiser state of the checkpoint at `path`.
 pub fn load_optim(
     path: &Path,
-    optim: &mut Optimizer<f32, Adam>,
+    optim: &mut CortexOptimizer,
     params: &ParamStore<f32>,
 ) -> Result<(), CortexError> {
     let o = path.join(CHECKPOINT_FILES[1]);

@@ -188,6 +188,17 @@ fn default_gauge_weight() -> f64 {
 pub struct LossConfig {
     /// Border dropped on each side (authors' code, docs/references.md#loss: ⌊7/2⌋ = 3 px).
     pub border_px: usize,
+    /// Weight of the outside-field guard (0, the default and the authors' loss: none). The
+    /// prediction loss is 0 with no gradient when P moves every sampling point out of the field
+    /// (the empty warp); the guard adds `weight · Σ_pixels mean_batch Σ_axes relu(|u′| − 1)²`
+    /// over the warp's sampling coordinates `u′` (align-corners, the field is [−1, 1]²), in the
+    /// main loss's normalisation (a sum over sites). It is 0 wherever every point is inside.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub outside_field_weight: f64,
+}
+
+fn is_zero(v: &f64) -> bool {
+    *v == 0.0
 }
 
 /// Optimisation settings.
@@ -196,8 +207,19 @@ pub struct LossConfig {
 pub struct TrainConfig {
     /// Samples per step (authors' code, docs/references.md#training: 8).
     pub batch_size: usize,
-    /// Adam learning rate (authors' code, docs/references.md#training: 1e-3).
+    /// Learning rate (authors' code, docs/references.md#training: Adam's, 1e-3).
     pub learning_rate: f64,
+    /// The optimiser: `adam` (the authors' code, docs/references.md#training) or `sgd` (with
+    /// [`TrainConfig::sgd_momentum`]); [`crate::optimizer`].
+    #[serde(default, skip_serializing_if = "OptimizerName::is_adam")]
+    pub optimizer: OptimizerName,
+    /// Momentum μ of `sgd` (PyTorch's form `v ← μ·v + g`; 0.9 as in Sutskever et al. 2013,
+    /// "On the importance of initialization and momentum"); unused by Adam.
+    #[serde(
+        default = "default_sgd_momentum",
+        skip_serializing_if = "is_default_sgd_momentum"
+    )]
+    pub sgd_momentum: f64,
     /// Adam β₁ (authors' code, docs/references.md#training: PyTorch default 0.9).
     pub adam_beta1: f64,
     /// Adam β₂ (authors' code, docs/references.md#training: 0.999).
@@ -239,6 +261,32 @@ pub struct TrainConfig {
 
 fn unit_scale() -> f64 {
     1.0
+}
+
+fn default_sgd_momentum() -> f64 {
+    0.9
+}
+
+fn is_default_sgd_momentum(m: &f64) -> bool {
+    *m == default_sgd_momentum()
+}
+
+/// The optimiser of a run ([`crate::optimizer::CortexUpdate`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum OptimizerName {
+    /// Adam with `adam_beta1`, `adam_beta2`, `adam_eps` (authors' code).
+    #[default]
+    Adam,
+    /// SGD with momentum `sgd_momentum`.
+    Sgd,
+}
+
+impl OptimizerName {
+    /// Whether this is Adam, the default (left out of a written config).
+    pub fn is_adam(&self) -> bool {
+        *self == OptimizerName::Adam
+    }
 }
 
 fn default_final_lr_fraction() -> f64 {

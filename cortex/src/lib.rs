@@ -32,6 +32,7 @@ pub mod error;
 pub mod eval;
 pub mod forward_forward;
 pub mod model;
+pub mod optimizer;
 pub mod persist;
 pub mod rng;
 pub mod rule;

@@ -32,6 +32,7 @@ use crate::buckets::m::block_matching::{BlockMatcher, DewarpGrid};
 use crate::buckets::m::gauge::record_gauge_term;
 use crate::buckets::m::learned::SubpixelRefiner;
 use crate::buckets::m::sampling::unit_grid;
+use crate::buckets::p::{outside_field_guard, Sampling};
 use crate::buckets::{c::CBucket, d::DBucket, p::PBucket, w::WBucket};
 use crate::config::{Baseline, CortexConfig, MMode};
 use crate::CortexError;
@@ -310,7 +311,8 @@ impl Cortex {
             Some((b1, _)) => vec![tape.constant_from([b, 1, n, n], b1)],
             None => Vec::new(),
         };
-        let (v2, mask, extra_w) = self.p.warp(tape, &self.params, v1, &extra, &motion.motion);
+        let sampling = self.p.sampling(tape, &self.params, &motion.motion);
+        let (v2, mask, extra_w) = PBucket::resample_with(tape, &sampling, v1, &extra);
         let pa2 = match (&self.c, c) {
             (Some(cb), Some(c)) => {
                 enter(tape, Bucket::C);
@@ -332,6 +334,12 @@ impl Cortex {
             }
             _ => main,
         };
+        let guard_weight = self.config.loss.outside_field_weight;
+        if let (true, Sampling::Grid(grid)) = (guard_weight > 0.0, &sampling) {
+            let g = outside_field_guard(tape, *grid);
+            let g = tape.scale(g, guard_weight);
+            loss = tape.add(loss, g);
+        }
         // An estimated M (block matching or learned) measures d̂ through P, which leaves P's
         // affine part free (see `motion::gauge`): pin it to the identity.
         if let (true, PBucket::Flow { flow, uv, .. }) =

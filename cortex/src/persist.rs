@@ -4,8 +4,9 @@
 use crate::checkpoint::{self, CheckpointMeta, CHECKPOINT_FORMAT};
 use crate::config::CortexConfig;
 use crate::data::DataSource;
+use crate::optimizer::optimizer;
 use crate::rng::CortexRng;
-use crate::trainer::{adam, StepStats, Trainer};
+use crate::trainer::{StepStats, Trainer};
 use crate::CortexError;
 use std::path::{Path, PathBuf};
 
@@ -141,7 +142,7 @@ impl Trainer {
         let cfg = config.unwrap_or_else(|| meta.config.clone());
         let mut t = Trainer::new(cfg)?;
         checkpoint::load_params(path, &mut t.cortex.params)?;
-        t.optim = adam(&t.cortex);
+        t.optim = optimizer(&t.cortex);
         t.step = meta.step;
         t.rng = CortexRng::seed_from(t.cortex.config.train.seed ^ meta.step);
         t.continued_from_step = Some(meta.step);

@@ -21,14 +21,14 @@
 //!   copy of the last percept for the caller to fit; nothing flows back.
 
 use crate::config::CortexConfig;
-use crate::credit::{learned_bucket_of_params, Alignment};
+use crate::credit::Alignment;
 use crate::data::OnsBatch;
+use crate::model::Bucket;
 use crate::model::{bucket_of_scope, Cortex, MotionOut, Prediction, BUCKETS, BUCKET_NAMES};
-use crate::model::{Bucket, LEARNED_BUCKETS};
+use crate::optimizer::{optimizer, CortexOptimizer};
 use crate::rng::CortexRng;
 use crate::CortexError;
 use autodiff::learn::{AlignmentMeter, Backprop, LearningRule, Objective, ParamGrads, RuleState};
-use autodiff::optim::{Adam, Optimizer};
 use autodiff::{Tape, Var};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -97,7 +97,7 @@ impl PredictionError {
 pub struct Trainer {
     /// The model being trained.
     pub cortex: Cortex,
-    pub(crate) optim: Optimizer<f32, Adam>,
+    pub(crate) optim: CortexOptimizer,
     pub(crate) rule: Box<dyn LearningRule<f32>>,
     pub(crate) step: u64,
     pub(crate) rng: CortexRng,
@@ -115,30 +115,12 @@ pub struct Trainer {
     pub(crate) meter: AlignmentMeter<f32>,
 }
 
-/// Adam with the cortex's β and ε, and W's learning-rate scale. Its learning rate is given at
-/// each step, from [`crate::config::TrainConfig::learning_rate_at`], the one place it is decided.
-pub(crate) fn adam(cortex: &Cortex) -> Optimizer<f32, Adam> {
-    let t = &cortex.config.train;
-    let mut optim = Optimizer::new(Adam {
-        beta1: t.adam_beta1,
-        beta2: t.adam_beta2,
-        eps: t.adam_eps,
-    });
-    let buckets = learned_bucket_of_params(&cortex.params);
-    for (id, bucket) in cortex.params.ids().zip(buckets) {
-        if let Some(k) = bucket {
-            optim.set_lr_scale(id, t.learning_rate_scale(LEARNED_BUCKETS[k]));
-        }
-    }
-    optim
-}
-
 impl Trainer {
     /// A fresh cortex from `config`, step 0.
     pub fn new(config: CortexConfig) -> Result<Self, CortexError> {
         let rng = CortexRng::seed_from(config.train.seed);
         let cortex = Cortex::new(config)?;
-        let optim = adam(&cortex);
+        let optim = optimizer(&cortex);
         Ok(Trainer {
             cortex,
             optim,

@@ -226,3 +226,50 @@ fn warp_coverage_reports_an_empty_warp() {
         "an empty warp leaves nothing to compare: {seen:?}"
     );
 }
+
+#[test]
+fn the_outside_field_guard_is_zero_inside_and_pulls_an_empty_warp_back() {
+    use cortex::buckets::p::{outside_field_guard, PBucket, Sampling};
+    let c = bent_cortex();
+    let n = 32;
+    for (motion, empty) in [([0.0, 0.0], false), ([6.0, -6.0], true)] {
+        let mut tape = Tape::<f32>::new();
+        let v = tape.constant(percept(2, 3, n));
+        let sampling = c.p.sampling(&mut tape, &c.params, &[motion, motion]);
+        let Sampling::Grid(grid) = sampling else {
+            panic!("a flow samples through a grid")
+        };
+        let (_, mask) = PBucket::resample(&mut tape, &sampling, v);
+        let mask_sum: f32 = tape.value(mask).data().iter().sum();
+        assert_eq!(mask_sum == 0.0, empty, "mask sum {mask_sum}");
+        // The guard by hand: Σ over points and axes of relu(|u′| − 1)², over the batch of 2.
+        let want: f64 = tape
+            .value(grid)
+            .data()
+            .iter()
+            .map(|&u| (u.abs() as f64 - 1.0).max(0.0).powi(2))
+            .sum::<f64>()
+            / 2.0;
+        let guard = outside_field_guard(&mut tape, grid);
+        let got = tape.value(guard).data()[0] as f64;
+        assert!(
+            (got - want).abs() <= 1e-5 * want.max(1.0),
+            "{got} vs {want}"
+        );
+        tape.backward(guard);
+        let p_grad: f64 = tape
+            .param_grads()
+            .filter(|(id, _)| c.params.name(*id).starts_with("p."))
+            .map(|(_, g)| g.data().iter().map(|&x| (x as f64).abs()).sum::<f64>())
+            .sum();
+        if empty {
+            assert!(got > 1.0, "an empty warp is guarded: {got}");
+            assert!(p_grad > 0.0, "and the guard reaches P");
+        } else {
+            // No point of a still warp lies outside; the field's edge points come back from
+            // P⁻¹∘P within f32 round-off of ±1.
+            assert!(got < 1e-10, "{got}");
+            assert!(p_grad < 1e-4, "{p_grad}");
+        }
+    }
+}

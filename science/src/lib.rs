@@ -47,6 +47,7 @@ pub mod ladder;
 pub mod measure;
 pub mod observer;
 pub mod paper;
+pub mod percept_alignment;
 pub mod source;
 pub mod stats;
 pub mod summary;

@@ -142,13 +142,38 @@ impl PBucket {
         motion: &[[f64; 2]],
     ) -> (Var, Var, Vec<Var>) {
         let sampling = self.sampling(tape, params, motion);
-        let (warped, mask) = Self::resample(tape, &sampling, v);
+        Self::resample_with(tape, &sampling, v, extra)
+    }
+
+    /// Warps `v` through `sampling` as [`PBucket::resample`], and each of `extra` through the
+    /// same sampling: `(warped, mask, extra warped)`.
+    pub fn resample_with(
+        tape: &mut Tape<f32>,
+        sampling: &Sampling,
+        v: Var,
+        extra: &[Var],
+    ) -> (Var, Var, Vec<Var>) {
+        let (warped, mask) = Self::resample(tape, sampling, v);
         let ex = extra
             .iter()
-            .map(|&e| Self::resample(tape, &sampling, e).0)
+            .map(|&e| Self::resample(tape, sampling, e).0)
             .collect();
         (warped, mask, ex)
     }
+}
+
+/// The outside-field guard of a sampling grid `(B, n, n, 2)` (align-corners coordinates, the
+/// field is [−1, 1]²): `Σ_pixels mean_batch Σ_axes relu(|u′| − 1)²`, a scalar. It is 0 while
+/// every point is inside and grows with the square of how far points lie outside, so it has a
+/// gradient where the warp's mask is empty ([`crate::config::LossConfig::outside_field_weight`]).
+pub fn outside_field_guard(tape: &mut Tape<f32>, grid: Var) -> Var {
+    let batch = tape.shape(grid).dims()[0];
+    let a = tape.abs(grid);
+    let a = tape.add_scalar(a, -1.0);
+    let outside = tape.relu(a);
+    let sq = tape.square(outside);
+    let total = tape.sum(sq);
+    tape.scale(total, 1.0 / batch as f64)
 }
 
 /// How a warp samples: P's grid `(B, n, n, 2)` on the tape, or whole-pixel shifts per sample.

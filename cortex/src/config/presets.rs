@@ -43,10 +43,15 @@ impl CortexConfig {
                 blur_loss_weight: 1.0,
                 gauge_weight: default_gauge_weight(),
             },
-            loss: LossConfig { border_px: 3 },
+            loss: LossConfig {
+                border_px: 3,
+                outside_field_weight: 0.0,
+            },
             train: TrainConfig {
                 batch_size: 8,
                 learning_rate: 1e-3,
+                optimizer: OptimizerName::Adam,
+                sgd_momentum: 0.9,
                 adam_beta1: 0.9,
                 adam_beta2: 0.999,
                 adam_eps: 1e-8,
