@@ -1,0 +1,51 @@
+#!/bin/bash
+# Stage 1 of the learning-rules protocol (docs/notebook/2026-12-02-learning-rules-protocol.md):
+# its ten arms on seed 0, 3 000 steps each, one after another on one thread, each with exactly
+# the protocol's command (scripts/protocol-arm.sh: train, then CMF-SIM at step 3 000, location
+# seed 0), then each arm's percept against B0's (colorvision percept-alignment). Running it
+# again continues: a stopped arm resumes from its newest checkpoint, finished work is skipped.
+# Two copies may run at once on different ARMS lists (e.g. ARMS="B0 F1 B1 F2 B2" and
+# ARMS="F0 F3 B3 K1 D1").
+#
+# Usage: scripts/rules-screen.sh
+#   ARMS="B0 F0" scripts/rules-screen.sh     runs only those arms, in that order
+#   COLORVISION=path/to/colorvision           the binary (default target/release/colorvision)
+set -euo pipefail
+ROOT=$(cd "$(dirname "$0")/.." && pwd)
+P="$ROOT/scripts/protocol-arm.sh"
+R="$ROOT/runs/rules-screen"
+B=${COLORVISION:-$ROOT/target/release/colorvision}
+export COLORVISION=$B RAYON_NUM_THREADS=1
+FA=(--set learning_rule=feedback-alignment)
+SGD=(--set cortex.train.optimizer=sgd --set cortex.train.learning_rate=0.03
+     --set cortex.train.clip_global_norm=1)
+EPS=(--set cortex.train.adam_eps=1)
+GUARD=(--set cortex.loss.outside_field_weight=1)
+
+arm() {
+    local opts
+    case "$1" in
+        B0) opts=() ;;
+        F0) opts=("${FA[@]}") ;;
+        F1) opts=("${FA[@]}" "${EPS[@]}") ;;
+        B1) opts=("${EPS[@]}") ;;
+        F2) opts=("${FA[@]}" "${SGD[@]}") ;;
+        B2) opts=("${SGD[@]}") ;;
+        F3) opts=("${FA[@]}" "${GUARD[@]}") ;;
+        B3) opts=("${GUARD[@]}") ;;
+        K1) opts=(--set learning_rule=kolen-pollack --set rule.learning_rate=1e-4) ;;
+        D1) opts=(--set learning_rule=direct-feedback-alignment "${EPS[@]}") ;;
+        *) echo "rules-screen.sh: unknown arm $1" >&2; exit 2 ;;
+    esac
+    "$P" "$R/$1" 0 3000 "3000" "0" --preset main "${opts[@]}"
+}
+
+mkdir -p "$R"
+for a in ${ARMS:-B0 F0 F1 B1 F2 B2 F3 B3 K1 D1}; do
+    echo "== rules-screen: arm $a ($(date -u +%FT%TZ))"
+    arm "$a"
+    if [ "$a" != B0 ] && [ -d "$R/B0/checkpoints/step_00003000" ] \
+        && [ ! -f "$R/$a/percept-alignment/against-B0.csv" ]; then
+        "$B" percept-alignment --run "$R/$a" --against "$R/B0"
+    fi
+done
