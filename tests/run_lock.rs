@@ -69,3 +69,49 @@ fn a_live_lock_is_refused_and_a_stale_one_taken_over() {
     assert!(!lock.exists(), "a finished run leaves its lock behind");
     std::fs::remove_dir_all(dir).ok();
 }
+
+/// `train` into `out` under `dir`: refused in one line naming the folder and `what`.
+fn refused_naming(dir: &Path, out: &str, what: &str) {
+    let args = ["train", "--preset", "tiny", "--steps", "2", "--out", out];
+    let o = common::command(dir, &args, None).output().unwrap();
+    let err = String::from_utf8_lossy(&o.stderr).to_string();
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+    assert!(err.contains(out) && err.contains(what), "{err}");
+}
+
+#[test]
+fn a_folder_that_cannot_be_made_or_written_is_named_with_the_reason() {
+    let dir = std::env::temp_dir().join(format!("cv_run_unwritable_{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    // A folder under a file cannot be made.
+    std::fs::write(dir.join("a-file"), b"").unwrap();
+    refused_naming(&dir, "a-file/out", "cannot be made: Not a directory");
+    // A read-only folder cannot be written: by its permissions for a user, by a read-only
+    // mount for root (where the mount can be made; permissions do not bind root).
+    let ro = dir.join("read-only");
+    std::fs::create_dir_all(&ro).unwrap();
+    // SAFETY: geteuid has no preconditions.
+    let root = unsafe { libc::geteuid() } == 0;
+    let made = if root {
+        Command::new("mount")
+            .args(["-t", "tmpfs", "-o", "ro,size=1m", "tmpfs"])
+            .arg(&ro)
+            .status()
+            .is_ok_and(|s| s.success())
+    } else {
+        use std::os::unix::fs::PermissionsExt;
+        std::fs::set_permissions(&ro, std::fs::Permissions::from_mode(0o555)).is_ok()
+    };
+    if made {
+        refused_naming(&dir, "read-only", "cannot be written (its lock .lock)");
+        refused_naming(&dir, "read-only/out", "cannot be made");
+        if root {
+            let _ = Command::new("umount").arg(&ro).status();
+        }
+    } else {
+        println!("no read-only folder could be made here: that half is not checked");
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -123,12 +123,21 @@ fn remove_stale(lock: &Path, dead: Option<u32>) -> Result<(), IoError> {
     }
 }
 
+/// The folder `dir` refused a write: what could not be done and the system's reason (a
+/// read-only folder or file system, a missing permission).
+fn unwritable(dir: &Path, what: &str, e: std::io::Error) -> RunError {
+    RunError::Folder {
+        path: dir.to_path_buf(),
+        reason: format!("{what}: {e}"),
+    }
+}
+
 impl RunLock {
     /// Takes the lock of the run folder `dir` (created if missing), or refuses when a running
     /// process holds it.
     pub fn acquire(dir: &Path) -> Result<RunLock, RunError> {
         let created_dir = !dir.exists();
-        std::fs::create_dir_all(dir).map_err(fs_err(dir))?;
+        std::fs::create_dir_all(dir).map_err(|e| unwritable(dir, "cannot be made", e))?;
         let path = dir.join(LOCK_FILE);
         let mut guard = RunLock {
             path,
@@ -136,7 +145,15 @@ impl RunLock {
             taken: false,
         };
         for _ in 0..3 {
-            if try_create(&guard.path)? {
+            let taken = try_create(&guard.path).map_err(|e| match e {
+                IoError::Fs { source, .. } => unwritable(
+                    dir,
+                    &format!("cannot be written (its lock {LOCK_FILE})"),
+                    source,
+                ),
+                other => other.into(),
+            })?;
+            if taken {
                 guard.taken = true;
                 held().push((guard.path.clone(), guard.created_dir));
                 return Ok(guard);
