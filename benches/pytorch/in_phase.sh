@@ -19,17 +19,5 @@ for _ in $(seq "$rounds"); do
   "$python" "$here/conv_anchor.py" 30 256 channels_last 2>/dev/null |
     awk '/median/ { print "torch_" $4 "_cl", $(NF - 1) }' >>"$out"
 done
-python3 - "$out" <<'PY'
-import collections, statistics, sys
-times = collections.defaultdict(list)
-for line in open(sys.argv[1]):
-    name, ms = line.split()
-    times[name].append(float(ms))
-for name, v in times.items():
-    print(f"{name:18s} median {statistics.median(v):6.2f} ms   rounds {v}")
-for name in [n for n in times if n != "ours"]:
-    r = [a / b for a, b in zip(times["ours"], times[name])]
-    faster = sum(x < 1 for x in r)
-    print(f"ours / {name}: median {statistics.median(r):.3f} (ours faster in {faster} of {len(r)})")
-PY
+python3 "$here/ratios.py" "$out"
 rm -f "$out"
