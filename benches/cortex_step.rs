@@ -11,7 +11,8 @@
 //! the default quick step (oracle motion) under each learning rule (`cortex::rule::BUILT_IN`),
 //! interleaved the same way, and prints each rule's cortex step relative to backprop's (only when
 //! named: `cargo bench --bench cortex_step -- rules`). `paper` runs the
-//! paper cortex on a synthetic batch (its retina is benchmarked in `benches/retina.rs`).
+//! paper cortex on a synthetic batch (its retina is benchmarked in `benches/retina.rs`), with
+//! the oracle motion (as `--preset paper` runs train) and with block-matching motion.
 //! Paper step: report time and peak memory (target ≤ 8 GiB).
 //!
 //! Output: median whole step, batch and cortex times over the timed steps, the median
@@ -226,15 +227,28 @@ fn main() {
         }
     }
     if want("paper") {
-        // The paper cortex on a synthetic batch (its retina is benchmarked in `benches/retina.rs`).
-        let cfg = CortexConfig::paper();
-        let source = SyntheticSource::new(SyntheticConfig::lms(cfg.ons_size_px, 1));
-        bench(
-            vec![Case::new("paper", cfg, Box::new(source), false)],
-            1,
-            3,
-            profile,
-        );
+        // The paper cortex on a synthetic batch (its retina is benchmarked in `benches/retina.rs`),
+        // with the oracle motion (what `--preset paper` runs use, and PyTorch's port) and with
+        // block matching (`CortexConfig::paper`'s own M: motion estimation and P's gauge term).
+        let mut oracle = CortexConfig::paper();
+        oracle.m.mode = MMode::Oracle;
+        let synthetic = |cfg: &CortexConfig| {
+            Box::new(SyntheticSource::new(SyntheticConfig::lms(
+                cfg.ons_size_px,
+                1,
+            )))
+        };
+        let block_matching = CortexConfig::paper();
+        let cases = vec![
+            Case::new("paper", oracle.clone(), synthetic(&oracle), false),
+            Case::new(
+                "paper (block-matching motion)",
+                block_matching.clone(),
+                synthetic(&block_matching),
+                false,
+            ),
+        ];
+        bench(cases, 1, 3, profile);
         if let Some(mib) = peak_rss_mib() {
             println!("  peak resident memory of the process after the paper steps: {mib:.0} MiB");
         }

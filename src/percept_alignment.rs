@@ -72,12 +72,12 @@ pub fn command(run: &Path, against: &Path, batches: usize) -> Result<Vec<Alignme
         ons.extend(frames);
     }
     let total = bs * batches.max(1);
-    let border = ca.cortex.loss.border_px;
+    let border_px = ca.cortex.loss.border_px;
     let mut rows = Vec::new();
     for step in steps {
         let (_, a, _) = load_run_at(run, step)?;
         let (_, b, _) = load_run_at(against, step)?;
-        let alignment = compare(&a.cortex, &b.cortex, &ons, total, border);
+        let alignment = compare(&a.cortex, &b.cortex, &ons, total, border_px);
         println!(
             "  step {step}: R² {against_name} from this run {:.3}, this run from it {:.3}, CKA {:.3}",
             alignment.r2_b_from_a,

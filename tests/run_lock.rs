@@ -70,6 +70,15 @@ fn a_live_lock_is_refused_and_a_stale_one_taken_over() {
     std::fs::remove_dir_all(dir).ok();
 }
 
+/// Unmounts its folder when dropped.
+struct Unmount(std::path::PathBuf);
+
+impl Drop for Unmount {
+    fn drop(&mut self) {
+        let _ = Command::new("umount").arg(&self.0).status();
+    }
+}
+
 /// `train` into `out` under `dir`: refused in one line naming the folder and `what`.
 fn refused_naming(dir: &Path, out: &str, what: &str) {
     let args = ["train", "--preset", "tiny", "--steps", "2", "--out", out];
@@ -104,14 +113,14 @@ fn a_folder_that_cannot_be_made_or_written_is_named_with_the_reason() {
         use std::os::unix::fs::PermissionsExt;
         std::fs::set_permissions(&ro, std::fs::Permissions::from_mode(0o555)).is_ok()
     };
+    // Unmounted however the checks end.
+    let mounted = (made && root).then(|| Unmount(ro.clone()));
     if made {
         refused_naming(&dir, "read-only", "cannot be written (its lock .lock)");
         refused_naming(&dir, "read-only/out", "cannot be made");
-        if root {
-            let _ = Command::new("umount").arg(&ro).status();
-        }
     } else {
         println!("no read-only folder could be made here: that half is not checked");
     }
+    drop(mounted);
     std::fs::remove_dir_all(&dir).ok();
 }

@@ -14,7 +14,7 @@
 //! | [`Backprop`] | loss | exact `∂L/∂θ` | none |
 //! | [`FeedbackAlignment`] | loss, scopes | errors sent back through backward weights `B` ([`FeedbackScheme`]: random, sign-concordant, norm-matched, Kolen–Pollack) | `B`'s magnitudes, steps |
 //! | [`DirectFeedbackAlignment`] | loss, output, tags, scopes | the output error sent by a fixed random projection to every tagged layer | the projections |
-//! | [`ForwardForward`] | local losses, scopes | each scope's own objective, nothing across scopes | none |
+//! | [`ForwardForward`] | local losses, scopes | each scope's own objective ([`LocalObjective`]: goodness or a local prediction), nothing across scopes | none |
 //!
 //! How close a rule's credit is to backprop's is a measurement, not a belief:
 //! [`alignment`] runs one more backprop sweep on the same tape and compares, per group of
@@ -62,7 +62,9 @@ mod state;
 pub use alignment::{AlignmentMeter, GroupAlignment};
 pub use direct_feedback::DirectFeedbackAlignment;
 pub use feedback::{FeedbackAlignment, FeedbackScheme};
-pub use forward_forward::{pairwise_goodness_loss, threshold_goodness_loss, ForwardForward};
+pub use forward_forward::{
+    pairwise_goodness_loss, threshold_goodness_loss, ForwardForward, LocalObjective,
+};
 pub use grads::ParamGrads;
 pub use state::{RuleState, RuleStateError};
 
@@ -110,6 +112,12 @@ pub trait LearningRule<T: Float> {
     /// rule; models record them only when asked.
     fn needs_local_losses(&self) -> bool {
         false
+    }
+
+    /// Which local losses the model should declare when [`LearningRule::needs_local_losses`]
+    /// ([`LocalObjective`]; the goodness of forward-forward unless the rule says otherwise).
+    fn local_objective(&self) -> LocalObjective {
+        LocalObjective::Goodness
     }
 
     /// The rule's state for a checkpoint (see [`RuleState`]); empty for a rule that keeps

@@ -120,7 +120,7 @@ fn forward_forward_separates_positive_from_negative_data() {
     for _ in 0..300 {
         let g = task.record(&mut tape, &p);
         let loss = g[0].0; // not used by the rule
-        let grads = ForwardForward.assign_credit(&mut tape, loss.into(), &p);
+        let grads = ForwardForward::default().assign_credit(&mut tape, loss.into(), &p);
         opt.step(0.01, &mut p, &grads).unwrap();
     }
     let g = task.record(&mut tape, &p);
@@ -138,7 +138,7 @@ fn forward_forward_is_not_backprop_of_its_own_objectives() {
     let p = Labelled::params();
     let mut tape = Tape::new();
     let g = task.record(&mut tape, &p);
-    let ff = ForwardForward.assign_credit(&mut tape, g[0].0.into(), &p);
+    let ff = ForwardForward::default().assign_credit(&mut tape, g[0].0.into(), &p);
     // backprop of the same objectives, summed, reaches layer 1 through layer 2's loss too
     let g = task.record(&mut tape, &p);
     assert_eq!(g.len(), 2);

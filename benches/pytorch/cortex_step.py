@@ -13,8 +13,12 @@ with the oracle motion: the same shapes and ops (cortex/src/model.rs), f32, 2 th
   nearest sample of ones there.
 - Loss (docs/references.md#loss): border 3 px, sum_pixels sum_batch m (O^ - O)^2 / (sum_batch m + 1).
 - Adam, lr 1e-3.
-The batch is synthetic (random ONS pairs and motions), made once, as the Rust bench's paper case.
-D runs in the layout asked (contiguous NCHW or channels-last); W's FFTs and P on their own.
+The batch is synthetic (random ONS pairs and motions), made once, as the Rust bench's paper case;
+the cost does not depend on the data. D runs in the layout asked (contiguous NCHW or
+channels-last); W's FFTs and P on their own. Where the port does more than ours, said plainly:
+its inverse FFT is a full complex one whose real part is kept (ours returns the real part
+directly), |W|^2 goes through a square root, each coupling is about ten autograd ops (ours one
+fused op), and the mask is a grid_sample of ones (ours computes it directly).
 
 Usage: cortex_step.py [REPS [quick|paper [contiguous|channels_last]]]: prints one line per
 case, "torch cortex step PRESET LAYOUT: median M ms". Not part of the build or the tests; see

@@ -21,6 +21,7 @@ mod validate;
 
 pub use per_bucket::{BucketTrain, PerBucketTrain};
 
+pub use crate::optimizer::OptimizerName;
 use serde::{Deserialize, Serialize};
 
 /// How the W bucket (lateral-inhibition weights) acts.
@@ -191,8 +192,10 @@ pub struct LossConfig {
     /// Weight of the outside-field guard (0, the default and the authors' loss: none). The
     /// prediction loss is 0 with no gradient when P moves every sampling point out of the field
     /// (the empty warp); the guard adds `weight · Σ_pixels mean_batch Σ_axes relu(|u′| − 1)²`
-    /// over the warp's sampling coordinates `u′` (align-corners, the field is [−1, 1]²), in the
-    /// main loss's normalisation (a sum over sites). It is 0 wherever every point is inside.
+    /// over the warp's sampling coordinates `u′` (align-corners, the field is [−1, 1]²) at
+    /// every ONS pixel, border included: a sum over pixels, as the main loss is a sum over its
+    /// sites (which divides by the batch's mask count plus one instead). It is 0 wherever
+    /// every point is inside.
     #[serde(default, skip_serializing_if = "is_zero")]
     pub outside_field_weight: f64,
 }
@@ -269,24 +272,6 @@ fn default_sgd_momentum() -> f64 {
 
 fn is_default_sgd_momentum(m: &f64) -> bool {
     *m == default_sgd_momentum()
-}
-
-/// The optimiser of a run ([`crate::optimizer::CortexUpdate`]).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum OptimizerName {
-    /// Adam with `adam_beta1`, `adam_beta2`, `adam_eps` (authors' code).
-    #[default]
-    Adam,
-    /// SGD with momentum `sgd_momentum`.
-    Sgd,
-}
-
-impl OptimizerName {
-    /// Whether this is Adam, the default (left out of a written config).
-    pub fn is_adam(&self) -> bool {
-        *self == OptimizerName::Adam
-    }
 }
 
 fn default_final_lr_fraction() -> f64 {

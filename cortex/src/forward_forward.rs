@@ -56,7 +56,7 @@
 
 use crate::buckets::p::{PBucket, Sampling};
 use crate::model::{Bucket, Cortex, MotionOut, Prediction, BUCKET_NAMES};
-use autodiff::learn::pairwise_goodness_loss;
+use autodiff::learn::{pairwise_goodness_loss, LocalObjective};
 use autodiff::{Tape, Var};
 
 /// `β` of the paired objective: the normalised mismatch `−G` lies in [0, 2], so a difference
@@ -147,8 +147,31 @@ fn layers(
 
 /// Declares one local loss per layer for the pair `O_t`, `o2 = O_{t+1}` `(B, 1, n, n)`
 /// whose (positive) motion is `motion`, and the re-encoder's, on the tape that recorded
-/// `prediction` ([`Cortex::record_prediction`]; its decode of `O_t` is reused).
+/// `prediction` ([`Cortex::record_prediction`]; its decode of `O_t` is reused): the goodness
+/// of right against wrong motion (module docs) or, for [`LocalObjective::Prediction`], each
+/// layer's own prediction of `O_{t+1}` ([`prediction`]).
 pub fn record_local_losses(
+    cortex: &Cortex,
+    tape: &mut Tape<f32>,
+    prediction: &Prediction,
+    o2: Var,
+    motion: &MotionOut,
+    objective: LocalObjective,
+) {
+    match objective {
+        LocalObjective::Goodness => record_goodness_losses(cortex, tape, prediction, o2, motion),
+        LocalObjective::Prediction => {
+            tape.enter_scope(BUCKET_NAMES[Bucket::P as usize]);
+            let pos = cortex.p.sampling(tape, &cortex.params, &motion.motion);
+            prediction::record_prediction_losses(cortex, tape, prediction, &pos, o2);
+        }
+    }
+    record_reencode_loss(cortex, tape, prediction, o2);
+    tape.close_scope();
+}
+
+/// The goodness objectives (module docs).
+fn record_goodness_losses(
     cortex: &Cortex,
     tape: &mut Tape<f32>,
     prediction: &Prediction,
@@ -174,8 +197,6 @@ pub fn record_local_losses(
         let loss = pairwise_goodness_loss(tape, g_pos, g_neg, GOODNESS_SHARPNESS);
         tape.declare_local_loss(scope, loss);
     }
-    record_reencode_loss(cortex, tape, prediction, o2);
-    tape.close_scope();
 }
 
 /// The re-encoder's local objective: its prediction of `o2` from the warped percept, with its
@@ -199,5 +220,6 @@ fn record_reencode_loss(cortex: &Cortex, tape: &mut Tape<f32>, prediction: &Pred
     tape.declare_local_loss(REENCODE_SCOPE, loss);
 }
 
+mod prediction;
 #[cfg(test)]
 mod tests;

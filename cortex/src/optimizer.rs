@@ -1,19 +1,39 @@
 //! The cortex's optimiser: Adam (the authors' code) or SGD with momentum, chosen by
-//! `cortex.train.optimizer` ([`crate::config::OptimizerName`]).
+//! `cortex.train.optimizer` ([`OptimizerName`]).
 //!
 //! Both are `autodiff::optim` rules; [`CortexUpdate`] picks one at run time so that the trainer
 //! and its checkpoints have one type. The checkpoint's state keys are the chosen rule's
-//! (`"{param}::adam.m"`, `"{param}::sgd.velocity"`), so a checkpoint of one optimiser does not
-//! load into a run of the other: the load names the missing key.
+//! (`"{param}::adam.m"`, `"{param}::sgd.velocity"`). A resumed run takes its optimiser from the
+//! checkpoint's own config, so it continues with the state it saved; a continued run
+//! ([`crate::Trainer::continue_from`]: boosting, gene therapy) starts a fresh optimiser.
 //!
 //! Sign: gradients are `∂L/∂θ`; both rules subtract them.
 
-use crate::config::{OptimizerName, TrainConfig};
+use crate::config::TrainConfig;
 use crate::credit::learned_bucket_of_params;
 use crate::model::LEARNED_BUCKETS;
 use crate::Cortex;
 use autodiff::optim::{Adam, Optimizer, Sgd, UpdateRule};
 use autodiff::Tensor;
+use serde::{Deserialize, Serialize};
+
+/// The optimiser of a run ([`CortexUpdate`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum OptimizerName {
+    /// Adam with `adam_beta1`, `adam_beta2`, `adam_eps` (authors' code).
+    #[default]
+    Adam,
+    /// SGD with momentum `sgd_momentum`.
+    Sgd,
+}
+
+impl OptimizerName {
+    /// Whether this is Adam, the default (left out of a written config).
+    pub fn is_adam(&self) -> bool {
+        *self == OptimizerName::Adam
+    }
+}
 
 /// The update rule of a cortex run.
 #[derive(Clone, Copy, Debug)]
@@ -87,9 +107,24 @@ mod tests {
     fn each_name_gives_its_rule_and_the_rules_state_slots() {
         let mut t = crate::CortexConfig::preset("tiny").unwrap().train;
         let adam = CortexUpdate::from_config(&t);
+        assert_eq!(UpdateRule::<f32>::name(&adam), "adam");
         assert_eq!(UpdateRule::<f32>::slots(&adam), &["m", "v"]);
+        // The default is Adam's update to the bit, step after step.
+        let plain = Adam {
+            beta1: t.adam_beta1,
+            beta2: t.adam_beta2,
+            eps: t.adam_eps,
+        };
+        let (mut p, mut q) = (vec![0.3f32, -1.2, 2.0], vec![0.3f32, -1.2, 2.0]);
+        let zeros = || vec![Tensor::zeros([3]), Tensor::zeros([3])];
+        let (mut sp, mut sq) = (zeros(), zeros());
+        for step in 1..=4 {
+            let g = [0.5 * step as f32, -0.1, 1e-3];
+            adam.update(&mut p, &g, &mut sp, step, 1e-3);
+            plain.update(&mut q, &g, &mut sq, step, 1e-3);
+        }
+        assert_eq!(p, q);
         t.optimizer = OptimizerName::Sgd;
-        t.sgd_momentum = 0.9;
         let sgd = CortexUpdate::from_config(&t);
         assert_eq!(UpdateRule::<f32>::name(&sgd), "sgd");
         assert_eq!(UpdateRule::<f32>::slots(&sgd), &["velocity"]);

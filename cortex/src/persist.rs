@@ -66,7 +66,7 @@ impl Trainer {
         Ok(path)
     }
 
-    /// Rebuilds the trainer of the checkpoint at `path`: parameters, Adam state, step, RNG; and
+    /// Rebuilds the trainer of the checkpoint at `path`: parameters, optimiser state, step, RNG; and
     /// restores `source`'s state when the checkpoint holds one. The learning rule's state is
     /// kept and handed to the rule given next to [`Trainer::set_learning_rule`] (the trainer
     /// starts with backprop, which keeps none). Continuing from here gives bit-identical
@@ -130,7 +130,7 @@ impl Trainer {
     }
 
     /// Keeps training the cortex of the checkpoint at `path` on a **new** data source
-    /// (dimensionality boosting, gene therapy; authors' code, docs/references.md#training): parameters are loaded, Adam is
+    /// (dimensionality boosting, gene therapy; authors' code, docs/references.md#training): parameters are loaded, the optimiser is
     /// recreated (its state is not restored, as official), the step count continues.
     /// `config` may change training settings (steps, learning rate, M); the buckets' shapes
     /// must match the checkpoint.

@@ -11,7 +11,7 @@
 //! | `feedback-alignment` | `autodiff::learn::FeedbackAlignment` (Lillicrap et al. 2016; sign-concordant: Liao et al. 2016) | `scheme` (`random`, `usf`, `brsf`, `frsf`), `norm_matched`, `flip_sign`, `buckets` (of W, D, P; default D, P), `feedback_seed` | magnitudes of `B`, steps |
 //! | `kolen-pollack` | the same with `B` learned (Kolen & Pollack 1994; Akrout et al. 2019) by its own Adam (or SGD) on `W`'s gradient | `learning_rate`, `optimizer` (`adam`, `sgd`), `weight_decay`, `buckets`, `feedback_seed` | `B`, its Adam moments, steps |
 //! | `direct-feedback-alignment` | `autodiff::learn::DirectFeedbackAlignment` (Nøkland 2016), a random `k × k` convolution of the prediction error per layer | `kernel_px`, `buckets` (of W, C, D; default all three), `feedback_seed` | the projections |
-//! | `forward-forward` | `autodiff::learn::ForwardForward` (Hinton 2022) with the cortex's layer-local objectives ([`crate::forward_forward`]) | — | none |
+//! | `forward-forward` | `autodiff::learn::ForwardForward` (Hinton 2022) with the cortex's layer-local objectives ([`crate::forward_forward`]) | `objective` (`goodness`, or `prediction`: each layer's own prediction of the next ONS) | none |
 //!
 //! Where feedback alignment can act, said plainly: it replaces weights in backward, and only
 //! an op's *weight input* that is a parameter can be replaced. In this cortex those are the

@@ -1,4 +1,4 @@
-//! Training: one [`Trainer`] owns the cortex, Adam (with its state), the step counter, an RNG
+//! Training: one [`Trainer`] owns the cortex, the optimiser (with its state), the step counter, an RNG
 //! and the tape; [`Trainer::step`] turns one [`OnsBatch`] into one gradient update.
 //!
 //! - Credit assignment goes through `autodiff::learn::LearningRule` (backprop by default;
@@ -7,15 +7,16 @@
 //!   tape's bucket scopes and tags) and, when it asks, the cortex's local objectives
 //!   ([`crate::forward_forward`]). Forward and backward time per bucket come from the tape's
 //!   scopes, whatever the rule.
-//! - Between the rule and Adam ([`crate::credit`]): every `train.alignment_every_steps` the
+//! - Between the rule and the optimiser ([`crate::credit`]): every `train.alignment_every_steps` the
 //!   rule's update is measured against backprop's gradient on the same tape (per bucket, in
 //!   [`StepStats::alignment`]); then it is clipped per bucket and as a whole when the config
-//!   says so; Adam applies it with a learning-rate factor per bucket.
+//!   says so; the optimiser ([`crate::optimizer`]: Adam or SGD) applies it with a learning-rate
+//!   factor per bucket.
 //! - A non-finite loss or gradient stops with [`CortexError::NonFiniteLoss`] *before* the update,
 //!   so the parameters stay those of the last good step and checkpoints on disk are untouched.
-//! - Checkpoints ([`crate::checkpoint`]) hold parameters, Adam state, the learning rule's
+//! - Checkpoints ([`crate::checkpoint`]) hold parameters, the optimiser's state, the learning rule's
 //!   state, step, config, RNG and the data source's state; [`Trainer::resume`] continues
-//!   bit-identically (same seed, same thread count) once the run's rule is set again. [`Trainer::continue_from`] keeps the cortex and recreates Adam, as the
+//!   bit-identically (same seed, same thread count) once the run's rule is set again. [`Trainer::continue_from`] keeps the cortex and recreates the optimiser, as the
 //!   official dimensionality boosting / gene therapy does (authors' code, docs/references.md#training).
 //! - Neural Scope stays outside: with [`Trainer::set_keep_percept`] the trainer keeps a detached
 //!   copy of the last percept for the caller to fit; nothing flows back.
@@ -48,7 +49,7 @@ pub struct StepStats {
     pub backward_ms: [f64; BUCKETS],
     /// Whole credit assignment (the rule's sweeps and gradient gathering).
     pub credit_ms: f64,
-    /// Adam update.
+    /// The optimiser's update.
     pub optimizer_ms: f64,
     /// Everything in `step`.
     pub total_ms: f64,
@@ -325,6 +326,7 @@ impl Trainer {
                 &pred,
                 o2,
                 &motion,
+                self.rule.local_objective(),
             );
         }
         let measure = self.alignment_due();

@@ -273,3 +273,53 @@ fn the_outside_field_guard_is_zero_inside_and_pulls_an_empty_warp_back() {
         }
     }
 }
+
+#[test]
+fn the_guard_enters_the_loss_by_its_weight_and_records_nothing_at_zero() {
+    use cortex::buckets::p::{outside_field_guard, Sampling};
+    use cortex::config::MMode;
+    use cortex::model::MotionOut;
+    let n = 32;
+    let motion = MotionOut {
+        motion: vec![[0.4, -0.3], [0.0, 0.0]],
+        blurred: None,
+    };
+    let record = |weight: f64| {
+        let mut cfg = CortexConfig::tiny();
+        cfg.m.mode = MMode::Oracle;
+        cfg.loss.outside_field_weight = weight;
+        let c = Cortex::new(cfg).unwrap();
+        let mut tape = Tape::<f32>::new();
+        let o1 = tape.constant(percept(2, 1, n));
+        let o2 = tape.constant(percept(2, 1, n));
+        let p = c.record_prediction(&mut tape, o1, o2, &motion);
+        let (loss, main) = (tape.value(p.loss).item(), tape.value(p.main_loss).item());
+        // The guard of the same sampling, recorded apart.
+        let Sampling::Grid(grid) = c.p.sampling(&mut tape, &c.params, &motion.motion) else {
+            panic!("a flow samples through a grid")
+        };
+        let g = outside_field_guard(&mut tape, grid);
+        (
+            loss as f64,
+            main as f64,
+            tape.value(g).item() as f64,
+            tape.len(),
+        )
+    };
+    let (loss0, main0, guard, len0) = record(0.0);
+    assert_eq!(loss0, main0, "no guard at weight 0");
+    assert!(
+        guard > 0.0,
+        "the test's motion moves points outside: {guard}"
+    );
+    let (loss, main, _, len) = record(0.5);
+    assert_eq!(main, main0);
+    assert!(
+        ((loss - main) - 0.5 * guard).abs() <= 1e-5 * guard,
+        "{loss} {main} {guard}"
+    );
+    assert!(
+        len > len0,
+        "the guard's ops are recorded only when weighted"
+    );
+}

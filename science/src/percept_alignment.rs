@@ -15,7 +15,8 @@
 //!   `X (samples × a)`, `Y (samples × b)`; invariant to orthogonal maps and isotropic scaling,
 //!   1 for identical representations, 0 for orthogonal ones.
 //!
-//! Samples are the pixels of the percept `(B, N, n, n)` inside the loss border, every frame.
+//! Samples are the pixels of the percept `(B, N, n, n)` at least the loss border from every
+//! edge, every frame.
 //! Evaluation only: nothing here feeds learning.
 
 use colorimetry::linalg::{lstsq, DEFAULT_RCOND};
@@ -35,20 +36,21 @@ pub struct PerceptAlignment {
     pub samples: usize,
 }
 
-/// Rows `(pixels, N)` of a percept `(B, N, n, n)`, the pixels inside `border` px of the edge.
+/// Rows `(pixels, N)` of a percept `(B, N, n, n)`: the pixels at least `border_px` from every
+/// edge.
 pub fn percept_rows(
     percept: &[f32],
     batch: usize,
     dim: usize,
     n: usize,
-    border: usize,
+    border_px: usize,
 ) -> Vec<f64> {
     assert_eq!(
         percept.len(),
         batch * dim * n * n,
         "percept_rows: (B, N, n, n)"
     );
-    let inner = border..n.saturating_sub(border);
+    let inner = border_px..n.saturating_sub(border_px);
     let mut rows = Vec::with_capacity(batch * n * n * dim);
     for b in 0..batch {
         for y in inner.clone() {
@@ -106,7 +108,8 @@ pub fn linear_cka(x: &[f64], cx: usize, y: &[f64], cy: usize) -> f64 {
 }
 
 /// Held-out R² of an affine map from `from (rows × cf)` to `to (rows × ct)`: fitted on the
-/// first half of the rows, scored on the second (module docs).
+/// first half of the rows, scored on the second (module docs); NaN when `to` is constant on
+/// the second half (no variance to explain).
 pub fn affine_r2(from: &[f64], cf: usize, to: &[f64], ct: usize) -> f64 {
     let rows = from.len() / cf;
     assert_eq!(rows, to.len() / ct, "affine_r2: the same rows");
@@ -144,24 +147,27 @@ pub fn affine_r2(from: &[f64], cf: usize, to: &[f64], ct: usize) -> f64 {
             sst += (t[j] - mean[j]).powi(2);
         }
     }
+    if sst == 0.0 {
+        return f64::NAN;
+    }
     1.0 - sse / sst
 }
 
-/// The percepts of cortices `a` and `b` of the same frames `ons (batch, n, n)` compared, inside
-/// `border` px of the edge.
+/// The percepts of cortices `a` and `b` of the same frames `ons (batch, n, n)` compared at the
+/// pixels at least `border_px` from every edge.
 pub fn compare(
     a: &Cortex,
     b: &Cortex,
     ons: &[f32],
     batch: usize,
-    border: usize,
+    border_px: usize,
 ) -> PerceptAlignment {
     let n = a.n();
     assert_eq!(n, b.n(), "compare: cortices of one eye");
     let rows = |c: &Cortex| {
         let dim = c.config.percept_dim();
         (
-            percept_rows(&c.decode_frames(ons, batch), batch, dim, n, border),
+            percept_rows(&c.decode_frames(ons, batch), batch, dim, n, border_px),
             dim,
         )
     };

@@ -297,7 +297,8 @@ fn empty_warp_warning(step: u64) -> String {
     format!(
         "step {step}: the warp's mask is empty: P has moved every sampling point out of the \
          field, so the prediction loss (main_loss) is 0 and gives no gradient this step (a \
-         minimum of the loss, not a fit; docs/learning-rules.md, \"The empty warp\"). Such \
-         steps are the rows of metrics.csv whose main_loss is 0."
+         minimum of the loss, not a fit; only cortex.loss.outside_field_weight, when set, \
+         pulls the points back; docs/learning-rules.md, \"The empty warp\"). Such steps are \
+         the rows of metrics.csv whose main_loss is 0."
     )
 }

@@ -28,9 +28,28 @@ use super::{LearningRule, Objective, ParamGrads};
 use crate::tape::{BackwardHooks, NodeView};
 use crate::{Float, GradSlots, ParamStore, Tape, Tensor, Var};
 
-/// Forward-forward: local losses per scope, no gradient across scopes (module docs).
+/// Forward-forward: local losses per scope, no gradient across scopes (module docs); which
+/// local losses the model declares is `objective`.
 #[derive(Clone, Copy, Debug, Default)]
-pub struct ForwardForward;
+pub struct ForwardForward {
+    /// The local objectives the model is asked for.
+    pub objective: LocalObjective,
+}
+
+/// The family of local losses a model declares for a rule of local objectives. The rule's
+/// credit is the same for every family (each scope's loss, nothing across scopes); the model
+/// decides what each family means for its layers.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum LocalObjective {
+    /// Goodness of positive against negative data per layer (Hinton 2022).
+    #[default]
+    Goodness,
+    /// Each layer predicts the model's target through a fixed read-out of its own, trained on
+    /// that local prediction error (local error signals: Mostafa, Ramesh & Cauwenberghs 2018,
+    /// "Deep supervised learning using local errors"; Nøkland & Eidnes 2019, "Training neural
+    /// networks with local error signals").
+    Prediction,
+}
 
 /// Cuts every gradient that would leave the scope of the node it comes from.
 struct ScopeWall;
@@ -63,6 +82,10 @@ impl<T: Float> BackwardHooks<T> for ScopeWall {
 impl<T: Float> LearningRule<T> for ForwardForward {
     fn needs_local_losses(&self) -> bool {
         true
+    }
+
+    fn local_objective(&self) -> LocalObjective {
+        self.objective
     }
 
     fn assign_credit_into(
@@ -158,7 +181,7 @@ mod tests {
         };
         let mut tape = Tape::new();
         let (_, lb) = record(&mut tape, true);
-        let ff = ForwardForward.assign_credit(&mut tape, lb.into(), &params);
+        let ff = ForwardForward::default().assign_credit(&mut tape, lb.into(), &params);
         // backprop of a's loss alone, and of b's loss with h held fixed
         let mut t2 = Tape::new();
         let (la, _) = record(&mut t2, false);

@@ -2,7 +2,9 @@ use super::*;
 use crate::config::CortexConfig;
 use crate::synthetic::{SyntheticConfig, SyntheticSource};
 use crate::{DataSource, OnsBatch, Trainer};
-use autodiff::learn::{Backprop, ForwardForward, LearningRule, Objective, ParamGrads};
+use autodiff::learn::{
+    Backprop, ForwardForward, LearningRule, LocalObjective, Objective, ParamGrads,
+};
 use autodiff::Tensor;
 
 #[test]
@@ -21,7 +23,14 @@ fn credit(t: &mut Trainer, batch: &OnsBatch, rule: &mut dyn LearningRule<f32>) -
         .unwrap();
     let (pred, o2) = t.record_frames((batch.batch, batch.n), &motion);
     if rule.needs_local_losses() {
-        record_local_losses(&t.cortex, &mut t.tape, &pred, o2, &motion);
+        record_local_losses(
+            &t.cortex,
+            &mut t.tape,
+            &pred,
+            o2,
+            &motion,
+            rule.local_objective(),
+        );
     }
     let objective = Objective::with_output(pred.loss, pred.predicted);
     rule.assign_credit(&mut t.tape, objective, &t.cortex.params)
@@ -62,7 +71,7 @@ fn a_coarse_block_is_warped_through_p_at_its_own_resolution() {
 #[test]
 fn every_layer_has_its_objective_and_the_re_encoder_trains_w_and_c() {
     let (mut t, batch) = tiny();
-    let g = credit(&mut t, &batch, &mut ForwardForward);
+    let g = credit(&mut t, &batch, &mut ForwardForward::default());
     let scopes: Vec<&str> = t.tape.local_losses().iter().map(|x| x.0).collect();
     assert_eq!(
         scopes,
@@ -90,7 +99,7 @@ fn no_gradient_crosses_a_block_of_the_u_net() {
     let (mut t, batch) = tiny();
     let inc = t.cortex.params.find("d.inc.conv0.weight").unwrap();
     let up = t.cortex.params.find("d.up1.conv1.weight").unwrap();
-    let before_ff = credit(&mut t, &batch, &mut ForwardForward)
+    let before_ff = credit(&mut t, &batch, &mut ForwardForward::default())
         .get(inc)
         .unwrap()
         .clone();
@@ -100,7 +109,7 @@ fn no_gradient_crosses_a_block_of_the_u_net() {
         .clone();
     let w = t.cortex.params.get_mut(up);
     w.data_mut().iter_mut().for_each(|v| *v *= 1.5);
-    let after_ff = credit(&mut t, &batch, &mut ForwardForward)
+    let after_ff = credit(&mut t, &batch, &mut ForwardForward::default())
         .get(inc)
         .unwrap()
         .clone();
@@ -113,5 +122,58 @@ fn no_gradient_crosses_a_block_of_the_u_net() {
     assert!(
         before_ff.max_abs_diff(&before_bp) > 0.0,
         "forward-forward is not backprop"
+    );
+}
+
+/// Forward-forward with each layer's own prediction ([`prediction`]).
+fn predicting() -> ForwardForward {
+    ForwardForward {
+        objective: LocalObjective::Prediction,
+    }
+}
+
+#[test]
+fn under_the_prediction_objective_the_last_block_learns_from_the_true_error() {
+    let (mut t, batch) = tiny();
+    let g = credit(&mut t, &batch, &mut predicting());
+    let scopes: Vec<&str> = t.tape.local_losses().iter().map(|x| x.0).collect();
+    assert_eq!(
+        scopes,
+        ["W", "C", "D.inc", "D.down1", "D.up1", "P", REENCODE_SCOPE]
+    );
+    // D's last block reads the percept itself: its gradient is backprop's of the prediction
+    // loss (no other objective reaches it).
+    batch.frames(0, &mut t.frames[0]);
+    batch.frames(1, &mut t.frames[1]);
+    let motion = (t.cortex)
+        .estimate_motion(&t.frames[0], &t.frames[1], batch.oracle_motion.as_deref())
+        .unwrap();
+    let (pred, _) = t.record_frames((batch.batch, batch.n), &motion);
+    let bp = Backprop.assign_credit(&mut t.tape, pred.main_loss.into(), &t.cortex.params);
+    for name in ["d.outc.weight", "d.outc.bias", "d.up1.conv1.weight"] {
+        let id = t.cortex.params.find(name).unwrap();
+        let (a, b) = (g.get(id).unwrap(), bp.get(id).unwrap());
+        let scale = b.data().iter().fold(0.0f32, |m, v| m.max(v.abs()));
+        assert!(scale > 0.0, "{name}: the test can fail");
+        assert!(
+            a.max_abs_diff(b) <= 1e-5 * scale as f64,
+            "{name}: {}",
+            a.max_abs_diff(b)
+        );
+    }
+    // A lower block learns from its own read-out: a gradient, not backprop's.
+    let inc = t.cortex.params.find("d.inc.conv0.weight").unwrap();
+    let (a, b) = (g.get(inc).unwrap(), bp.get(inc).unwrap());
+    assert!(a.sum_sq() > 0.0);
+    let cos = a
+        .data()
+        .iter()
+        .zip(b.data())
+        .map(|(x, y)| (x * y) as f64)
+        .sum::<f64>()
+        / ((a.sum_sq() as f64).sqrt() * (b.sum_sq() as f64).sqrt());
+    assert!(
+        cos < 0.99,
+        "d.inc's local gradient is backprop's: cos {cos}"
     );
 }

@@ -6,7 +6,7 @@ use crate::model::{bucket_of_scope, Bucket, BUCKET_NAMES};
 use autodiff::learn::feedback::KolenPollackOptimizer;
 use autodiff::learn::{
     Backprop, DirectFeedbackAlignment, FeedbackAlignment, FeedbackScheme, ForwardForward,
-    LearningRule,
+    LearningRule, LocalObjective,
 };
 use autodiff::scopes::ScopeFilter;
 use serde::Deserialize;
@@ -97,6 +97,26 @@ pub struct DirectFeedbackSettings {
     /// Seed of the projections (default: the run's seed).
     #[serde(default)]
     pub feedback_seed: Option<u64>,
+}
+
+/// The local objectives `forward-forward` asks of the cortex ([`crate::forward_forward`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum ObjectiveName {
+    /// Right against wrong eye motion per layer (Hinton's goodness, the default).
+    #[default]
+    Goodness,
+    /// Each layer predicts the next ONS through a fixed random read-out of its own.
+    Prediction,
+}
+
+/// `forward-forward`'s settings.
+#[derive(Clone, Copy, Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ForwardForwardSettings {
+    /// The local objectives: `goodness` (default) or `prediction`.
+    #[serde(default)]
+    pub objective: ObjectiveName,
 }
 
 fn kp_learning_rate() -> f64 {
@@ -250,9 +270,16 @@ pub(super) fn entries() -> Vec<RuleEntry> {
         RuleEntry::new(
             "forward-forward",
             "forward-forward (Hinton 2022): layer-local objectives per bucket and per U-Net \
-             block (right against wrong eye motion) and a local prediction objective for the \
-             re-encoder; no gradient between layers",
-            |_: NoSettings, _| Box::new(ForwardForward),
+             block (right against wrong eye motion; with objective = \"prediction\", each \
+             layer's prediction of the next ONS through a fixed random read-out) and a local \
+             prediction objective for the re-encoder; no gradient between layers",
+            |s: ForwardForwardSettings, _| {
+                let objective = match s.objective {
+                    ObjectiveName::Goodness => LocalObjective::Goodness,
+                    ObjectiveName::Prediction => LocalObjective::Prediction,
+                };
+                Box::new(ForwardForward { objective })
+            },
         ),
     ]
 }

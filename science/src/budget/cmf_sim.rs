@@ -17,9 +17,14 @@
 //! - one Levenberg–Marquardt state per wavelength solved at once (`matching::state`): the two
 //!   sides' readouts at α and at the trial, the model's offset and the two Jacobians,
 //!   `W·P·R·(5 + 2K)` f64;
-//! - the Jacobian pass's `2K` shows per (wavelength, pair) and their readouts.
+//! - the Jacobian pass's `2K` shows per (wavelength, pair) and their readouts;
+//! - when a K passes, the resume states its converging copies from the tried sets (both sides'
+//!   readouts, `W·P·R·2` f64) while the originals are kept.
 //!
-//! The front end's shows end before the states begin, so the larger of the two counts.
+//! The front end's shows end before the states begin, so the larger of the two counts. Not
+//! counted: the resume state every tried set keeps for each wavelength stopped below its
+//! threshold (`2·P·R` f64 each); keeping only those of sets that can still be candidates left
+//! a quick reading's peak as it was (docs/memory-tops.md).
 
 use crate::config::RunConfig;
 use crate::observer::Readout;
@@ -99,7 +104,9 @@ fn search_bytes(
         (0.0, 0.0)
     };
     let states = rows * (5.0 + 2.0 * k) * 8.0;
+    let converge_copies = rows * 2.0 * 8.0;
     let jacobian_shows = pairs * 2.0 * k * (SHOW_BYTES + (k + 1.0) * LINE_BYTES);
     let jacobian_readouts = rows * 2.0 * k * 8.0;
-    front_end_kept + front_end_shows.max(states + jacobian_shows + jacobian_readouts)
+    front_end_kept
+        + front_end_shows.max(states + converge_copies + jacobian_shows + jacobian_readouts)
 }
