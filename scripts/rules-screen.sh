@@ -1,13 +1,14 @@
 #!/bin/bash
 # Stage 1 of the learning-rules protocol (docs/notebook/2026-12-02-learning-rules-protocol.md):
-# its ten arms on seed 0, 3 000 steps each, one after another on one thread, each with exactly
+# its twelve arms on seed 0, 3 000 steps each, one after another on one thread, each with exactly
 # the protocol's command (scripts/protocol-arm.sh: train, then CMF-SIM at step 3 000, location
 # seed 0), then each arm's percept against B0's (colorvision percept-alignment). Running it
 # again continues: a stopped arm resumes from its newest checkpoint, finished work is skipped.
-# Two copies may run at once on different ARMS lists (e.g. ARMS="B0 F1 B1 F2 B2" and
-# ARMS="F0 F3 B3 K1 D1").
+# Two copies may run at once on different ARMS lists (e.g. ARMS="B0 F1 B1 F2 B2 G0" and
+# ARMS="F0 F3 B3 K1 D1 G1"); an arm that ends before B0 has its percept compared with B0's
+# when the script runs again.
 #
-# Usage: scripts/rules-screen.sh
+# Usage: nice -n 10 scripts/rules-screen.sh
 #   ARMS="B0 F0" scripts/rules-screen.sh     runs only those arms, in that order
 #   COLORVISION=path/to/colorvision           the binary (default target/release/colorvision)
 set -euo pipefail
@@ -35,13 +36,15 @@ arm() {
         B3) opts=("${GUARD[@]}") ;;
         K1) opts=(--set learning_rule=kolen-pollack --set rule.learning_rate=1e-4) ;;
         D1) opts=(--set learning_rule=direct-feedback-alignment "${EPS[@]}") ;;
+        G0) opts=(--set learning_rule=forward-forward) ;;
+        G1) opts=(--set learning_rule=forward-forward --set rule.objective=prediction) ;;
         *) echo "rules-screen.sh: unknown arm $1" >&2; exit 2 ;;
     esac
-    "$P" "$R/$1" 0 3000 "3000" "0" --preset main "${opts[@]}"
+    "$P" "$R/$1" 0 3000 "3000" "0" --preset main ${opts[@]+"${opts[@]}"}
 }
 
 mkdir -p "$R"
-for a in ${ARMS:-B0 F0 F1 B1 F2 B2 F3 B3 K1 D1}; do
+for a in ${ARMS:-B0 F0 F1 B1 F2 B2 F3 B3 K1 D1 G0 G1}; do
     echo "== rules-screen: arm $a ($(date -u +%FT%TZ))"
     arm "$a"
     if [ "$a" != B0 ] && [ -d "$R/B0/checkpoints/step_00003000" ] \
