@@ -171,7 +171,7 @@ fn under_the_prediction_objective_the_last_block_learns_from_the_true_error() {
         .zip(b.data())
         .map(|(x, y)| (x * y) as f64)
         .sum::<f64>()
-        / ((a.sum_sq() as f64).sqrt() * (b.sum_sq() as f64).sqrt());
+        / (a.sum_sq().sqrt() * b.sum_sq().sqrt());
     assert!(
         cos < 0.99,
         "d.inc's local gradient is backprop's: cos {cos}"
