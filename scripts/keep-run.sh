@@ -1,6 +1,7 @@
 #!/bin/bash
 # Keeps a stopped run in the repository so that it continues on another machine: its settings,
-# start, per-step metrics and newest checkpoint go to runs-kept/<GROUP>/<NAME>/ (about 3 MB for a
+# start, per-step metrics, newest checkpoint and the CMF-SIM readings a protocol arm has taken
+# (cmf-sim-step*/) go to runs-kept/<GROUP>/<NAME>/ (about 3 MB for a
 # quick-eye run). `colorvision train --resume --out DIR …` (or `colorvision resume DIR`) on a copy
 # of that folder continues the run from the kept checkpoint, bit for bit as if it had never
 # stopped (same thread count); scripts/fourth-screen.sh restores its arms from runs-kept/fourth/.
@@ -15,10 +16,13 @@ NEWEST=$(ls -d "$RUN"/checkpoints/step_* 2>/dev/null | sort | tail -1)
 DEST="$ROOT/runs-kept/$GROUP/$(basename "$RUN")"
 TMP=$(mktemp -d "$ROOT/runs-kept/.tmp.XXXXXX" 2>/dev/null || { mkdir -p "$ROOT/runs-kept"; mktemp -d "$ROOT/runs-kept/.tmp.XXXXXX"; })
 trap 'rm -rf "$TMP"' EXIT
-for f in config.toml run.json metrics.csv; do
+for f in config.toml run.json metrics.csv summary.json cmf_sim.json dimension.svg; do
     [ -f "$RUN/$f" ] && cp "$RUN/$f" "$TMP/"
 done
 mkdir "$TMP/checkpoints" && cp -r "$NEWEST" "$TMP/checkpoints/"
+for m in "$RUN"/cmf-sim-step*; do   # a protocol arm's CMF-SIM readings taken so far
+    [ -d "$m" ] && cp -r "$m" "$TMP/"
+done
 rm -rf "$DEST"
 mkdir -p "$(dirname "$DEST")"
 mv "$TMP" "$DEST"
