@@ -20,7 +20,7 @@ pub fn simulate(options: &CommonOptions) -> Result<(), RunError> {
     let config = options.resolve("quick")?;
     let out = run::out_dir(&config, options.out.as_ref(), "simulate");
     crate::run::folder::refuse_file(&out)?;
-    run::check_memory(&config, false)?;
+    run::check_estimate(&science::budget::estimate_eye(&config))?;
     let retina = crate::scene_bar::retina(config.retina.clone())?;
     let mut rng = <rand::rngs::StdRng as rand::SeedableRng>::seed_from_u64(config.seed);
     let mut written = Vec::new();
@@ -47,7 +47,7 @@ pub fn gamut(options: &CommonOptions) -> Result<(), RunError> {
     let config = options.resolve("quick")?;
     let out = run::out_dir(&config, options.out.as_ref(), "gamut");
     crate::run::folder::refuse_file(&out)?;
-    run::check_memory(&config, false)?;
+    run::check_estimate(&science::budget::estimate_eye(&config))?;
     let s = &config.cmf_sim;
     let tests = colorimetry::WavelengthGrid::linspace(
         s.test_range_nm.0,
@@ -212,7 +212,12 @@ pub fn cmf_sim(options: &CmfSimOptions) -> Result<(), RunError> {
         };
     }
     config.validate()?;
-    run::check_memory(&science::measure::measurement_config(&config), true)?;
+    let measured = science::measure::measurement_config(&config);
+    run::check_estimate(&science::budget::estimate_cmf_sim(
+        &measured,
+        kind,
+        rayon::current_num_threads(),
+    ))?;
     install_signals()?;
     crate::interrupt::during("CMF-SIM", "nothing was written");
     let stop = crate::interrupt::stop_flag();

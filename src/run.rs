@@ -155,7 +155,16 @@ pub const MEMORY_LIMIT_VAR: &str = "COLORVISION_MEMORY_LIMIT_MIB";
 /// Estimates the run's peak memory from its settings ([`science::budget`]), says it, and
 /// refuses the run, before anything is allocated or written, when it exceeds the limit.
 pub fn check_memory(config: &RunConfig, cmf_sim: bool) -> Result<(), RunError> {
-    let estimate = science::budget::estimate(config, cmf_sim, rayon::current_num_threads());
+    check_estimate(&science::budget::estimate(
+        config,
+        cmf_sim,
+        rayon::current_num_threads(),
+    ))
+}
+
+/// Says `estimate` and refuses, before anything is allocated or written, when it exceeds the
+/// limit ([`MEMORY_LIMIT_VAR`], else a share of the memory there is).
+pub fn check_estimate(estimate: &science::budget::Estimate) -> Result<(), RunError> {
     let mib = 1024.0 * 1024.0;
     let (limit, source) = match std::env::var(MEMORY_LIMIT_VAR) {
         Ok(v) => {
@@ -197,7 +206,7 @@ pub fn check_memory(config: &RunConfig, cmf_sim: bool) -> Result<(), RunError> {
             "none".to_string()
         }
     );
-    science::budget::check(&estimate, limit, &source)?;
+    science::budget::check(estimate, limit, &source)?;
     Ok(())
 }
 

@@ -13,8 +13,15 @@
 //! shows, readouts, per-location cache and solver states ([`cmf_sim`], `cmf_sim.location_pairs`
 //! × `cmf_sim.n_test_wavelengths` × `cmf_sim.max_primaries`), which CMF-SIM holds beside its
 //! decodes.
+//!
+//! Three estimates: [`estimate`] for a run (training, and CMF-SIM of its cortex when it
+//! measures), [`estimate_cmf_sim`] for `colorvision cmf-sim` of any observer (no training step;
+//! the search's buffers sized by that observer's readout, the cortex's decodes only for the
+//! cortex), and [`estimate_eye`] for the commands that build the eye alone (`simulate`,
+//! `gamut`: one scene pool).
 
 use crate::config::RunConfig;
+use crate::observer::ObserverKind;
 use retina::foveation::{ConeLayout, ConeSampler};
 
 pub mod cmf_sim;
@@ -131,7 +138,10 @@ pub fn estimate(config: &RunConfig, cmf_sim: bool, threads: usize) -> Estimate {
     // The larger of the measurements during training and the final one.
     let cmf_sim_bytes = if cmf_sim {
         [false, true]
-            .map(|last| cmf_sim::bytes(config, &config.cmf_settings(last), &layout))
+            .map(|last| {
+                let settings = config.cmf_settings(last);
+                cmf_sim::bytes(config, &settings, &layout, ObserverKind::Cortex)
+            })
             .into_iter()
             .fold(0.0, f64::max)
     } else {
@@ -145,6 +155,31 @@ pub fn estimate(config: &RunConfig, cmf_sim: bool, threads: usize) -> Estimate {
         flow_bytes: flow::bytes(config),
         cmf_sim_bytes,
     }
+}
+
+/// The estimate for a command that builds the eye alone (`simulate`, `gamut`): the fixed part
+/// and one scene pool (no held-out pool, no cortex, no CMF-SIM).
+pub fn estimate_eye(config: &RunConfig) -> Estimate {
+    let e = estimate(config, false, 1);
+    Estimate {
+        scenes_bytes: e.scenes_bytes / 2.0,
+        step_bytes: 0.0,
+        flow_bytes: 0.0,
+        ..e
+    }
+}
+
+/// The estimate for `colorvision cmf-sim` of observer `kind` through the eye of `config` (its
+/// `cmf_sim` settings), on `threads` threads: no training step; the cortex's decodes only for
+/// the cortex; the search's buffers sized by that observer's readout.
+pub fn estimate_cmf_sim(config: &RunConfig, kind: ObserverKind, threads: usize) -> Estimate {
+    let mut e = estimate(config, true, threads);
+    e.step_bytes = 0.0;
+    if kind != ObserverKind::Cortex {
+        e.decode_bytes = 0.0;
+    }
+    e.cmf_sim_bytes = cmf_sim::bytes(config, &config.cmf_sim, &layout(config), kind);
+    e
 }
 
 /// Fraction of the memory there is that a run may plan to take.
@@ -246,7 +281,7 @@ mod tests {
         let at = |pairs: usize| {
             let mut s = c.cmf_settings(true);
             s.location_pairs = pairs;
-            cmf_sim::bytes(&c, &s, &layout)
+            cmf_sim::bytes(&c, &s, &layout, ObserverKind::Cortex)
         };
         // More pairs, more shows and cached locations.
         assert!(at(8) > at(4), "{} {}", at(4), at(8));
@@ -263,18 +298,18 @@ mod tests {
         let layout = layout(&c);
         let s = c.cmf_settings(true);
         let rows = (s.n_test_wavelengths * s.location_pairs) as f64
-            * cmf_sim::readout_len(&c, &layout) as f64;
+            * cmf_sim::readout_len(&c, &layout, ObserverKind::Cortex) as f64;
         let at = |k: usize| {
             let mut s = s.clone();
             s.max_primaries = k;
-            cmf_sim::bytes(&c, &s, &layout)
+            cmf_sim::bytes(&c, &s, &layout, ObserverKind::Cortex)
         };
         // Each primary more: two Jacobian columns in every state and two readouts a row in the
         // Jacobian pass, f64.
         assert!(at(4) - at(3) >= 4.0 * rows * 8.0, "{} {}", at(3), at(4));
         let mut off = s.clone();
         off.front_end_jacobians = false;
-        assert!(cmf_sim::bytes(&c, &off, &layout) < at(s.max_primaries));
+        assert!(cmf_sim::bytes(&c, &off, &layout, ObserverKind::Cortex) < at(s.max_primaries));
     }
 
     #[test]
@@ -282,8 +317,27 @@ mod tests {
         // Measured (docs/memory-tops.md): one thread, `cmf-sim --run` on a 2 000-step
         // `--preset main --cones LMSQ,Q:506` checkpoint, location seed 0: peak 461 MiB.
         let c = RunConfig::preset("main", "LMSQ,Q:506").unwrap();
-        let e = estimate(&crate::measure::measurement_config(&c), true, 1).total_bytes() / MIB;
+        let m = crate::measure::measurement_config(&c);
+        let e = estimate_cmf_sim(&m, ObserverKind::Cortex, 1).total_bytes() / MIB;
         assert!((461.0..=1.3 * 461.0).contains(&e), "{e:.0} MiB");
+    }
+
+    #[test]
+    fn an_observer_without_a_cortex_is_estimated_by_its_own_readout() {
+        // The analytic observer at the top of location_pairs: one value per class a show, no
+        // decodes, no location cache. Measured (docs/memory-tops.md, `scripts/memory-tops.sh`):
+        // `cmf-sim --observer analytic --preset tiny --set cmf_sim.location_pairs=4096` peaked
+        // at 227 MiB resident. With the cortex's readout the estimate was 20 007 MiB, refusing
+        // the run; it must not fall below the peak (it is still 1.7 × above it).
+        let mut c = RunConfig::preset("tiny", "LMS").unwrap();
+        c.cmf_sim.location_pairs = 4096;
+        let m = crate::measure::measurement_config(&c);
+        let analytic = estimate_cmf_sim(&m, ObserverKind::Analytic, 1);
+        let cortex = estimate_cmf_sim(&m, ObserverKind::Cortex, 1);
+        assert_eq!(analytic.decode_bytes, 0.0);
+        assert!(analytic.cmf_sim_bytes < cortex.cmf_sim_bytes / 10.0);
+        let e = analytic.total_bytes() / MIB;
+        assert!((227.0..1000.0).contains(&e), "{e:.0} MiB");
     }
 
     #[test]

@@ -27,7 +27,7 @@
 //! a quick reading's peak as it was (docs/memory-tops.md).
 
 use crate::config::RunConfig;
-use crate::observer::Readout;
+use crate::observer::{oracle::ORACLE_PERCEPT_DIM, ObserverKind, Readout};
 use colorimetry::cmf_sim::CmfSimSettings;
 use retina::foveation::ConeLayout;
 
@@ -54,20 +54,39 @@ fn readout_samples(config: &RunConfig, layout: &ConeLayout) -> usize {
     readout.samples()
 }
 
-/// Length of one show's readout, f64s: samples × percept channels.
-pub fn readout_len(config: &RunConfig, layout: &ConeLayout) -> usize {
-    readout_samples(config, layout) * config.cortex.percept_dim()
+/// Length of one show's readout by observer `kind`, f64s: samples × the decoder's percept
+/// channels (`science::observer::Decoder::dim`), or the cone classes of the analytic observer
+/// (no mosaic, one value per class).
+pub fn readout_len(config: &RunConfig, layout: &ConeLayout, kind: ObserverKind) -> usize {
+    let samples = readout_samples(config, layout);
+    match kind {
+        ObserverKind::Cortex => samples * config.cortex.percept_dim(),
+        ObserverKind::Identity | ObserverKind::Cones => samples,
+        ObserverKind::Oracle | ObserverKind::OracleMosaic => samples * ORACLE_PERCEPT_DIM,
+        ObserverKind::Analytic => classes(config),
+    }
 }
 
-/// Bytes CMF-SIM with `settings` holds beyond the decodes, on the cortex of `config`.
-pub fn bytes(config: &RunConfig, settings: &CmfSimSettings, layout: &ConeLayout) -> f64 {
-    let r = &config.retina;
-    let classes = retina::MosaicSpec::parse(&config.cones)
+/// The cone classes of `config`'s eye.
+fn classes(config: &RunConfig) -> usize {
+    retina::MosaicSpec::parse(&config.cones)
         .map(|s| s.class_names().len())
-        .unwrap_or(3) as f64;
+        .unwrap_or(3)
+}
+
+/// Bytes CMF-SIM with `settings` holds beyond the decodes, on observer `kind` through the eye
+/// of `config` (the analytic observer has no eye, so no per-location cache).
+pub fn bytes(
+    config: &RunConfig,
+    settings: &CmfSimSettings,
+    layout: &ConeLayout,
+    kind: ObserverKind,
+) -> f64 {
+    let r = &config.retina;
+    let classes = classes(config) as f64;
     let n2 = (r.cones_per_side as f64).powi(2);
     let samples = readout_samples(config, layout) as f64;
-    let readout_len = readout_len(config, layout) as f64;
+    let readout_len = readout_len(config, layout, kind) as f64;
     let pairs = settings.n_test_wavelengths as f64 * settings.location_pairs as f64;
     let shows = 3.0 * pairs;
     let base = shows * (SHOW_BYTES + 8.0 * readout_len)
@@ -76,7 +95,10 @@ pub fn bytes(config: &RunConfig, settings: &CmfSimSettings, layout: &ConeLayout)
     let locations = 2.0 * pairs;
     let basis = classes * n2 * 4.0;
     let limit = crate::observer::CACHE_LIMIT_BYTES as f64;
-    let cached = locations.min((limit / basis).floor());
+    let cached = match kind {
+        ObserverKind::Analytic => 0.0,
+        _ => locations.min((limit / basis).floor()),
+    };
     let cache = cached * (basis + ENTRY_BYTES + samples * 8.0);
     let grid_len = config.retina.grid.grid().map(|g| g.len()).unwrap_or(0) as f64;
     base + cache + search_bytes(settings, classes, pairs, readout_len, grid_len)
