@@ -177,6 +177,7 @@ pub fn estimate_cmf_sim(config: &RunConfig, kind: ObserverKind, threads: usize) 
     e.step_bytes = 0.0;
     if kind != ObserverKind::Cortex {
         e.decode_bytes = 0.0;
+        e.flow_bytes = 0.0;
     }
     e.cmf_sim_bytes = cmf_sim::bytes(config, &config.cmf_sim, &layout(config), kind);
     e
@@ -328,7 +329,8 @@ mod tests {
         // decodes, no location cache. Measured (docs/memory-tops.md, `scripts/memory-tops.sh`):
         // `cmf-sim --observer analytic --preset tiny --set cmf_sim.location_pairs=4096` peaked
         // at 227 MiB resident. With the cortex's readout the estimate was 20 007 MiB, refusing
-        // the run; it must not fall below the peak (it is still 1.7 × above it).
+        // the run. It must not fall below the peak; it is 1.7 × above it (the aim, 1.3 ×, is
+        // not met yet: docs/memory-tops.md), and twice the peak bounds it against regressions.
         let mut c = RunConfig::preset("tiny", "LMS").unwrap();
         c.cmf_sim.location_pairs = 4096;
         let m = crate::measure::measurement_config(&c);
@@ -337,7 +339,7 @@ mod tests {
         assert_eq!(analytic.decode_bytes, 0.0);
         assert!(analytic.cmf_sim_bytes < cortex.cmf_sim_bytes / 10.0);
         let e = analytic.total_bytes() / MIB;
-        assert!((227.0..1000.0).contains(&e), "{e:.0} MiB");
+        assert!((227.0..=2.0 * 227.0).contains(&e), "{e:.0} MiB");
     }
 
     #[test]

@@ -177,3 +177,22 @@ fn under_the_prediction_objective_the_last_block_learns_from_the_true_error() {
         "d.inc's local gradient is backprop's: cos {cos}"
     );
 }
+
+#[test]
+fn a_read_out_mixes_channels_once_then_repeats_each_pixel() {
+    // h (1, 2, 2, 2): channel 0 all 1, channel 1 all 2; read out to 2 channels at 4 × 4.
+    let mut tape = Tape::<f32>::new();
+    let h = Tensor::from_fn([1, 2, 2, 2], |i| if i < 4 { 1.0 } else { 2.0 });
+    let h = tape.constant(h);
+    let v = prediction::read_out(&mut tape, "D.inc", h, 2, 4);
+    assert_eq!(tape.shape(v).dims(), &[1, 2, 4, 4]);
+    let r = prediction::readout_weights("D.inc", 2, 2);
+    for j in 0..2 {
+        let want = r[j * 2] + 2.0 * r[j * 2 + 1];
+        let got = &tape.value(v).data()[j * 16..(j + 1) * 16];
+        assert!(
+            got.iter().all(|&x| (x - want).abs() < 1e-6),
+            "{j}: {got:?} vs {want}"
+        );
+    }
+}
