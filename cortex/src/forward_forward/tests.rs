@@ -14,14 +14,20 @@ fn the_wrong_motion_is_another_samples() {
     assert_eq!(wrong_motion(&[[1.0, -2.0]]), vec![[-1.0, 2.0]]);
 }
 
-/// The credit `rule` assigns on `batch`, with the local objectives when it asks (no update).
-fn credit(t: &mut Trainer, batch: &OnsBatch, rule: &mut dyn LearningRule<f32>) -> ParamGrads<f32> {
+/// The prediction of `batch` recorded on the trainer's tape: `(prediction, O_{t+1}, motion)`.
+fn record(t: &mut Trainer, batch: &OnsBatch) -> (Prediction, Var, MotionOut) {
     batch.frames(0, &mut t.frames[0]);
     batch.frames(1, &mut t.frames[1]);
     let motion = (t.cortex)
         .estimate_motion(&t.frames[0], &t.frames[1], batch.oracle_motion.as_deref())
         .unwrap();
     let (pred, o2) = t.record_frames((batch.batch, batch.n), &motion);
+    (pred, o2, motion)
+}
+
+/// The credit `rule` assigns on `batch`, with the local objectives when it asks (no update).
+fn credit(t: &mut Trainer, batch: &OnsBatch, rule: &mut dyn LearningRule<f32>) -> ParamGrads<f32> {
+    let (pred, o2, motion) = record(t, batch);
     if rule.needs_local_losses() {
         record_local_losses(
             &t.cortex,
@@ -143,12 +149,7 @@ fn under_the_prediction_objective_the_last_block_learns_from_the_true_error() {
     );
     // D's last block reads the percept itself: its gradient is backprop's of the prediction
     // loss (no other objective reaches it).
-    batch.frames(0, &mut t.frames[0]);
-    batch.frames(1, &mut t.frames[1]);
-    let motion = (t.cortex)
-        .estimate_motion(&t.frames[0], &t.frames[1], batch.oracle_motion.as_deref())
-        .unwrap();
-    let (pred, _) = t.record_frames((batch.batch, batch.n), &motion);
+    let (pred, _, _) = record(&mut t, &batch);
     let bp = Backprop.assign_credit(&mut t.tape, pred.main_loss.into(), &t.cortex.params);
     for name in ["d.outc.weight", "d.outc.bias", "d.up1.conv1.weight"] {
         let id = t.cortex.params.find(name).unwrap();
