@@ -122,7 +122,11 @@ pub fn convergence(options: &ConvergenceOptions) -> Result<(), RunError> {
     let mut runs = Vec::new();
     for dir in &options.run {
         let config = crate::run::folder::read_valid_config(dir)?;
-        run::check_memory(&config, options.cmf)?;
+        run::check_estimate(&science::budget::estimate_convergence(
+            &config,
+            options.cmf,
+            rayon::current_num_threads(),
+        ))?;
         println!(
             "colorvision convergence: {}{}",
             dir.display(),

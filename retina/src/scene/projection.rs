@@ -42,17 +42,7 @@ impl SceneProjection {
         grid: &WavelengthGrid,
     ) -> Result<Self> {
         let k = classes.len();
-        let mut plane_classes = classes.to_vec();
-        let mut reference_lms = [0usize; 3];
-        for (r, rc) in ConeClass::lms().into_iter().enumerate() {
-            reference_lms[r] = match plane_classes.iter().position(|c| *c == rc) {
-                Some(i) => i,
-                None => {
-                    plane_classes.push(ConeClass::custom(format!("ref_{}", rc.name), rc.peak_nm));
-                    plane_classes.len() - 1
-                }
-            };
-        }
+        let (plane_classes, reference_lms) = Self::planes_for(classes);
         let f = sensitivities(&plane_classes, template, grid)?;
         let projector = Projector::cones(&f);
         let cone_rgb = ConeRgb::fit(&f)?;
@@ -81,6 +71,24 @@ impl SceneProjection {
             white,
             lms_to_rgb,
         })
+    }
+
+    /// The planes a scene is projected onto for the mosaic `classes`: its classes, then the
+    /// reference L, M, S that are not among them (for ground truth); and where each reference
+    /// plane is.
+    pub fn planes_for(classes: &[ConeClass]) -> (Vec<ConeClass>, [usize; 3]) {
+        let mut plane_classes = classes.to_vec();
+        let mut reference_lms = [0usize; 3];
+        for (r, rc) in ConeClass::lms().into_iter().enumerate() {
+            reference_lms[r] = match plane_classes.iter().position(|c| *c == rc) {
+                Some(i) => i,
+                None => {
+                    plane_classes.push(ConeClass::custom(format!("ref_{}", rc.name), rc.peak_nm));
+                    plane_classes.len() - 1
+                }
+            };
+        }
+        (plane_classes, reference_lms)
     }
 
     /// Number of planes.

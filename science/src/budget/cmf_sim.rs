@@ -21,8 +21,16 @@
 //! - when a K passes, the resume states its converging copies from the tried sets (both sides'
 //!   readouts, `W·P·R·2` f64) while the originals are kept.
 //!
-//! The front end's shows end before the states begin, so the larger of the two counts. Not
-//! counted: the resume state every tried set keeps for each wavelength stopped below its
+//! The front end's shows end before the states begin, so the larger of the two counts. Step 1
+//! ends before the search begins: its shows and the readouts as returned are freed, the split
+//! readouts stay, so the larger of step 1 and (split readouts + search) counts. K is the most
+//! primaries the search can try: `max_primaries`, or for the analytic observer (an ideal eye,
+//! whose dimension is its classes by construction: any m independent primaries match every
+//! light exactly) at most its m classes, since the search stops at the first K that passes.
+//! Measured on the analytic observer at `location_pairs = 4096` (`tiny`, one thread; heap
+//! profile in docs/memory-tops.md): the Jacobian pass of K = 3 holds 2K shows per (wavelength,
+//! pair), their heap lines, its index and readouts, about 230 bytes a show with the vectors'
+//! growth, against the model's 208. Not counted: the resume state every tried set keeps for each wavelength stopped below its
 //! threshold (`2·P·R` f64 each); keeping only those of sets that can still be candidates left
 //! a quick reading's peak as it was (docs/memory-tops.md).
 
@@ -89,9 +97,9 @@ pub fn bytes(
     let readout_len = readout_len(config, layout, kind) as f64;
     let pairs = settings.n_test_wavelengths as f64 * settings.location_pairs as f64;
     let shows = 3.0 * pairs;
-    let base = shows * (SHOW_BYTES + 8.0 * readout_len)
-        + 2.0 * pairs * LINE_BYTES
-        + shows * 8.0 * readout_len;
+    // Step 1: the shows and their readouts as returned, then split (the split copy is kept).
+    let split = shows * 8.0 * readout_len;
+    let step1 = shows * (SHOW_BYTES + 8.0 * readout_len) + 2.0 * pairs * LINE_BYTES + split;
     let locations = 2.0 * pairs;
     let basis = classes * n2 * 4.0;
     let limit = crate::observer::CACHE_LIMIT_BYTES as f64;
@@ -101,22 +109,36 @@ pub fn bytes(
     };
     let cache = cached * (basis + ENTRY_BYTES + samples * 8.0);
     let grid_len = config.retina.grid.grid().map(|g| g.len()).unwrap_or(0) as f64;
-    base + cache + search_bytes(settings, classes, pairs, readout_len, grid_len)
+    let primaries = primaries_tried(settings, kind, classes);
+    // The analytic observer offers no linear front end (`Observer::linear_front_end`).
+    let front_end = settings.front_end_jacobians && kind != ObserverKind::Analytic;
+    let search = search_bytes(front_end, primaries, classes, pairs, readout_len, grid_len);
+    cache + step1.max(split + search)
 }
 
-/// Bytes of the search's solver (module docs) for `classes` cone classes over `pairs` = W·P
-/// (wavelength, location pair)s, each read as `readout_len` f64, on a grid of `grid_len`
-/// wavelengths.
+/// The most primaries CMF-SIM may try on observer `kind` with `classes` cone classes: its
+/// `max_primaries`, or at most the classes for the analytic observer (module docs).
+fn primaries_tried(settings: &CmfSimSettings, kind: ObserverKind, classes: f64) -> f64 {
+    let k = settings.max_primaries as f64;
+    match kind {
+        ObserverKind::Analytic => k.min(classes),
+        _ => k,
+    }
+}
+
+/// Bytes of the search's solver (module docs) trying up to `k` primaries, with the front end's
+/// model when `front_end`, for `classes` cone classes over `pairs` = W·P (wavelength, location
+/// pair)s, each read as `readout_len` f64, on a grid of `grid_len` wavelengths.
 fn search_bytes(
-    settings: &CmfSimSettings,
+    front_end: bool,
+    k: f64,
     classes: f64,
     pairs: f64,
     readout_len: f64,
     grid_len: f64,
 ) -> f64 {
-    let k = settings.max_primaries as f64;
     let rows = pairs * readout_len;
-    let (front_end_kept, front_end_shows) = if settings.front_end_jacobians {
+    let (front_end_kept, front_end_shows) = if front_end {
         let shows = pairs * 2.0 * classes;
         (
             rows * (2.0 * classes + 1.0) * 8.0,

@@ -1,0 +1,173 @@
+//! The estimate's parts against their settings and measured peaks.
+
+use super::*;
+
+#[test]
+fn every_part_grows_with_the_settings_that_drive_it() {
+    let base = RunConfig::preset("quick", "LMS").unwrap();
+    let e = estimate(&base, true, 2);
+    let mut c = base.clone();
+    c.retina.scenes.tiles *= 2;
+    assert!((estimate(&c, true, 2).scenes_bytes - 2.0 * e.scenes_bytes).abs() < 1.0);
+    let mut c = base.clone();
+    c.cortex.train.batch_size *= 2;
+    assert!((estimate(&c, true, 2).step_bytes - 2.0 * e.step_bytes).abs() < 1.0);
+    assert_eq!(estimate(&base, false, 2).decode_bytes, 0.0);
+    assert!(estimate(&base, true, 4).decode_bytes > e.decode_bytes);
+}
+
+#[test]
+fn the_flow_part_counts_the_parameters_realnvp_makes() {
+    let mut c = RunConfig::preset("tiny", "LMS").unwrap();
+    for hidden in [16, 64] {
+        c.cortex.p.hidden = hidden;
+        let mut store = autodiff::ParamStore::<f32>::new();
+        let flow = autodiff::nn::realnvp::RealNvp::new(
+            &mut store,
+            "p",
+            autodiff::nn::realnvp::RealNvpConfig {
+                blocks: c.cortex.p.couplings,
+                hidden,
+                log_scale_bound: None,
+            },
+            &mut <rand::rngs::StdRng as rand::SeedableRng>::seed_from_u64(0),
+        );
+        let params_bytes = 4.0 * flow.num_params() as f64;
+        let per_coupling = params_bytes / c.cortex.p.couplings as f64;
+        let points = (c.cortex.train.batch_size * c.cortex.ons_size_px.pow(2)) as f64;
+        let partials = (points / autodiff::nn::coupling::BLOCK as f64).ceil() * per_coupling;
+        assert!((flow::bytes(&c) - (10.0 * params_bytes + partials)).abs() < 1.0);
+    }
+}
+
+#[test]
+fn the_cmf_sim_part_grows_with_the_pairs_and_holds_the_measured_top() {
+    let c = RunConfig::preset("tiny", "LMS").unwrap();
+    let layout = layout(&c);
+    let at = |pairs: usize| {
+        let mut s = c.cmf_settings(true);
+        s.location_pairs = pairs;
+        cmf_sim::bytes(&c, &s, &layout, ObserverKind::Cortex)
+    };
+    // More pairs, more shows and cached locations.
+    assert!(at(8) > at(4), "{} {}", at(4), at(8));
+    // At the top of its range the estimate must not fall below what was measured there: a
+    // tiny run with 4 096 location pairs had reached 2 375 MiB when it was stopped
+    // unfinished (docs/memory-tops.md), a lower bound on its peak.
+    let top = at(4096);
+    assert!(top >= 2375.0 * 1024.0 * 1024.0, "{top} bytes");
+}
+
+#[test]
+fn the_cmf_sim_part_counts_the_solvers_states_per_primary() {
+    let c = RunConfig::preset("quick", "LMSQ,Q:506").unwrap();
+    let layout = layout(&c);
+    let s = c.cmf_settings(true);
+    let rows = (s.n_test_wavelengths * s.location_pairs) as f64
+        * cmf_sim::readout_len(&c, &layout, ObserverKind::Cortex) as f64;
+    let at = |k: usize| {
+        let mut s = s.clone();
+        s.max_primaries = k;
+        cmf_sim::bytes(&c, &s, &layout, ObserverKind::Cortex)
+    };
+    // Each primary more: two Jacobian columns in every state and two readouts a row in the
+    // Jacobian pass, f64.
+    assert!(at(4) - at(3) >= 4.0 * rows * 8.0, "{} {}", at(3), at(4));
+    let mut off = s.clone();
+    off.front_end_jacobians = false;
+    assert!(cmf_sim::bytes(&c, &off, &layout, ObserverKind::Cortex) < at(s.max_primaries));
+}
+
+#[test]
+fn a_quick_tetrachromat_reading_is_estimated_at_its_measured_peak() {
+    // Measured (docs/memory-tops.md): one thread, `cmf-sim --run` on a 2 000-step
+    // `--preset main --cones LMSQ,Q:506` checkpoint, location seed 0: peak 461 MiB.
+    let c = RunConfig::preset("main", "LMSQ,Q:506").unwrap();
+    let m = crate::measure::measurement_config(&c);
+    let e = estimate_cmf_sim(&m, ObserverKind::Cortex, 1).total_bytes() / MIB;
+    assert!((461.0..=1.3 * 461.0).contains(&e), "{e:.0} MiB");
+}
+
+#[test]
+fn an_observer_without_a_cortex_is_estimated_by_its_own_readout() {
+    // The analytic observer at the top of location_pairs: one value per class a show, no
+    // decodes, no location cache, no front end, at most as many primaries as classes.
+    // Measured (docs/memory-tops.md, `scripts/memory-tops.sh`): `cmf-sim --observer
+    // analytic --preset tiny --set cmf_sim.location_pairs=4096` peaked at 227–232 MiB
+    // resident. With the cortex's readout the estimate was 20 007 MiB, refusing the run.
+    let mut c = RunConfig::preset("tiny", "LMS").unwrap();
+    c.cmf_sim.location_pairs = 4096;
+    let m = crate::measure::measurement_config(&c);
+    let analytic = estimate_cmf_sim(&m, ObserverKind::Analytic, 1);
+    let cortex = estimate_cmf_sim(&m, ObserverKind::Cortex, 1);
+    assert_eq!(analytic.decode_bytes, 0.0);
+    assert!(analytic.cmf_sim_bytes < cortex.cmf_sim_bytes / 10.0);
+    let e = analytic.total_bytes() / MIB;
+    assert!((232.0..=1.3 * 227.0).contains(&e), "{e:.0} MiB");
+}
+
+#[test]
+fn the_scene_pools_are_estimated_at_their_measured_peaks() {
+    // Measured (docs/memory-tops.md, one thread, `/usr/bin/time -v`): `simulate --preset
+    // tiny --set retina.scenes.tiles=2000` peaked at 678 MiB (one pool); `run --preset tiny
+    // --steps 1 --set retina.scenes.tiles=1000` at 1 023 MiB (three pools of 316 MiB in its
+    // heap profile).
+    let mut c = RunConfig::preset("tiny", "LMS").unwrap();
+    c.retina.scenes.tiles = 2000;
+    let eye = estimate_eye(&c).total_bytes() / MIB;
+    assert!((678.0..=1.3 * 678.0).contains(&eye), "{eye:.0} MiB");
+    c.retina.scenes.tiles = 1000;
+    c.steps = 1;
+    let run = estimate(&c, true, 1).total_bytes() / MIB;
+    assert!((1023.0..=1.3 * 1023.0).contains(&run), "{run:.0} MiB");
+    // A dichromat's scenes also carry the reference plane its eye lacks.
+    let lm = RunConfig::preset("tiny", "LM").unwrap();
+    let lms = RunConfig::preset("tiny", "LMS").unwrap();
+    assert_eq!(
+        estimate(&lm, true, 1).scenes_bytes,
+        estimate(&lms, true, 1).scenes_bytes
+    );
+}
+
+#[test]
+fn convergence_takes_no_step_and_holds_one_pool() {
+    let c = RunConfig::preset("quick", "LMS").unwrap();
+    let run = estimate(&c, true, 2);
+    let study = estimate_convergence(&c, true, 2);
+    assert_eq!(study.step_bytes, 0.0);
+    assert!((study.scenes_bytes * RUN_SCENE_POOLS - run.scenes_bytes).abs() < 1.0);
+    assert_eq!(study.cmf_sim_bytes, {
+        let layout = layout(&c);
+        cmf_sim::bytes(&c, &c.cmf_sim, &layout, ObserverKind::Cortex)
+    });
+    assert_eq!(estimate_convergence(&c, false, 2).cmf_sim_bytes, 0.0);
+}
+
+#[test]
+fn a_run_over_the_limit_is_refused_naming_what_drives_it() {
+    let mut c = RunConfig::preset("tiny", "LMS").unwrap();
+    c.retina.scenes.tiles = 1_000_000;
+    let e = estimate(&c, true, 2);
+    let msg = check(&e, 8.0 * 1024.0 * MIB, "a test")
+        .unwrap_err()
+        .to_string();
+    assert!(
+        msg.contains("retina.scenes.tiles") && msg.contains("MiB"),
+        "{msg}"
+    );
+    assert!(!msg.contains('\n'));
+    assert!(check(
+        &estimate(&RunConfig::preset("tiny", "LMS").unwrap(), true, 2),
+        8.0 * 1024.0 * MIB,
+        "a test"
+    )
+    .is_ok());
+}
+
+#[test]
+fn the_memory_there_is_is_read_on_linux() {
+    if cfg!(target_os = "linux") {
+        let (bytes, _) = memory_available().expect("readable on Linux");
+        assert!(bytes > 1e6, "{bytes}");
+    }
+}
