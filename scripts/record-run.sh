@@ -2,7 +2,8 @@
 # Copies the record of a finished run folder into results/NAME: its settings, start, summary,
 # final CMF-SIM and dimension plot (and, when measured, its convergence table, the CMF-SIM of
 # its checkpoints, the figure of its checkpoints' averaged weights, its CMFs against Stiles &
-# Burch, and a protocol arm's CMF-SIM per checkpoint and location seed), and record.json
+# Burch, and a protocol arm's CMF-SIM per checkpoint and location seed, whose median
+# dimension at the final step its summary.json then says as `protocol_reading`), and record.json
 # naming the folder it was trained in (so that `gather` names a run continued from that folder
 # by this record) — the small files the README's tables are generated from
 # (`colorvision gather results --markdown`). PROTOCOL, when given, names the protocol that fixed
@@ -54,6 +55,24 @@ for m in "$RUN"/cmf-sim-step*-loc*/cmf_sim.json; do
     d=$(basename "$(dirname "$m")")
     mkdir -p "$TMP/$d" && cp "$m" "$TMP/$d/"
 done
+# A protocol arm trained without measuring itself (`train`): its summary says the dimension
+# its final checkpoint's readings give (the median over location seeds, as `gather` reads them).
+STEPS=$(grep -m1 -o '"steps": *[0-9]*' "$TMP/summary.json" | grep -o '[0-9]*$')
+READINGS=""
+for m in "$TMP"/cmf-sim-step"$STEPS"-loc*/cmf_sim.json; do
+    [ -f "$m" ] || continue
+    L=$(basename "$(dirname "$m")" | sed 's/.*-loc//')
+    D=$(grep -m1 -o '"dimension": *[0-9]*' "$m" | grep -o '[0-9]*$')
+    READINGS="$READINGS$L $D"$'\n'
+done
+if [ -n "$READINGS" ] && grep -q '^  "dimension": 0,' "$TMP/summary.json"; then
+    MEDIAN=$(printf '%s' "$READINGS" | awk '{print $2}' | sort -n \
+        | awk '{v[NR]=$1} END {print (NR % 2) ? v[(NR+1)/2] : (v[NR/2]+v[NR/2+1])/2}')
+    SEEDS=$(printf '%s' "$READINGS" | sort -n | awk '{printf "%s[%s, %s]", (NR>1?", ":""), $1, $2}')
+    LINE="  \"protocol_reading\": {\"step\": $STEPS, \"dimension\": $MEDIAN, \"location_seeds\": [$SEEDS], \"files\": \"cmf-sim-step$STEPS-loc<L>/cmf_sim.json\"},"
+    awk -v line="$LINE" 'NR == 1 {print; print line; next} {print}' "$TMP/summary.json" \
+        > "$TMP/summary.tmp" && mv "$TMP/summary.tmp" "$TMP/summary.json"
+fi
 if [ -f "$RUN/stiles-burch/table.json" ]; then
     mkdir "$TMP/stiles-burch" && cp "$RUN/stiles-burch/table.json" "$TMP/stiles-burch/"
 fi
