@@ -56,18 +56,22 @@ for m in "$RUN"/cmf-sim-step*-loc*/cmf_sim.json; do
     mkdir -p "$TMP/$d" && cp "$m" "$TMP/$d/"
 done
 # A protocol arm trained without measuring itself (`train`): its summary says the dimension
-# its final checkpoint's readings give (the median over location seeds, as `gather` reads them).
+# its final checkpoint's readings give, the median over an odd number (three or more) of
+# location seeds, as `gather` reads them (`cmf-sim-step<N>-loc<L>/`, L an integer).
 STEPS=$(grep -m1 -o '"steps": *[0-9]*' "$TMP/summary.json" | grep -o '[0-9]*$')
 READINGS=""
 for m in "$TMP"/cmf-sim-step"$STEPS"-loc*/cmf_sim.json; do
     [ -f "$m" ] || continue
     L=$(basename "$(dirname "$m")" | sed 's/.*-loc//')
     D=$(grep -m1 -o '"dimension": *[0-9]*' "$m" | grep -o '[0-9]*$')
+    [[ "$L" =~ ^[0-9]+$ && -n "$D" ]] || continue
     READINGS="$READINGS$L $D"$'\n'
 done
-if [ -n "$READINGS" ] && grep -q '^  "dimension": 0,' "$TMP/summary.json"; then
+COUNT=$(printf '%s' "$READINGS" | grep -c . || true)
+if [ "$COUNT" -ge 3 ] && [ $((COUNT % 2)) -eq 1 ] \
+    && grep -q '^  "dimension": 0,' "$TMP/summary.json"; then
     MEDIAN=$(printf '%s' "$READINGS" | awk '{print $2}' | sort -n \
-        | awk '{v[NR]=$1} END {print (NR % 2) ? v[(NR+1)/2] : (v[NR/2]+v[NR/2+1])/2}')
+        | awk '{v[NR]=$1} END {print v[(NR+1)/2]}')
     SEEDS=$(printf '%s' "$READINGS" | sort -n | awk '{printf "%s[%s, %s]", (NR>1?", ":""), $1, $2}')
     LINE="  \"protocol_reading\": {\"step\": $STEPS, \"dimension\": $MEDIAN, \"location_seeds\": [$SEEDS], \"files\": \"cmf-sim-step$STEPS-loc<L>/cmf_sim.json\"},"
     awk -v line="$LINE" 'NR == 1 {print; print line; next} {print}' "$TMP/summary.json" \

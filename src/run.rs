@@ -154,12 +154,13 @@ pub const MEMORY_LIMIT_VAR: &str = "COLORVISION_MEMORY_LIMIT_MIB";
 
 /// Estimates the run's peak memory from its settings ([`science::budget`]), says it, and
 /// refuses the run, before anything is allocated or written, when it exceeds the limit.
-pub fn check_memory(config: &RunConfig, cmf_sim: bool) -> Result<(), RunError> {
-    check_estimate(&science::budget::estimate(
-        config,
-        cmf_sim,
-        rayon::current_num_threads(),
-    ))
+pub fn check_memory(config: &RunConfig, mode: RunMode) -> Result<(), RunError> {
+    let estimate = science::budget::estimate(config, mode.cmf_sim, rayon::current_num_threads());
+    check_estimate(&if mode.pictures {
+        estimate
+    } else {
+        science::budget::without_pictures(estimate)
+    })
 }
 
 /// Says `estimate` and refuses, before anything is allocated or written, when it exceeds the
@@ -221,7 +222,7 @@ pub fn run_in(
     origin: Origin<'_>,
 ) -> Result<Summary, RunError> {
     folder::refuse_file(out)?;
-    check_memory(config, mode.cmf_sim)?;
+    check_memory(config, mode)?;
     let _lock = lock::RunLock::acquire(out)?;
     let opened = folder::open(out, config, folder)?;
     if opened == Opened::Finished {

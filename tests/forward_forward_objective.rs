@@ -1,13 +1,14 @@
 //! Forward-forward's `rule.objective` end to end: chosen in a config file, it reaches the trainer
 //! (the two objectives train differently from the same start), every step's loss stays finite,
-//! the run records the setting, and a value it does not have is refused naming it.
+//! the run records the setting, and a value it does not have is refused naming the file, the
+//! value and the values it has.
 
 use colorvision::run::{run, RunMode};
 use science::config::{Overrides, RunConfig};
 use std::path::{Path, PathBuf};
 
 fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("cv_ff_objective_{name}_{}", std::process::id()));
+    let dir = std::env::temp_dir().join(format!("cv_ff_setting_{name}_{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
     dir
@@ -92,6 +93,9 @@ fn an_objective_forward_forward_does_not_have_is_refused_naming_it() {
     let path = dir.join("rule.toml");
     std::fs::write(&path, config("predict")).unwrap();
     let e = resolve(&path).unwrap_err();
-    assert!(e.contains("objective") && e.contains("predict"), "{e}");
+    assert!(
+        e.contains("rule.toml") && e.contains("`predict`") && e.contains("`prediction`"),
+        "{e}"
+    );
     std::fs::remove_dir_all(dir).ok();
 }

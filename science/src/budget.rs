@@ -8,18 +8,21 @@
 //! and the larger of a training step (the autodiff tape of a batch) and, when CMF-SIM runs, a
 //! decode of the observer (each thread's tape over `observer.decode_batch` shows); the two never
 //! overlap. The coefficients are peak resident memory measured on the `tiny` and `quick` presets
-//! (2 threads; `tests/memory_budget.rs` checks the estimate within ±30 % of the measured peak).
+//! (2 threads; `tests/memory_budget.rs` checks the estimate within ±30 % of the peak there, and
+//! peak ≤ estimate ≤ 1.3 × peak where a setting makes a part grow).
 //! Two parts that grow without bound at the tops of their ranges are modelled from their shapes
 //! instead: P's flow parameters and their copies ([`flow`], `cortex.p.hidden`), and CMF-SIM's
 //! shows, readouts, per-location cache and solver states ([`cmf_sim`], `cmf_sim.location_pairs`
 //! × `cmf_sim.n_test_wavelengths` × `cmf_sim.max_primaries`), which CMF-SIM holds beside its
 //! decodes.
 //!
-//! Three estimates: [`estimate`] for a run (training, and CMF-SIM of its cortex when it
-//! measures), [`estimate_cmf_sim`] for `colorvision cmf-sim` of any observer (no training step;
-//! the search's buffers sized by that observer's readout, the cortex's decodes only for the
-//! cortex), and [`estimate_eye`] for the commands that build the eye alone (`simulate`,
-//! `gamut`: one scene pool).
+//! Four estimates: [`estimate`] for a run (training, and CMF-SIM of its cortex when it
+//! measures; [`without_pictures`] for a run that draws none), [`estimate_cmf_sim`] for
+//! `colorvision cmf-sim` of any observer (no training step; the search's buffers sized by that
+//! observer's readout, the cortex's decodes only for the cortex), [`estimate_convergence`] for
+//! `colorvision convergence` (a checkpoint's trainer, the held-out pool, no step), and
+//! [`estimate_eye`] for the commands that build the eye alone (`simulate`, `gamut`: one scene
+//! pool).
 
 use crate::config::RunConfig;
 use crate::observer::ObserverKind;
@@ -65,7 +68,8 @@ pub fn decode_tape_bytes(decode_batch: usize, cones_per_side: usize) -> f64 {
 pub struct Estimate {
     /// The program and the per-cone structures.
     pub fixed_bytes: f64,
-    /// The training and held-out scene pools.
+    /// The scene pools the command holds at once, all of them (a run: training, held-out and
+    /// the pictures' held-out eye).
     pub scenes_bytes: f64,
     /// A training step's tape.
     pub step_bytes: f64,
@@ -90,7 +94,7 @@ impl Estimate {
     /// The parts in words, each with the settings that drive it.
     pub fn parts(&self) -> String {
         format!(
-            "scenes {:.0} MiB (retina.scenes.tiles × tile_px² × cone classes, per pool), training \
+            "scenes {:.0} MiB (pools × retina.scenes.tiles × tile_px² × planes × mip levels), training \
              step {:.0} MiB (cortex.train.batch_size × cones_per_side² × cortex.d.widths), \
              CMF-SIM decodes {:.0} MiB (observer.decode_batch × threads × cones_per_side²), \
              CMF-SIM shows, solver and location cache {:.0} MiB (cmf_sim.location_pairs × \
@@ -175,6 +179,15 @@ pub fn estimate(config: &RunConfig, cmf_sim: bool, threads: usize) -> Estimate {
         decode_bytes: decode,
         flow_bytes: flow::bytes(config),
         cmf_sim_bytes,
+    }
+}
+
+/// `estimate` of a run that draws no pictures: its training and held-out pools only (the third,
+/// a fresh held-out eye, is built for the pictures).
+pub fn without_pictures(estimate: Estimate) -> Estimate {
+    Estimate {
+        scenes_bytes: estimate.scenes_bytes * (RUN_SCENE_POOLS - 1.0) / RUN_SCENE_POOLS,
+        ..estimate
     }
 }
 

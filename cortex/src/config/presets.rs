@@ -1,6 +1,7 @@
 //! The five presets of [`CortexConfig`] (`tiny`, `quick`, `large`, `sandbox`, `paper`; see the
 //! parent module's docs), each default citing its source.
 
+use super::train::default_final_lr_fraction;
 use super::*;
 
 /// [`PConfig::log_scale_bound`] of every preset.

@@ -29,8 +29,8 @@
 //! light exactly) at most its m classes, since the search stops at the first K that passes.
 //! Measured on the analytic observer at `location_pairs = 4096` (`tiny`, one thread; heap
 //! profile in docs/memory-tops.md): the Jacobian pass of K = 3 holds 2K shows per (wavelength,
-//! pair), their heap lines, its index and readouts, about 230 bytes a show with the vectors'
-//! growth, against the model's 208. Not counted: the resume state every tried set keeps for each wavelength stopped below its
+//! pair) in a vector grown to the next power of two, its index of them (likewise), their heap
+//! lines and readouts: the model counts these shapes. Not counted: the resume state every tried set keeps for each wavelength stopped below its
 //! threshold (`2·P·R` f64 each); keeping only those of sets that can still be candidates left
 //! a quick reading's peak as it was (docs/memory-tops.md).
 
@@ -41,6 +41,9 @@ use retina::foveation::ConeLayout;
 
 /// A `Show` (stimulus enum 32, location 16, seed 8), bytes.
 const SHOW_BYTES: f64 = 56.0;
+/// An entry of the Jacobian pass's index of its shows (state, pair, primary, side, show),
+/// bytes.
+const INDEX_BYTES: f64 = 40.0;
 /// The heap line `(wavelength, intensity)` of a lit show: 16 bytes in the allocator's
 /// smallest chunk, bytes.
 const LINE_BYTES: f64 = 32.0;
@@ -149,7 +152,13 @@ fn search_bytes(
     };
     let states = rows * (5.0 + 2.0 * k) * 8.0;
     let converge_copies = rows * 2.0 * 8.0;
-    let jacobian_shows = pairs * 2.0 * k * (SHOW_BYTES + (k + 1.0) * LINE_BYTES);
+    // The pass's shows and its index of them are vectors grown by doubling: their capacity is
+    // the next power of two; each show's heap line holds up to max(K, 4) (wavelength,
+    // intensity) pairs and the allocator's header.
+    let n = pairs * 2.0 * k;
+    let capacity = 2f64.powf(n.max(1.0).log2().ceil());
+    let line = 16.0 * k.max(4.0) + 16.0;
+    let jacobian_shows = capacity * (SHOW_BYTES + INDEX_BYTES) + n * line;
     let jacobian_readouts = rows * 2.0 * k * 8.0;
     front_end_kept
         + front_end_shows.max(states + converge_copies + jacobian_shows + jacobian_readouts)

@@ -93,7 +93,7 @@ fn an_observer_without_a_cortex_is_estimated_by_its_own_readout() {
     // The analytic observer at the top of location_pairs: one value per class a show, no
     // decodes, no location cache, no front end, at most as many primaries as classes.
     // Measured (docs/memory-tops.md, `scripts/memory-tops.sh`): `cmf-sim --observer
-    // analytic --preset tiny --set cmf_sim.location_pairs=4096` peaked at 227–232 MiB
+    // analytic --preset tiny --set cmf_sim.location_pairs=4096` peaked at 227–239 MiB
     // resident. With the cortex's readout the estimate was 20 007 MiB, refusing the run.
     let mut c = RunConfig::preset("tiny", "LMS").unwrap();
     c.cmf_sim.location_pairs = 4096;
@@ -103,7 +103,7 @@ fn an_observer_without_a_cortex_is_estimated_by_its_own_readout() {
     assert_eq!(analytic.decode_bytes, 0.0);
     assert!(analytic.cmf_sim_bytes < cortex.cmf_sim_bytes / 10.0);
     let e = analytic.total_bytes() / MIB;
-    assert!((232.0..=1.3 * 227.0).contains(&e), "{e:.0} MiB");
+    assert!((239.0..=1.3 * 227.0).contains(&e), "{e:.0} MiB");
 }
 
 #[test]
@@ -130,17 +130,23 @@ fn the_scene_pools_are_estimated_at_their_measured_peaks() {
 }
 
 #[test]
-fn convergence_takes_no_step_and_holds_one_pool() {
-    let c = RunConfig::preset("quick", "LMS").unwrap();
-    let run = estimate(&c, true, 2);
-    let study = estimate_convergence(&c, true, 2);
+fn convergence_is_estimated_at_its_measured_peaks() {
+    // Measured (docs/memory-tops.md, one thread, `/usr/bin/time -v colorvision convergence
+    // --run DIR [--cmf]` on a `train --preset tiny --steps 20 --set
+    // cortex.train.checkpoint_every_steps=10` folder): 48 MiB without CMF-SIM, 77 MiB with it.
+    // The first is over 1.3 × by the fixed part (50 MiB modelled for every command).
+    let c = RunConfig::preset("tiny", "LMS").unwrap();
+    let bare = estimate_convergence(&c, false, 1).total_bytes() / MIB;
+    let with_cmf = estimate_convergence(&c, true, 1).total_bytes() / MIB;
+    assert!(bare >= 48.0, "{bare:.0} MiB");
+    assert!((77.0..=1.3 * 77.0).contains(&with_cmf), "{with_cmf:.0} MiB");
+    // No training step, and one pool: a third of a run's.
+    let study = estimate_convergence(&c, true, 1);
+    let run = estimate(&c, true, 1);
     assert_eq!(study.step_bytes, 0.0);
     assert!((study.scenes_bytes * RUN_SCENE_POOLS - run.scenes_bytes).abs() < 1.0);
-    assert_eq!(study.cmf_sim_bytes, {
-        let layout = layout(&c);
-        cmf_sim::bytes(&c, &c.cmf_sim, &layout, ObserverKind::Cortex)
-    });
-    assert_eq!(estimate_convergence(&c, false, 2).cmf_sim_bytes, 0.0);
+    let quiet = without_pictures(run.clone());
+    assert!((quiet.scenes_bytes * RUN_SCENE_POOLS - 2.0 * run.scenes_bytes).abs() < 1.0);
 }
 
 #[test]
