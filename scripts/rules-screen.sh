@@ -6,7 +6,7 @@
 # again continues: a stopped arm resumes from its newest checkpoint, finished work is skipped.
 # Two copies may run at once on different ARMS lists (e.g. ARMS="B0 F1 B1 F2 B2 G0" and
 # ARMS="F0 F3 B3 K1 D1 G1"); an arm that ends before B0 has its percept compared with B0's
-# when the script runs again.
+# when the script runs again. The stage-1 table: scripts/rules-screen-table.py.
 #
 # Usage: nice -n 10 scripts/rules-screen.sh
 #   ARMS="B0 F0" scripts/rules-screen.sh     runs only those arms, in that order
