@@ -17,30 +17,12 @@ P="$ROOT/scripts/protocol-arm.sh"
 R="$ROOT/runs/rules-screen"
 B=${COLORVISION:-$ROOT/target/release/colorvision}
 export COLORVISION=$B RAYON_NUM_THREADS=1
-FA=(--set learning_rule=feedback-alignment)
-SGD=(--set cortex.train.optimizer=sgd --set cortex.train.learning_rate=0.03
-     --set cortex.train.clip_global_norm=1)
-EPS=(--set cortex.train.adam_eps=1)
-GUARD=(--set cortex.loss.outside_field_weight=1)
+# shellcheck source=rules-arms.sh
+. "$ROOT/scripts/rules-arms.sh"
 
 arm() {
-    local opts
-    case "$1" in
-        B0) opts=() ;;
-        F0) opts=("${FA[@]}") ;;
-        F1) opts=("${FA[@]}" "${EPS[@]}") ;;
-        B1) opts=("${EPS[@]}") ;;
-        F2) opts=("${FA[@]}" "${SGD[@]}") ;;
-        B2) opts=("${SGD[@]}") ;;
-        F3) opts=("${FA[@]}" "${GUARD[@]}") ;;
-        B3) opts=("${GUARD[@]}") ;;
-        K1) opts=(--set learning_rule=kolen-pollack --set rule.learning_rate=1e-4) ;;
-        D1) opts=(--set learning_rule=direct-feedback-alignment "${EPS[@]}") ;;
-        G0) opts=(--set learning_rule=forward-forward) ;;
-        G1) opts=(--set learning_rule=forward-forward --set rule.objective=prediction) ;;
-        *) echo "rules-screen.sh: unknown arm $1" >&2; exit 2 ;;
-    esac
-    "$P" "$R/$1" 0 3000 "3000" "0" --preset main ${opts[@]+"${opts[@]}"}
+    arm_options "$1" || exit 2
+    "$P" "$R/$1" 0 3000 "3000" "0" --preset main ${OPTS[@]+"${OPTS[@]}"}
 }
 
 mkdir -p "$R"
