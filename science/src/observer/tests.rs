@@ -160,3 +160,42 @@ fn windowed_cortex_percepts_equal_whole_field_ones() {
     assert!(b.iter().any(|&v| v != 0.0), "the percepts are all zero");
     assert_close(&a, &b, "windowed vs whole field");
 }
+
+#[test]
+fn a_cortex_percept_does_not_depend_on_the_shows_decoded_with_it() {
+    // CMF-SIM's passes may group shows differently (rounds, converging copies): each show's
+    // percept must be the same to the last bit whether decoded alone or in a batch.
+    let config = RunConfig::preset("quick", "LMS").unwrap();
+    let retina: &'static Retina = Box::leak(Box::new(Retina::new(config.retina.clone()).unwrap()));
+    let mut cortex = Cortex::new(config.cortex.clone()).unwrap();
+    let ids: Vec<_> = cortex.params.ids().collect();
+    let mut k = 11u32;
+    for id in ids {
+        for v in cortex.params.get_mut(id).data_mut() {
+            k = k.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            *v += ((k >> 8) as f32 / (1u32 << 24) as f32 - 0.5) * 0.2;
+        }
+    }
+    let cortex: &'static Cortex = Box::leak(Box::new(cortex));
+    let settings = ObserverSettings::default();
+    let make = move || EyeObserver::cortex(retina, cortex, settings.clone());
+    // 20 shows: a batch of `decode_batch` (16) and smaller ones, against one show at a time.
+    let shows: Vec<Show> = (0..5)
+        .flat_map(|r| {
+            shows().into_iter().map(move |mut s| {
+                s.location = [s.location[0] + 0.05 * r as f64, s.location[1]];
+                s
+            })
+        })
+        .collect();
+    let dim = make().percept_dim();
+    let mut batched = vec![0.0; shows.len() * dim];
+    make().percepts(&shows, &mut batched);
+    let alone = one_by_one(&make, &shows);
+    assert!(
+        batched.iter().any(|&v| v != 0.0),
+        "the percepts are all zero"
+    );
+    let differ = batched.iter().zip(&alone).filter(|(a, b)| a != b).count();
+    assert_eq!(differ, 0, "{differ} of {} values differ", batched.len());
+}
