@@ -196,6 +196,26 @@ fn resume_with_more_steps_extends_a_finished_run_like_a_longer_one() {
         "{}",
         text(&o)
     );
+    // A finished folder without its per-step log (as a record keeps it) is refused before
+    // anything in it changes: its summary and config stay as they were.
+    std::fs::remove_file(dir.join("short/metrics.csv")).unwrap();
+    let config = std::fs::read_to_string(dir.join("short/config.toml")).unwrap();
+    let o = colorvision(&dir, &["resume", "short", "--steps", "7"]);
+    assert!(!o.status.success());
+    assert!(
+        text(&o).contains("metrics.csv") && text(&o).contains("missing"),
+        "{}",
+        text(&o)
+    );
+    assert_eq!(text(&o).trim().lines().count(), 1, "{}", text(&o));
+    assert_eq!(
+        std::fs::read_to_string(dir.join("short/summary.json")).unwrap(),
+        summary
+    );
+    assert_eq!(
+        std::fs::read_to_string(dir.join("short/config.toml")).unwrap(),
+        config
+    );
     std::fs::remove_dir_all(&dir).unwrap();
 }
 

@@ -144,6 +144,18 @@ fn extend_run(dir: &Path, config: &mut RunConfig, steps: u64) -> Result<(), RunE
     if steps == old {
         return Ok(());
     }
+    // Continuing needs the per-step log up to the checkpoint (`run::open` restores it); a
+    // record in results/ keeps none. Said before anything in the folder changes.
+    let metrics = dir.join("metrics.csv");
+    if !metrics.is_file() {
+        return Err(RunError::Folder {
+            path: metrics,
+            reason: "is missing: a run is extended from its per-step log and its newest \
+                     checkpoint (a record in results/ keeps no per-step log; extend the run \
+                     folder it was trained in)"
+                .into(),
+        });
+    }
     config.steps = steps;
     config.cortex.train.steps = steps;
     config.validate()?;
