@@ -24,6 +24,12 @@ HUE=(--set retina.scenes.tetra.environment=HueSphere --set retina.scenes.tetra.f
 
 continue_to() { # folder of a finished run, copy, steps: the A2 arms
     [ -d "$2/checkpoints/step_$(printf %08d "$3")" ] && return 0
+    if [ ! -d "$2" ] && [ ! -f "$1/metrics.csv" ]; then
+        echo "fourth-screen.sh: $(basename "$2") continues $1, which is not here with its" \
+            "per-step log: run its arm first (e.g. ARMS=\"A0 A2a A2b\"; training is" \
+            "deterministic, so it is the same run)" >&2
+        exit 1
+    fi
     [ -d "$2" ] || cp -r "$1" "$2"
     "$B" resume "$2" --steps "$3"
 }
