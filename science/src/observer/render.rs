@@ -87,14 +87,6 @@ impl EyeObserver<'_> {
         let (mut ons_basis, mut readout_basis) = (Vec::new(), Vec::new());
         if self.settings.noise_ratio == 0.0 {
             let (k, dim) = (self.retina.classes_read(), self.decoder.dim());
-            // Their exact sizes, reserved once: grown plane by plane, a vector of three planes
-            // would hold four (its capacity doubles), a quarter more of the cache than counted.
-            if self.decoder.is_linear() {
-                readout_basis.reserve_exact(k * self.readout.len(dim));
-            } else {
-                let n = self.retina.n();
-                ons_basis.reserve_exact(k * n * n);
-            }
             for c in 0..k {
                 let mut unit = vec![0.0; c + 1];
                 unit[c] = 1.0;
