@@ -3,24 +3,10 @@
 //! the run records the setting, and a value it does not have is refused naming the file, the
 //! value and the values it has.
 
+mod common;
+
 use colorvision::run::{run, RunMode};
-use science::config::{Overrides, RunConfig};
-use std::path::{Path, PathBuf};
-
-fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("cv_ff_setting_{name}_{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
-
-fn resolve(path: &Path) -> Result<RunConfig, String> {
-    let options = Overrides {
-        config: Some(path.to_path_buf()),
-        ..Overrides::default()
-    };
-    RunConfig::resolve(&options, "quick").map_err(|e| e.to_string())
-}
+use std::path::Path;
 
 fn config(objective: &str) -> String {
     format!(
@@ -47,7 +33,7 @@ fn losses(dir: &Path) -> Vec<f64> {
 fn trained(dir: &Path, objective: &str) -> Vec<f64> {
     let path = dir.join(format!("{objective}.toml"));
     std::fs::write(&path, config(objective)).unwrap();
-    let config = resolve(&path).unwrap();
+    let config = common::resolve_config_file(&path).unwrap();
     let mode = RunMode {
         cmf_sim: false,
         pictures: false,
@@ -65,7 +51,7 @@ fn trained(dir: &Path, objective: &str) -> Vec<f64> {
 
 #[test]
 fn the_objective_setting_reaches_the_trainer_and_is_recorded() {
-    let dir = scratch("objectives");
+    let dir = common::scratch_dir("ff_setting", "objectives");
     let goodness = trained(&dir, "goodness");
     let prediction = trained(&dir, "prediction");
     assert_eq!(goodness.len(), 6);
@@ -89,10 +75,10 @@ fn the_objective_setting_reaches_the_trainer_and_is_recorded() {
 
 #[test]
 fn an_objective_forward_forward_does_not_have_is_refused_naming_it() {
-    let dir = scratch("bad");
+    let dir = common::scratch_dir("ff_setting", "bad");
     let path = dir.join("rule.toml");
     std::fs::write(&path, config("predict")).unwrap();
-    let e = resolve(&path).unwrap_err();
+    let e = common::resolve_config_file(&path).unwrap_err();
     assert!(
         e.contains("rule.toml") && e.contains("`predict`") && e.contains("`prediction`"),
         "{e}"

@@ -10,28 +10,12 @@ mod common;
 mod rule;
 
 use colorvision::run::{run, RunMode};
-use science::config::{Overrides, RunConfig};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::sync::Once;
 
 fn registered() {
     static ONCE: Once = Once::new();
     ONCE.call_once(|| cortex::rule::register(rule::entry()).unwrap());
-}
-
-fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("cv_rule_registry_{name}_{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
-
-fn resolve(path: &Path) -> Result<RunConfig, String> {
-    let options = Overrides {
-        config: Some(path.to_path_buf()),
-        ..Overrides::default()
-    };
-    RunConfig::resolve(&options, "quick").map_err(|e| e.to_string())
 }
 
 const CONFIG: &str = "preset = \"tiny\"\nsteps = 4\nlearning_rule = \"noisy-feedback\"\n\
@@ -40,13 +24,13 @@ const CONFIG: &str = "preset = \"tiny\"\nsteps = 4\nlearning_rule = \"noisy-feed
 #[test]
 fn a_registered_rule_is_selected_from_a_config_file_and_trains() {
     registered();
-    let dir = scratch("config");
+    let dir = common::scratch_dir("rule_registry", "config");
     let path = dir.join("rule.toml");
     std::fs::write(&path, CONFIG).unwrap();
-    let config = resolve(&path).unwrap();
+    let config = common::resolve_config_file(&path).unwrap();
     assert_eq!(config.learning_rule.as_str(), "noisy-feedback");
     std::fs::write(&path, CONFIG.replace("noise =", "nois =")).unwrap();
-    let e = resolve(&path).unwrap_err();
+    let e = common::resolve_config_file(&path).unwrap_err();
     assert!(e.contains("rule.toml") && e.contains("nois"), "{e}");
 
     let mode = RunMode {
@@ -68,7 +52,7 @@ fn a_registered_rule_is_selected_from_a_config_file_and_trains() {
 #[test]
 fn a_registered_rule_sweeps_by_name() {
     registered();
-    let dir = scratch("sweep");
+    let dir = common::scratch_dir("rule_registry", "sweep");
     let spec = dir.join("spec.toml");
     std::fs::write(
         &spec,
@@ -98,7 +82,7 @@ fn a_registered_rule_sweeps_by_name() {
 
 #[test]
 fn the_example_binary_runs_its_rule_and_the_stock_binary_refuses_it_by_name() {
-    let dir = scratch("binary");
+    let dir = common::scratch_dir("rule_registry", "binary");
     std::fs::write(dir.join("rule.toml"), CONFIG).unwrap();
     let stock = common::colorvision(&dir, &["train", "--config", "rule.toml", "--out", "x"]);
     let said = common::text(&stock);

@@ -94,8 +94,8 @@ impl Estimate {
     /// The parts in words, each with the settings that drive it.
     pub fn parts(&self) -> String {
         format!(
-            "scenes {:.0} MiB (pools × retina.scenes.tiles × tile_px² × planes × mip levels), training \
-             step {:.0} MiB (cortex.train.batch_size × cones_per_side² × cortex.d.widths), \
+            "scenes {:.0} MiB (pools × retina.scenes.tiles × tile_px² × planes × mip levels), \
+             training step {:.0} MiB (cortex.train.batch_size × cones_per_side² × cortex.d.widths), \
              CMF-SIM decodes {:.0} MiB (observer.decode_batch × threads × cones_per_side²), \
              CMF-SIM shows, solver and location cache {:.0} MiB (cmf_sim.location_pairs × \
              cmf_sim.n_test_wavelengths × cmf_sim.max_primaries), P's flow {:.0} MiB (cortex.p.couplings × \

@@ -34,3 +34,21 @@ pub fn text(o: &Output) -> String {
         String::from_utf8_lossy(&o.stderr)
     )
 }
+
+/// A fresh empty folder `cv_<test>_<name>_<pid>` in the system's temporary folder.
+pub fn scratch_dir(test: &str, name: &str) -> std::path::PathBuf {
+    let dir = std::env::temp_dir().join(format!("cv_{test}_{name}_{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// The run settings a config file gives (`--config PATH`, the `quick` preset where it names
+/// none), or the error in words.
+pub fn resolve_config_file(path: &Path) -> Result<science::config::RunConfig, String> {
+    let options = science::config::Overrides {
+        config: Some(path.to_path_buf()),
+        ..science::config::Overrides::default()
+    };
+    science::config::RunConfig::resolve(&options, "quick").map_err(|e| e.to_string())
+}

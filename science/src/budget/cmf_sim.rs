@@ -30,9 +30,10 @@
 //! Measured on the analytic observer at `location_pairs = 4096` (`tiny`, one thread; heap
 //! profile in docs/memory-tops.md): the Jacobian pass of K = 3 holds 2K shows per (wavelength,
 //! pair) in a vector grown to the next power of two, its index of them (likewise), their heap
-//! lines and readouts: the model counts these shapes. Not counted: the resume state every tried set keeps for each wavelength stopped below its
-//! threshold (`2·P·R` f64 each); keeping only those of sets that can still be candidates left
-//! a quick reading's peak as it was (docs/memory-tops.md).
+//! lines and readouts: the model counts these shapes. Not counted: the resume state every
+//! tried set keeps for each wavelength stopped below its threshold (`2·P·R` f64 each); keeping
+//! only those of sets that can still be candidates left a quick reading's peak as it was
+//! (docs/memory-tops.md).
 
 use crate::config::RunConfig;
 use crate::observer::{oracle::ORACLE_PERCEPT_DIM, ObserverKind, Readout};

@@ -112,6 +112,19 @@ fn cached_percepts_equal_direct_renders_for_every_decoder() {
     }
 }
 
+/// Moves every parameter of `cortex` off its initialisation by up to ±0.1 (an LCG from `seed`),
+/// so that no layer is the identity or zero.
+fn move_off_initialisation(cortex: &mut Cortex, seed: u32) {
+    let ids: Vec<_> = cortex.params.ids().collect();
+    let mut k = seed;
+    for id in ids {
+        for v in cortex.params.get_mut(id).data_mut() {
+            k = k.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            *v += ((k >> 8) as f32 / (1u32 << 24) as f32 - 0.5) * 0.2;
+        }
+    }
+}
+
 #[test]
 fn windowed_cortex_percepts_equal_whole_field_ones() {
     // The quick eye (64 × 64 cones) with a small patch and a one-level U-Net, so that a patch's
@@ -121,14 +134,7 @@ fn windowed_cortex_percepts_equal_whole_field_ones() {
     let mut cc = config.cortex.clone();
     cc.d.widths = vec![8, 16];
     let mut cortex = Cortex::new(cc).unwrap();
-    let ids: Vec<_> = cortex.params.ids().collect();
-    let mut k = 5u32;
-    for id in ids {
-        for v in cortex.params.get_mut(id).data_mut() {
-            k = k.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
-            *v += ((k >> 8) as f32 / (1u32 << 24) as f32 - 0.5) * 0.2;
-        }
-    }
+    move_off_initialisation(&mut cortex, 5);
     let cortex: &'static Cortex = Box::leak(Box::new(cortex));
     let settings = ObserverSettings {
         patch_radius_fraction: 1.0 / 16.0,
@@ -168,14 +174,7 @@ fn a_cortex_percept_does_not_depend_on_the_shows_decoded_with_it() {
     let config = RunConfig::preset("quick", "LMS").unwrap();
     let retina: &'static Retina = Box::leak(Box::new(Retina::new(config.retina.clone()).unwrap()));
     let mut cortex = Cortex::new(config.cortex.clone()).unwrap();
-    let ids: Vec<_> = cortex.params.ids().collect();
-    let mut k = 11u32;
-    for id in ids {
-        for v in cortex.params.get_mut(id).data_mut() {
-            k = k.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
-            *v += ((k >> 8) as f32 / (1u32 << 24) as f32 - 0.5) * 0.2;
-        }
-    }
+    move_off_initialisation(&mut cortex, 11);
     let cortex: &'static Cortex = Box::leak(Box::new(cortex));
     let settings = ObserverSettings::default();
     let make = move || EyeObserver::cortex(retina, cortex, settings.clone());
