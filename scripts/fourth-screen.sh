@@ -48,8 +48,14 @@ arm() {
         C2)  "$P" "$R/C2-seed$S" "$S" 24000 "24000" "0 1 2" --preset main \
                  --cones LMS+M_coexpress_L "${IDEAL[@]}" ;;
         A4)  "$P" "$R/A4-LMS-seed$S" "$S" 12000 "12000" "0 1 2" --preset main --cones LMS
-             [ -d "$R/A4-seed$S/checkpoints/step_00024000" ] || "$B" train "${TETRA[@]}" \
-                 --seed "$S" --steps 12000 --continue-from "$R/A4-LMS-seed$S" --out "$R/A4-seed$S"
+             if [ ! -d "$R/A4-seed$S/checkpoints/step_00024000" ]; then
+                 if [ -f "$R/A4-seed$S/metrics.csv" ]; then   # stopped: continue it
+                     "$B" resume "$R/A4-seed$S"
+                 else
+                     "$B" train "${TETRA[@]}" --seed "$S" --steps 12000 \
+                         --continue-from "$R/A4-LMS-seed$S" --out "$R/A4-seed$S"
+                 fi
+             fi
              for L in 0 1 2; do
                  [ -f "$R/A4-seed$S/cmf-sim-step24000-loc$L/cmf_sim.json" ] || "$B" cmf-sim \
                      --run "$R/A4-seed$S" --checkpoint-step 24000 --location-seed "$L" \
@@ -66,13 +72,17 @@ arm() {
 # An arm stopped on another machine continues from its kept copy (runs-kept/fourth/, in the
 # repository: its config, metrics and newest checkpoint; scripts/keep-run.sh makes one).
 restore() {
-    local kept="$ROOT/runs-kept/fourth/$1-seed$S"
-    [ -d "$kept" ] && [ ! -d "$R/$1-seed$S" ] && cp -r "$kept" "$R/$1-seed$S" || true
+    local name kept
+    for name in "$@"; do
+        kept="$ROOT/runs-kept/fourth/$name-seed$S"
+        [ -d "$kept" ] && [ ! -d "$R/$name-seed$S" ] && cp -r "$kept" "$R/$name-seed$S" || true
+    done
 }
 
 mkdir -p "$R"
 for a in ${ARMS:-A0 A0i C1b C1c C2 A3 A4 C1a A2a A2b}; do
     echo "== fourth-screen: arm $a, seed $S ($(date -u +%FT%TZ))"
     restore "$a"
+    [ "$a" = A4 ] && restore A4-LMS
     arm "$a"
 done

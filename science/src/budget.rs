@@ -219,16 +219,19 @@ pub fn estimate_cmf_sim(config: &RunConfig, kind: ObserverKind, threads: usize) 
 
 /// The estimate for `colorvision convergence` of a run of `config` (with CMF-SIM at its
 /// checkpoints when `cmf_sim`), on `threads` threads: the checkpoint's trainer (P's flow and its
-/// copies), one scene pool (the held-out eye), its decodes (the held-out scenes' percepts, and
-/// CMF-SIM's shows when it measures) and CMF-SIM's own part; no training step is taken.
+/// copies), one scene pool (the held-out eye), CMF-SIM's decodes and its own part when it
+/// measures; no training step is taken. The held-out scenes' percepts take no more than the
+/// fixed part counts: measured without CMF-SIM (docs/memory-tops.md), the peak less the pool is
+/// 46 MiB on `tiny` and 98 MiB on `quick`, the fixed part's 50 and 103.
 pub fn estimate_convergence(config: &RunConfig, cmf_sim: bool, threads: usize) -> Estimate {
     let e = estimate(config, false, threads);
     let layout = layout(config);
+    let decode = threads as f64
+        * decode_tape_bytes(config.observer.decode_batch, config.retina.cones_per_side);
     Estimate {
         scenes_bytes: e.scenes_bytes / RUN_SCENE_POOLS,
         step_bytes: 0.0,
-        decode_bytes: threads as f64
-            * decode_tape_bytes(config.observer.decode_batch, config.retina.cones_per_side),
+        decode_bytes: if cmf_sim { decode } else { 0.0 },
         cmf_sim_bytes: if cmf_sim {
             cmf_sim::bytes(config, &config.cmf_sim, &layout, ObserverKind::Cortex)
         } else {

@@ -36,6 +36,7 @@ mod mixed_opsins;
 pub mod oracle;
 pub mod readout;
 mod render;
+pub(crate) use render::LOCATION_ENTRY_BYTES;
 mod settings;
 #[cfg(test)]
 mod tests;

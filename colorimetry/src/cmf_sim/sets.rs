@@ -114,7 +114,30 @@ fn outcome(
     }
 }
 
-/// Solve `which` with `options`, measuring the front-end Jacobians they lack first.
+/// Bytes one wavelength's solve holds while it runs with `k` primaries over `pairs` location
+/// pairs, each side read as `readout_len` f64: its Levenberg–Marquardt state (`5 + 2K`
+/// readouts a pair: both sides at α and at the trial, the two Jacobians, the model's offset)
+/// and the Jacobian pass's `2K` shows a pair with their readouts (a show, its index entry and
+/// its heap line: about 128 bytes).
+pub fn solve_bytes_per_wavelength(k: usize, pairs: usize, readout_len: usize) -> usize {
+    let readouts = 5 + 2 * k + 2 * k;
+    pairs * (readouts * readout_len * 8 + 2 * k * 128)
+}
+
+/// The most bytes the wavelengths solved together may hold ([`solve_bytes_per_wavelength`]
+/// each): a large reading (thousands of location pairs) is solved in groups under it, so the
+/// search's memory stops growing with K once one K's solves fill it.
+pub const SOLVE_GROUP_BYTES: usize = 256 << 20;
+
+/// How many wavelengths are solved together: as many as fit in [`SOLVE_GROUP_BYTES`], at least
+/// one. A wavelength's solve does not depend on which others share its batch, so the grouping
+/// changes no result, only the observer calls.
+pub fn wavelengths_per_group(k: usize, pairs: usize, readout_len: usize) -> usize {
+    (SOLVE_GROUP_BYTES / solve_bytes_per_wavelength(k, pairs, readout_len).max(1)).max(1)
+}
+
+/// Solve `which` with `options` in groups ([`wavelengths_per_group`]), measuring the
+/// front-end Jacobians each group lacks first. The matches in the order of `which`.
 fn solve(
     pb: &MatchProblem<'_>,
     solver: &SolverSettings,
@@ -122,18 +145,38 @@ fn solve(
     options: &MatchOptions<'_>,
     front: &mut Option<&mut FrontEnd<'_>>,
 ) -> (Vec<WavelengthMatch>, usize, usize) {
-    let (mut calls, mut shows) = (0, 0);
-    if let Some(f) = front.as_deref_mut() {
-        let n = f.jacobians.measure(pb, which, f.test);
-        calls += usize::from(n > 0);
-        shows += n;
+    let pairs = which.iter().map(|&w| pb.pairs[w].len()).max().unwrap_or(0);
+    let k = pb.primaries_nm.len();
+    let group = wavelengths_per_group(k, pairs, pb.observer.percept_dim());
+    solve_in_groups(pb, solver, which, options, front, group)
+}
+
+/// [`solve`] with `group` wavelengths solved together.
+fn solve_in_groups(
+    pb: &MatchProblem<'_>,
+    solver: &SolverSettings,
+    which: &[usize],
+    options: &MatchOptions<'_>,
+    front: &mut Option<&mut FrontEnd<'_>>,
+    group: usize,
+) -> (Vec<WavelengthMatch>, usize, usize) {
+    let (mut matches, mut calls, mut shows) = (Vec::with_capacity(which.len()), 0, 0);
+    for part in which.chunks(group.max(1)) {
+        if let Some(f) = front.as_deref_mut() {
+            let n = f.jacobians.measure(pb, part, f.test);
+            calls += usize::from(n > 0);
+            shows += n;
+        }
+        let opts = MatchOptions {
+            front_end: front.as_deref().map(|f| &f.jacobians),
+            ..*options
+        };
+        let r = solve_wavelengths(pb, solver, part, &opts);
+        matches.extend(r.matches);
+        calls += r.observer_calls;
+        shows += r.shows;
     }
-    let opts = MatchOptions {
-        front_end: front.as_deref().map(|f| &f.jacobians),
-        ..*options
-    };
-    let r = solve_wavelengths(pb, solver, which, &opts);
-    (r.matches, calls + r.observer_calls, shows + r.shows)
+    (matches, calls, shows)
 }
 
 /// Solve every wavelength to convergence.
@@ -229,4 +272,103 @@ fn in_rounds(
         }
     }
     (matches, calls, shows)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::analytic::{ConeObserver, NakaRushtonObserver};
+    use crate::cones::{ConeClass, ConeTemplate};
+    use crate::grid::WavelengthGrid;
+    use crate::matching::tests::{problem, problem_pairs, WithFrontEnd};
+    use crate::observer::{percept_of, Stimulus};
+
+    /// Solve `which` of `pb` in groups of `group` with a fresh front-end model, stopping below
+    /// `stop`, then continue every solve to convergence in groups of `group`.
+    fn grouped(
+        pb: &MatchProblem<'_>,
+        test: TestPercepts<'_>,
+        which: &[usize],
+        stop: &[f64],
+        group: usize,
+    ) -> [(Vec<WavelengthMatch>, usize); 2] {
+        let s = SolverSettings::default();
+        let jacobians = FrontEndJacobians::new(pb.observer, which.len(), 1.0, s.fd_step).unwrap();
+        let mut front = FrontEnd { jacobians, test };
+        let early = MatchOptions {
+            stop_below: Some(stop),
+            ..MatchOptions::default()
+        };
+        let (a, _, shows_a) = solve_in_groups(pb, &s, which, &early, &mut Some(&mut front), group);
+        let resume = MatchOptions {
+            resume: Some(&a),
+            ..MatchOptions::default()
+        };
+        let (b, _, shows_b) = solve_in_groups(pb, &s, which, &resume, &mut Some(&mut front), group);
+        [(a, shows_a), (b, shows_b)]
+    }
+
+    #[test]
+    fn solving_in_groups_changes_no_match_and_no_show() {
+        let cones = ConeObserver::new(
+            &ConeClass::lms(),
+            &ConeTemplate::default(),
+            &WavelengthGrid::default(),
+        )
+        .unwrap();
+        let o = WithFrontEnd::new(NakaRushtonObserver::new(cones.clone(), 0.5), &cones);
+        let tests: Vec<f64> = (0..7).map(|i| 420.0 + 40.0 * i as f64).collect();
+        let prim = [455.0, 530.0, 610.0];
+        let pairs = problem_pairs(tests.len(), 3);
+        let pb = problem(&o, &tests, &prim, &pairs, 11);
+        let (mut at_a, mut at_b) = (Vec::new(), Vec::new());
+        for (w, &t) in tests.iter().enumerate() {
+            for &[a, b] in &pairs[w] {
+                at_a.extend(percept_of(&o, Stimulus::monochromatic(t, 1.0), a));
+                at_b.extend(percept_of(&o, Stimulus::monochromatic(t, 1.0), b));
+            }
+        }
+        let test = TestPercepts {
+            at_a: &at_a,
+            at_b: &at_b,
+        };
+        // every solve stops below a hundredth of its energy first, then is continued
+        let energy = percept_of(&o, Stimulus::monochromatic(500.0, 1.0), [0.0; 2]);
+        let stop = vec![1e-2 * energy.iter().map(|v| v * v).sum::<f64>(); tests.len()];
+        let which = [3, 0, 6, 1, 5, 2, 4];
+        let together = grouped(&pb, test, &which, &stop, which.len());
+        assert!(together[0].0.iter().any(|m| m.stopped_below));
+        for group in [1, 2, 3] {
+            let parts = grouped(&pb, test, &which, &stop, group);
+            for (p, t) in parts.iter().zip(&together) {
+                assert_eq!(
+                    p.0, t.0,
+                    "groups of {group}: the same matches, in the same order"
+                );
+                assert_eq!(p.1, t.1, "groups of {group}: the same shows");
+            }
+        }
+        assert_eq!(
+            together[1]
+                .0
+                .iter()
+                .map(|m| m.wavelength)
+                .collect::<Vec<_>>(),
+            which
+        );
+    }
+
+    #[test]
+    fn a_large_reading_is_solved_in_groups_that_fit_the_budget() {
+        // 100 wavelengths, 4 096 pairs, K = 4, 3 channels × 64 samples: one group does not fit
+        let (k, pairs, readout) = (4, 4096, 192);
+        let group = wavelengths_per_group(k, pairs, readout);
+        assert!(group < 100, "{group}");
+        assert!(group * solve_bytes_per_wavelength(k, pairs, readout) <= SOLVE_GROUP_BYTES);
+        assert!((group + 1) * solve_bytes_per_wavelength(k, pairs, readout) > SOLVE_GROUP_BYTES);
+        // the quick eye's defaults (8 pairs) solve every wavelength at once
+        assert!(wavelengths_per_group(4, 8, 192) >= 100);
+        // one wavelength larger than the budget is still solved, alone
+        assert_eq!(wavelengths_per_group(8, 1 << 20, 4096), 1);
+    }
 }

@@ -61,7 +61,7 @@ fn lms() -> ConeObserver {
 }
 
 /// A problem at intensity 1 with the given test wavelengths, primaries, pairs and seed.
-fn problem<'a>(
+pub(crate) fn problem<'a>(
     observer: &'a dyn Observer,
     tests: &'a [f64],
     prim: &'a [f64],
@@ -131,7 +131,8 @@ fn naka_rushton() -> NakaRushtonObserver {
     NakaRushtonObserver::new(lms(), 0.5)
 }
 
-fn problem_pairs(n: usize, pairs: usize) -> Vec<Vec<[[f64; 2]; 2]>> {
+/// `pairs` location pairs for each of `n` test wavelengths, all distinct.
+pub(crate) fn problem_pairs(n: usize, pairs: usize) -> Vec<Vec<[[f64; 2]; 2]>> {
     (0..n)
         .map(|w| {
             (0..pairs)

@@ -7,20 +7,27 @@
 //! Φ(test at a), Φ(black at b), Φ(test at b), kept for the search (R: the readout length,
 //! samples × percept channels). The observer caches per location (`science::observer`, at most
 //! [`crate::observer::CACHE_LIMIT_BYTES`] of bases) the ONS of a unit disc per class read,
-//! `(classes × n²)` f32 for the cortex, beside the cones it reads; the 2·W·P locations are all
-//! distinct (drawn per wavelength).
+//! `(classes × n²)` f32 for the cortex, beside the cones it reads (and, for the cortex, their
+//! indices in the window it decodes); the 2·W·P locations are all distinct (drawn per
+//! wavelength).
 //!
 //! The search (`colorimetry::matching`) adds, with K = `max_primaries` and m = classes:
 //! - the front end's model (`FrontEndJacobians`), kept for every wavelength once measured:
 //!   `G_a`, `G_b` and the offset, `W·P·R·(2m + 1)` f64; measuring it shows `2m` spectra per
-//!   (wavelength, pair), each a full grid of f64, and reads their readouts (`W·P·2m·R` f64);
+//!   (wavelength, pair), each a full grid of f64, and reads their readouts (`2m·R` f64 each);
 //! - one Levenberg–Marquardt state per wavelength solved at once (`matching::state`): the two
 //!   sides' readouts at α and at the trial, the model's offset and the two Jacobians,
-//!   `W·P·R·(5 + 2K)` f64;
+//!   `P·R·(5 + 2K)` f64 a wavelength;
 //! - the Jacobian pass's `2K` shows per (wavelength, pair) and their readouts;
-//! - when a K passes, the resume states its converging copies from the tried sets (both sides'
-//!   readouts, `W·P·R·2` f64) while the originals are kept.
+//! - the resume states of the set being converged, kept for all its wavelengths (`W·P·R·2`
+//!   f64; a resumed solve copies them into its own state).
 //!
+//! The wavelengths are solved in groups whose states and Jacobian pass fit
+//! `colorimetry::cmf_sim::sets::SOLVE_GROUP_BYTES` ([`wavelengths_per_group`]; every
+//! wavelength at once at the quick eye's defaults), and a group's front-end shows are measured
+//! just before it: so the states, the pass and the front end's shows are one group's, and at
+//! the tops of `location_pairs` and `n_test_wavelengths` the search's memory stops growing with
+//! K — what a cortex whose search stops at K = 1 holds is what one that tries K = 4 holds.
 //! The front end's shows end before the states begin, so the larger of the two counts. Step 1
 //! ends before the search begins: its shows and the readouts as returned are freed, the split
 //! readouts stay, so the larger of step 1 and (split readouts + search) counts. K is the most
@@ -30,13 +37,13 @@
 //! Measured on the analytic observer at `location_pairs = 4096` (`tiny`, one thread; heap
 //! profile in docs/memory-tops.md): the Jacobian pass of K = 3 holds 2K shows per (wavelength,
 //! pair) in a vector grown to the next power of two, its index of them (likewise), their heap
-//! lines and readouts: the model counts these shapes. Not counted: the resume state every
-//! tried set keeps for each wavelength stopped below its threshold (`2·P·R` f64 each); keeping
-//! only those of sets that can still be candidates left a quick reading's peak as it was
-//! (docs/memory-tops.md).
+//! lines and readouts: the model counts these shapes. Not counted: the resume states that the
+//! other tried sets keep for the few wavelengths their early rejection stopped below the
+//! threshold (`2·P·R` f64 each).
 
 use crate::config::RunConfig;
 use crate::observer::{oracle::ORACLE_PERCEPT_DIM, ObserverKind, Readout};
+use colorimetry::cmf_sim::sets::wavelengths_per_group;
 use colorimetry::cmf_sim::CmfSimSettings;
 use retina::foveation::ConeLayout;
 
@@ -48,10 +55,12 @@ const INDEX_BYTES: f64 = 40.0;
 /// The heap line `(wavelength, intensity)` of a lit show: 16 bytes in the allocator's
 /// smallest chunk, bytes.
 const LINE_BYTES: f64 = 32.0;
-/// A cached location's bookkeeping besides its basis and cells: the entry (three `Vec`
-/// headers) in its `Arc` (two counters), its hash-map slot (key 16, pointer 8) at the map's
-/// lowest load (half full after a doubling), and its cells' allocation header, bytes.
-const ENTRY_BYTES: f64 = 72.0 + 16.0 + 2.0 * 24.0 + 16.0;
+/// A cached location's bookkeeping besides its basis and cells: the entry (its vectors'
+/// headers and the cortex's window) in its `Arc` (two counters), its hash-map slot (key 16,
+/// pointer 8) at the map's lowest load (half full after a doubling), and the allocator's header
+/// of its four allocations (the `Arc`, the cells, the basis, the window's indices), bytes.
+const ENTRY_BYTES: f64 =
+    crate::observer::LOCATION_ENTRY_BYTES as f64 + 16.0 + 2.0 * 24.0 + 4.0 * 16.0;
 
 /// Readout samples of the observer of `config` (`observer.readout`, patch and spacing).
 fn readout_samples(config: &RunConfig, layout: &ConeLayout) -> usize {
@@ -105,18 +114,38 @@ pub fn bytes(
     let split = shows * 8.0 * readout_len;
     let step1 = shows * (SHOW_BYTES + 8.0 * readout_len) + 2.0 * pairs * LINE_BYTES + split;
     let locations = 2.0 * pairs;
-    let basis = classes * n2 * 4.0;
+    // The cache stops at its limit as it counts an entry (`science::observer::render::
+    // location_entry`: the unit-disc responses and 16 bytes a cell read); beside the cells read
+    // the cortex keeps their indices in the window it decodes (`decode_window`). Not counted:
+    // the responses grow plane by plane in one vector whose capacity doubles, so three planes
+    // are held in room for four (docs/memory-tops.md).
+    let counted = classes * n2 * 4.0 + samples * 16.0;
     let limit = crate::observer::CACHE_LIMIT_BYTES as f64;
     let cached = match kind {
         ObserverKind::Analytic => 0.0,
-        _ => locations.min((limit / basis).floor()),
+        _ => locations.min((limit / counted).floor()),
     };
-    let cache = cached * (basis + ENTRY_BYTES + samples * 8.0);
+    let held = classes * n2 * 4.0;
+    let indices = if kind == ObserverKind::Cortex {
+        2.0
+    } else {
+        1.0
+    };
+    let cache = cached * (held + ENTRY_BYTES + indices * samples * 8.0);
     let grid_len = config.retina.grid.grid().map(|g| g.len()).unwrap_or(0) as f64;
     let primaries = primaries_tried(settings, kind, classes);
     // The analytic observer offers no linear front end (`Observer::linear_front_end`).
     let front_end = settings.front_end_jacobians && kind != ObserverKind::Analytic;
-    let search = search_bytes(front_end, primaries, classes, pairs, readout_len, grid_len);
+    let wavelengths = settings.n_test_wavelengths as f64;
+    let pairs_each = settings.location_pairs as f64;
+    let search = search_bytes(
+        front_end,
+        primaries,
+        classes,
+        [wavelengths, pairs_each],
+        readout_len,
+        grid_len,
+    );
     cache + step1.max(split + search)
 }
 
@@ -131,19 +160,24 @@ fn primaries_tried(settings: &CmfSimSettings, kind: ObserverKind, classes: f64) 
 }
 
 /// Bytes of the search's solver (module docs) trying up to `k` primaries, with the front end's
-/// model when `front_end`, for `classes` cone classes over `pairs` = W·P (wavelength, location
-/// pair)s, each read as `readout_len` f64, on a grid of `grid_len` wavelengths.
+/// model when `front_end`, for `classes` cone classes over `wavelengths` × `pairs` (wavelength,
+/// location pair)s, each read as `readout_len` f64, on a grid of `grid_len` wavelengths. The
+/// solves run in groups of [`wavelengths_per_group`] wavelengths: the states, the Jacobian pass
+/// and the front end's shows are one group's.
 fn search_bytes(
     front_end: bool,
     k: f64,
     classes: f64,
-    pairs: f64,
+    [wavelengths, pairs]: [f64; 2],
     readout_len: f64,
     grid_len: f64,
 ) -> f64 {
-    let rows = pairs * readout_len;
+    let rows = wavelengths * pairs * readout_len;
+    let group = wavelengths_per_group(k as usize, pairs as usize, readout_len as usize) as f64;
+    let solved = wavelengths.min(group) * pairs;
+    let group_rows = solved * readout_len;
     let (front_end_kept, front_end_shows) = if front_end {
-        let shows = pairs * 2.0 * classes;
+        let shows = solved * 2.0 * classes;
         (
             rows * (2.0 * classes + 1.0) * 8.0,
             shows * (SHOW_BYTES + 8.0 * grid_len + 8.0 * readout_len),
@@ -151,16 +185,17 @@ fn search_bytes(
     } else {
         (0.0, 0.0)
     };
-    let states = rows * (5.0 + 2.0 * k) * 8.0;
-    let converge_copies = rows * 2.0 * 8.0;
+    let states = group_rows * (5.0 + 2.0 * k) * 8.0;
     // The pass's shows and its index of them are vectors grown by doubling: their capacity is
     // the next power of two; each show's heap line holds up to max(K, 4) (wavelength,
     // intensity) pairs and the allocator's header.
-    let n = pairs * 2.0 * k;
+    let n = solved * 2.0 * k;
     let capacity = 2f64.powf(n.max(1.0).log2().ceil());
     let line = 16.0 * k.max(4.0) + 16.0;
     let jacobian_shows = capacity * (SHOW_BYTES + INDEX_BYTES) + n * line;
-    let jacobian_readouts = rows * 2.0 * k * 8.0;
-    front_end_kept
-        + front_end_shows.max(states + converge_copies + jacobian_shows + jacobian_readouts)
+    let jacobian_readouts = group_rows * 2.0 * k * 8.0;
+    // A converged set's resume states (both sides' readouts of every wavelength), kept while
+    // its solves are continued group by group.
+    let resume_kept = rows * 2.0 * 8.0;
+    front_end_kept + resume_kept + front_end_shows.max(states + jacobian_shows + jacobian_readouts)
 }

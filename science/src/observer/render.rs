@@ -16,6 +16,9 @@ pub(super) struct LocationCache {
 }
 
 /// What the observer keeps per patch location.
+/// The size of a cached location's entry itself (its vectors' headers and its window), bytes.
+pub(crate) const LOCATION_ENTRY_BYTES: usize = std::mem::size_of::<LocationEntry>();
+
 struct LocationEntry {
     /// The cones read.
     cells: Vec<usize>,
