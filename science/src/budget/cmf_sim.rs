@@ -119,19 +119,19 @@ pub fn bytes(
     // the cortex keeps their indices in the window it decodes (`decode_window`). Not counted:
     // the responses grow plane by plane in one vector whose capacity doubles, so three planes
     // are held in room for four (docs/memory-tops.md).
-    let counted = classes * n2 * 4.0 + samples * 16.0;
+    let basis = classes * n2 * 4.0;
+    let counted = basis + samples * 16.0;
     let limit = crate::observer::CACHE_LIMIT_BYTES as f64;
     let cached = match kind {
         ObserverKind::Analytic => 0.0,
         _ => locations.min((limit / counted).floor()),
     };
-    let held = classes * n2 * 4.0;
     let indices = if kind == ObserverKind::Cortex {
         2.0
     } else {
         1.0
     };
-    let cache = cached * (held + ENTRY_BYTES + indices * samples * 8.0);
+    let cache = cached * (basis + ENTRY_BYTES + indices * samples * 8.0);
     let grid_len = config.retina.grid.grid().map(|g| g.len()).unwrap_or(0) as f64;
     let primaries = primaries_tried(settings, kind, classes);
     // The analytic observer offers no linear front end (`Observer::linear_front_end`).
