@@ -81,10 +81,9 @@ fn check_cases(label: &str, cases: &[(&str, &[&str])], holds: impl Fn(f64, f64) 
 fn the_estimate_is_within_30_percent_of_the_peak_at_the_presets() {
     let cases: [(&str, &[&str]); 3] = [
         ("tiny", &["train", "--preset", "tiny", "--steps", "2"]),
-        (
-            "tiny with CMF-SIM",
-            &["run", "--preset", "tiny", "--steps", "2"],
-        ),
+        // The preset's own length: a cortex of a few steps fails CMF-SIM's base test and is
+        // never searched, so its peak would miss the search the estimate counts.
+        ("tiny with CMF-SIM", &["run", "--preset", "tiny"]),
         ("quick", &["train", "--preset", "quick", "--steps", "2"]),
     ];
     check_cases("presets", &cases, |e, p| (e / p - 1.0).abs() <= 0.30);
