@@ -19,6 +19,13 @@ trap 'rm -rf "$TMP"' EXIT
 for f in config.toml run.json metrics.csv summary.json cmf_sim.json dimension.svg; do
     [ -f "$RUN/$f" ] && cp "$RUN/$f" "$TMP/"
 done
+# The checkpoint a continued run started from, named from the run's folder (as runs now write
+# it) where an older run named it by its absolute path: the two are kept side by side.
+FROM=$(sed -n 's/.*"continued_from": *"\(\/[^"]*\)".*/\1/p' "$TMP/run.json" 2>/dev/null || true)
+if [ -n "$FROM" ]; then
+    REL=$(realpath -m --relative-to="$RUN" "$FROM" | sed 's/[\\&#]/\\&/g')
+    sed -i "s#\"continued_from\": *\"[^\"]*\"#\"continued_from\": \"$REL\"#" "$TMP/run.json"
+fi
 mkdir "$TMP/checkpoints" && cp -r "$NEWEST" "$TMP/checkpoints/"
 for m in "$RUN"/cmf-sim-step*; do   # a protocol arm's CMF-SIM readings taken so far
     [ -d "$m" ] && cp -r "$m" "$TMP/"

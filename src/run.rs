@@ -110,8 +110,65 @@ pub struct RunMarker {
     pub cmf_sim: bool,
     /// Pictures on the schedule.
     pub pictures: bool,
-    /// The checkpoint a continued run (gene therapy, boosting) started from.
+    /// The checkpoint a continued run (gene therapy, boosting) started from, relative to the
+    /// run folder (a run and the run it continues move together); records name it from the
+    /// repository root, and markers of older versions by its absolute path
+    /// ([`RunMarker::origin_checkpoint`] reads all three).
     pub continued_from: Option<PathBuf>,
+}
+
+impl RunMarker {
+    /// The marker of a run in `out` with `mode`, its cortex from `origin`.
+    fn new(mode: RunMode, origin: Origin<'_>, out: &Path) -> RunMarker {
+        RunMarker {
+            cmf_sim: mode.cmf_sim,
+            pictures: mode.pictures,
+            continued_from: match origin {
+                Origin::New => None,
+                Origin::Continue(p) => Some(relative_path(out, p)),
+            },
+        }
+    }
+
+    /// The checkpoint the run in `dir` was continued from: `continued_from` taken from the run
+    /// folder where it names something there, else as written (an absolute path, or a
+    /// record's path from the repository root). `None` for a fresh cortex.
+    pub fn origin_checkpoint(&self, dir: &Path) -> Option<PathBuf> {
+        let p = self.continued_from.as_ref()?;
+        let from_run = dir.join(p);
+        Some(if p.is_relative() && from_run.exists() {
+            from_run
+        } else {
+            p.clone()
+        })
+    }
+}
+
+/// `to` named from folder `from`: both made absolute and their `.` and `..` resolved by name,
+/// then `..` for each of `from`'s own components below what they share.
+pub fn relative_path(from: &Path, to: &Path) -> PathBuf {
+    use std::path::Component;
+    let resolved = |p: &Path| -> Vec<std::ffi::OsString> {
+        let mut parts = Vec::new();
+        for c in std::path::absolute(p)
+            .unwrap_or(p.to_path_buf())
+            .components()
+        {
+            match c {
+                Component::ParentDir => {
+                    parts.pop();
+                }
+                Component::Normal(n) => parts.push(n.to_os_string()),
+                Component::CurDir | Component::RootDir | Component::Prefix(_) => {}
+            }
+        }
+        parts
+    };
+    let (from, to) = (resolved(from), resolved(to));
+    let shared = from.iter().zip(&to).take_while(|(a, b)| a == b).count();
+    let mut out: PathBuf = std::iter::repeat_n("..", from.len() - shared).collect();
+    out.extend(&to[shared..]);
+    out
 }
 
 /// Where a run's cortex comes from.
@@ -266,15 +323,7 @@ pub fn run_in(
     // start stopped between them by an older version) gets it now, so `resume` reads it.
     let marker_path = out.join(folder::MARKER_FILE);
     if opened == Opened::Fresh || !marker_path.is_file() {
-        let marker = RunMarker {
-            cmf_sim: mode.cmf_sim,
-            pictures: mode.pictures,
-            continued_from: match origin {
-                Origin::New => None,
-                Origin::Continue(p) => Some(std::path::absolute(p).unwrap_or(p.to_path_buf())),
-            },
-        };
-        crate::io::write_json(&marker_path, &marker)?;
+        crate::io::write_json(&marker_path, &RunMarker::new(mode, origin, out))?;
     }
     if opened == Opened::Fresh {
         crate::io::write_atomic(&out.join("config.toml"), config.to_toml().as_bytes())?;
@@ -327,3 +376,6 @@ const METRICS_HEADER: &str = concat!(
     "backprop_norm_W,backprop_norm_C,backprop_norm_D,backprop_norm_P,",
     "dimension\n"
 );
+
+#[cfg(test)]
+mod tests;

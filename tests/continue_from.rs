@@ -59,6 +59,17 @@ fn a_record_names_the_run_a_cortex_continued_from(dir: &Path) {
             std::fs::copy(dir.join(run).join(file), records.join(record).join(file)).unwrap();
         }
     }
+    // A run names its start from its own folder; a record, as scripts/record-run.sh writes
+    // it, from the folder gather runs in.
+    assert_eq!(
+        continued_from(&dir.join("therapy")),
+        "../ms/checkpoints/step_00000003"
+    );
+    let marker = records.join("therapy-2/run.json");
+    let as_run = std::fs::read_to_string(&marker).unwrap();
+    let from_root = as_run.replace("../ms/checkpoints", "ms/checkpoints");
+    assert_ne!(as_run, from_root);
+    std::fs::write(&marker, from_root).unwrap();
     let gathered = || {
         text(&colorvision(
             dir,

@@ -121,7 +121,8 @@ pub fn resume(options: &ResumeOptions) -> Result<(), RunError> {
         pictures: marker.pictures,
         progress: true,
     };
-    let origin = match &marker.continued_from {
+    let origin_checkpoint = marker.origin_checkpoint(dir);
+    let origin = match &origin_checkpoint {
         Some(p) => run::Origin::Continue(p),
         None => run::Origin::New,
     };

@@ -74,7 +74,7 @@ pub(crate) fn run_settings(
 fn continued_from(dir: &Path, rows: &BTreeMap<PathBuf, String>) -> Option<String> {
     let text = std::fs::read_to_string(dir.join("run.json")).ok()?;
     let marker: crate::run::RunMarker = serde_json::from_str(&text).ok()?;
-    let checkpoint = marker.continued_from?;
+    let checkpoint = marker.origin_checkpoint(dir)?;
     let step = checkpoint
         .file_name()
         .and_then(|n| n.to_str()?.strip_prefix("step_")?.parse::<u64>().ok());
