@@ -195,12 +195,6 @@ impl Cortex {
         (pa, x, r, Some(c))
     }
 
-    /// `X = pa·C` of `ons`, and whether D follows it (module docs of [`crate::window`]).
-    pub(crate) fn record_injected(&self, tape: &mut Tape<f32>, ons: Var) -> (Var, bool) {
-        let (_, x, _, c) = self.record_w_c(tape, ons);
-        (x, c.is_some())
-    }
-
     /// Estimates the motion of frames `(B, n, n)` each (no gradient). `oracle` is required in
     /// oracle mode.
     pub fn estimate_motion(
@@ -321,17 +315,29 @@ impl Cortex {
 
     /// Decodes ONS frames `(B, n, n)` to percepts `(B, N, n, n)` (evaluation; no learning).
     pub fn decode_frames(&self, ons: &[f32], batch: usize) -> Vec<f32> {
+        let mut tape = Tape::<f32>::new();
+        let o = self.constant_frames(&mut tape, ons, batch, "Cortex::decode_frames");
+        let v = self.record_decode(&mut tape, o).percept;
+        tape.value(v).data().to_vec()
+    }
+
+    /// ONS frames `(B × n × n)` as a constant `(B, 1, n, n)` on `tape`, their length checked.
+    #[track_caller]
+    pub(crate) fn constant_frames(
+        &self,
+        tape: &mut Tape<f32>,
+        ons: &[f32],
+        batch: usize,
+        caller: &str,
+    ) -> Var {
         let n = self.n();
         assert_eq!(
             ons.len(),
             batch * n * n,
-            "Cortex::decode_frames: {} values for (B={batch}, {n}, {n})",
+            "{caller}: {} values for (B={batch}, {n}, {n})",
             ons.len()
         );
-        let mut tape = Tape::<f32>::new();
-        let o = tape.constant_from([batch, 1, n, n], ons);
-        let v = self.record_decode(&mut tape, o).percept;
-        tape.value(v).data().to_vec()
+        tape.constant_from([batch, 1, n, n], ons)
     }
 
     /// The learned cone types, `(n, n, N)` unit vectors (`None` in the identity baseline).

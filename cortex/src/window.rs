@@ -2,12 +2,15 @@
 //! (CMF-SIM reads the cells one patch covers, a fraction of a 256 × 256 field).
 //!
 //! W's inverse is a Fourier filter of the whole field and C a per-cell product, both cheap; D,
-//! the U-Net, is the cost. So W and C run over the whole field as in [`Cortex::record_decode`],
-//! and D runs on one window per frame, cut from `X = pa·C`. A window from
+//! the U-Net, is the cost. So W runs over the whole field as in [`Cortex::record_decode`], and
+//! C and D run on one window per frame: the activations `pa` and C are cut to it and
+//! multiplied there (`X = pa·C` per cell, the same products as over the field). A window from
 //! [`Cortex::exact_window`] holds everything D's outputs on the cells asked for depend on, on
 //! D's pooling grid (`autodiff::nn::unet` window docs), so the percept there is the
 //! whole-field percept: the same arithmetic on the same values, up to the order in which a
-//! matrix product sums.
+//! matrix product sums. W's inverse is linear: a caller whose frames are weighted sums of a
+//! few fixed frames can take their activations once ([`Cortex::activations`]), sum those in
+//! the window and decode from there ([`Cortex::record_decode_activation_windows`]).
 //!
 //! Conventions: cells are `(row, column)` of the `n × n` ONS grid, row-major; a [`Window`] is
 //! rows `top .. top + height` and columns `left .. left + width`. The windows are cut out as
@@ -35,6 +38,26 @@ impl Window {
         let inside = (self.top..self.top + self.height).contains(&r)
             && (self.left..self.left + self.width).contains(&c);
         inside.then(|| (r - self.top) * self.width + c - self.left)
+    }
+
+    /// Cells in the window.
+    pub fn area(&self) -> usize {
+        self.height * self.width
+    }
+
+    /// Copies this window of the `n × n` plane `plane` (row-major) into `out (height × width)`.
+    #[track_caller]
+    pub fn cut(&self, plane: &[f32], n: usize, out: &mut [f32]) {
+        assert!(
+            plane.len() == n * n && out.len() == self.height * self.width,
+            "Window::cut: {self:?} of a plane of {} into {}",
+            plane.len(),
+            out.len()
+        );
+        for (r, row) in out.chunks_exact_mut(self.width).enumerate() {
+            let start = (self.top + r) * n + self.left;
+            row.copy_from_slice(&plane[start..start + self.width]);
+        }
     }
 
     /// The window of `height × width` (at least this one's, on the same pooling grid) that
@@ -83,43 +106,87 @@ impl Cortex {
     #[track_caller]
     pub fn record_decode_windows(&self, tape: &mut Tape<f32>, ons: Var, windows: &[Window]) -> Var {
         let n = self.n();
-        let shape = tape.shape(ons);
-        let (b, _, _, _) = shape.bchw("Cortex::record_decode_windows");
+        let (b, _, _, _) = tape.shape(ons).bchw("Cortex::record_decode_windows");
+        let (h, w) = self.check_windows(windows, b, "Cortex::record_decode_windows");
+        enter(tape, Bucket::W);
+        let r = self.w.record(tape, &self.params);
+        let pa = self.w.decode(tape, r, ons);
+        let whole = tape.value(pa).data();
+        let mut cut = vec![0f32; b * h * w];
+        for (f, (v, out)) in windows.iter().zip(cut.chunks_exact_mut(h * w)).enumerate() {
+            v.cut(&whole[f * n * n..(f + 1) * n * n], n, out);
+        }
+        self.record_decode_activation_windows(tape, &cut, windows)
+    }
+
+    /// Records decode Φ from cone activations already cut to windows: `pa (B × h × w)`, frame
+    /// b's activations `pa = W⁻¹(ons)` on `windows[b]` (all of one size), gives the percept
+    /// `(B, N, h, w)` that [`Cortex::record_decode_windows`] gives from the ONS. W's inverse is
+    /// a linear filter, so an observer whose frames are sums of a few fixed ones can take their
+    /// activations once ([`Cortex::activations`]) and sum those.
+    #[track_caller]
+    pub fn record_decode_activation_windows(
+        &self,
+        tape: &mut Tape<f32>,
+        pa: &[f32],
+        windows: &[Window],
+    ) -> Var {
+        let n = self.n();
+        let b = windows.len();
+        let (h, w) = self.check_windows(windows, b, "Cortex::record_decode_activation_windows");
+        assert_eq!(
+            pa.len(),
+            b * h * w,
+            "Cortex::record_decode_activation_windows: {} activations for {b} windows of {h} × {w}",
+            pa.len()
+        );
+        let paw = tape.constant_from([b, 1, h, w], pa);
+        let Some(cb) = &self.c else {
+            return paw;
+        };
+        // X = pa·C per cell: C cut to each frame's window, the same products as over the field.
+        enter(tape, Bucket::C);
+        let c = cb.record(tape, &self.params);
+        let ch = tape.shape(c).dims()[1];
+        let whole = tape.value(c).data();
+        let mut cut = vec![0f32; b * ch * h * w];
+        for (v, out) in windows.iter().zip(cut.chunks_exact_mut(ch * h * w)) {
+            for (k, plane) in out.chunks_exact_mut(h * w).enumerate() {
+                v.cut(&whole[k * n * n..(k + 1) * n * n], n, plane);
+            }
+        }
+        let cw = tape.constant_from([b, ch, h, w], &cut);
+        let x = cb.inject(tape, cw, paw);
+        enter(tape, Bucket::D);
+        self.d.forward(tape, &self.params, x)
+    }
+
+    /// Φ_W alone: the cone activations `pa (B × n × n)` of ONS frames `(B × n × n)`.
+    pub fn activations(&self, ons: &[f32], batch: usize) -> Vec<f32> {
+        let mut tape = Tape::<f32>::new();
+        let o = self.constant_frames(&mut tape, ons, batch, "Cortex::activations");
+        let r = self.w.record(&mut tape, &self.params);
+        let pa = self.w.decode(&mut tape, r, o);
+        tape.value(pa).data().to_vec()
+    }
+
+    /// The size `(h, w)` of `windows`, checked: `frames` of them, of one size, inside the field.
+    #[track_caller]
+    fn check_windows(&self, windows: &[Window], frames: usize, caller: &str) -> (usize, usize) {
+        let n = self.n();
         let (h, w) = windows
             .first()
             .map(|v| (v.height, v.width))
-            .expect("Cortex::record_decode_windows: no windows");
+            .unwrap_or_else(|| panic!("{caller}: no windows"));
         assert!(
-            windows.len() == b
+            windows.len() == frames
                 && windows
                     .iter()
                     .all(|v| (v.height, v.width) == (h, w) && v.top + h <= n && v.left + w <= n),
-            "Cortex::record_decode_windows: {} windows of one size inside {n} × {n} for {b} frames",
+            "{caller}: {} windows of one size inside {n} × {n} for {frames} frames",
             windows.len()
         );
-        let (x, d_follows) = self.record_injected(tape, ons);
-        let ch = tape.shape(x).dims()[1];
-        let whole = tape.value(x).data();
-        let mut cut = vec![0f32; b * ch * h * w];
-        for (f, (v, out)) in windows
-            .iter()
-            .zip(cut.chunks_exact_mut(ch * h * w))
-            .enumerate()
-        {
-            for (c, out) in out.chunks_exact_mut(h * w).enumerate() {
-                let plane = &whole[(f * ch + c) * n * n..(f * ch + c + 1) * n * n];
-                for (r, row) in out.chunks_exact_mut(w).enumerate() {
-                    let start = (v.top + r) * n + v.left;
-                    row.copy_from_slice(&plane[start..start + w]);
-                }
-            }
-        }
-        let xw = tape.constant_from([b, ch, h, w], &cut);
-        if !d_follows {
-            return xw;
-        }
-        enter(tape, Bucket::D);
-        self.d.forward(tape, &self.params, xw)
+        (h, w)
     }
 }
 
@@ -188,5 +255,55 @@ mod tests {
                 }
             }
         }
+    }
+    #[test]
+    fn frames_summed_from_activations_decode_as_the_summed_ons_does() {
+        let n = 64;
+        let cortex = scrambled(n, vec![4, 8, 16]);
+        // Three fixed frames and two sums of them with different weights.
+        let basis: Vec<f32> = (0..3 * n * n)
+            .map(|i| ((i as u32).wrapping_mul(2_654_435_761) % 991) as f32 / 991.0)
+            .collect();
+        let weights = [[0.3f32, 1.2, 0.05], [2.0, 0.0, 0.7]];
+        let pa_basis = cortex.activations(&basis, 3);
+        let window = cortex.exact_window([20, 27], [30, 37]);
+        let windows = [window; 2];
+        let (h, w) = (window.height, window.width);
+        let (mut ons, mut pa) = (vec![0f32; 2 * n * n], vec![0f32; 2 * h * w]);
+        let mut cut = vec![0f32; h * w];
+        for (f, wts) in weights.iter().enumerate() {
+            for (k, &a) in wts.iter().enumerate() {
+                let frame = &basis[k * n * n..(k + 1) * n * n];
+                for (o, &x) in ons[f * n * n..(f + 1) * n * n].iter_mut().zip(frame) {
+                    *o += a * x;
+                }
+                window.cut(&pa_basis[k * n * n..(k + 1) * n * n], n, &mut cut);
+                for (o, &x) in pa[f * h * w..(f + 1) * h * w].iter_mut().zip(&cut) {
+                    *o += a * x;
+                }
+            }
+        }
+        let mut tape = Tape::<f32>::new();
+        let o = tape.constant_from([2, 1, n, n], &ons);
+        let from_ons = cortex.record_decode_windows(&mut tape, o, &windows);
+        let from_ons = tape.value(from_ons).data().to_vec();
+        let from_pa = cortex.record_decode_activation_windows(&mut tape, &pa, &windows);
+        let from_pa = tape.value(from_pa).data();
+        assert_eq!(from_ons.len(), from_pa.len());
+        let scale = from_ons.iter().fold(0f32, |m, x| m.max(x.abs()));
+        for (i, (a, b)) in from_ons.iter().zip(from_pa).enumerate() {
+            assert!(
+                (a - b).abs() <= 1e-5 * scale,
+                "value {i}: {a} from the summed ONS, {b} from summed activations (scale {scale})"
+            );
+        }
+        // and a frame that is not the sum decodes otherwise
+        pa.iter_mut().for_each(|x| *x *= 1.5);
+        let other = cortex.record_decode_activation_windows(&mut tape, &pa, &windows);
+        let other = tape.value(other).data();
+        assert!(from_ons
+            .iter()
+            .zip(other)
+            .any(|(a, b)| (a - b).abs() > 1e-3 * scale));
     }
 }

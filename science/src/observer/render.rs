@@ -25,9 +25,14 @@ struct LocationEntry {
     /// For the cortex: the window its decoder D runs on for this location, and the cones read
     /// as indices inside it (`None`: the whole field).
     window: Option<(Window, Vec<usize>)>,
-    /// Noise-free, per cone-read plane: the ONS of a unit disc `(k × n·n)` for the cortex, the
-    /// readout of its percept `(k × readout length)` for linear decoders; empty with noise.
+    /// Noise-free, per cone-read plane: the ONS of a unit disc `(k × n·n)` for the cortex
+    /// decoding the whole field and for decoders from outside, the readout of its percept
+    /// `(k × readout length)` for linear decoders; empty with noise.
     ons_basis: Vec<f32>,
+    /// Noise-free, for the cortex decoding windows: the cone activations W's inverse makes of
+    /// each plane's unit-disc ONS, cut to the window, `(k × window height × width)` (W's
+    /// inverse is linear, so a show's activations are their sum weighted by its class values).
+    activation_basis: Vec<f32>,
     readout_basis: Vec<f64>,
 }
 
@@ -87,6 +92,7 @@ impl EyeObserver<'_> {
         let cells = self
             .readout
             .cells(&self.retina.layout, self.disc(location).centre_px);
+        let window = self.decode_window(&cells);
         let (mut ons_basis, mut readout_basis) = (Vec::new(), Vec::new());
         if self.settings.noise_ratio == 0.0 {
             let (k, dim) = (self.retina.classes_read(), self.decoder.dim());
@@ -104,15 +110,29 @@ impl EyeObserver<'_> {
                 }
             }
         }
-        let window = self.decode_window(&cells);
+        let activation_basis = match (&self.decoder, &window) {
+            (Decoder::Cortex(cortex), Some((w, _))) if !ons_basis.is_empty() => {
+                let (k, n) = (self.retina.classes_read(), self.retina.n());
+                let pa = cortex.activations(&ons_basis, k);
+                let mut cut = vec![0f32; k * w.height * w.width];
+                for (plane, out) in pa.chunks_exact(n * n).zip(cut.chunks_exact_mut(w.area())) {
+                    w.cut(plane, n, out);
+                }
+                ons_basis = Vec::new();
+                cut
+            }
+            _ => Vec::new(),
+        };
         let entry = Arc::new(LocationEntry {
             cells,
             window,
             ons_basis,
+            activation_basis,
             readout_basis,
         });
-        let bytes =
-            entry.ons_basis.len() * 4 + entry.readout_basis.len() * 8 + entry.cells.len() * 16;
+        let bytes = (entry.ons_basis.len() + entry.activation_basis.len()) * 4
+            + entry.readout_basis.len() * 8
+            + entry.cells.len() * 16;
         let mut cache = self.cache.lock().expect("cache lock");
         if cache.bytes + bytes <= CACHE_LIMIT_BYTES {
             cache.bytes += bytes;
@@ -157,29 +177,45 @@ impl EyeObserver<'_> {
         out: &mut [f64],
     ) {
         let (dim, n) = (self.decoder.dim(), self.retina.n());
-        let (nn, len) = (n * n, self.readout.len(dim));
-        let noise_free = self.settings.noise_ratio == 0.0;
-        let mut ons = vec![0f32; members.len() * nn];
-        for (&i, o) in members.iter().zip(ons.chunks_exact_mut(nn)) {
-            if noise_free {
-                for (c, &v) in self.values(&shows[i]).iter().enumerate() {
-                    let b = &entries[i].ons_basis[c * nn..(c + 1) * nn];
-                    o.iter_mut().zip(b).for_each(|(x, b)| *x += v as f32 * b);
-                }
-            } else {
-                o.copy_from_slice(&self.render(&shows[i]).1);
-            }
-        }
+        let len = self.readout.len(dim);
         let mut tape = TAPE.take().unwrap_or_default();
         tape.clear();
-        let o = tape.constant_from([members.len(), 1, n, n], &ons);
         let windows: Option<Vec<Window>> = members
             .iter()
             .map(|&i| entries[i].window.as_ref().map(|(w, _)| *w))
             .collect();
         let v = match &windows {
-            Some(w) => cortex.record_decode_windows(&mut tape, o, w),
-            None => cortex.record_decode(&mut tape, o).percept,
+            Some(w) if !entries[members[0]].activation_basis.is_empty() => {
+                let pa = Self::summed(
+                    shows,
+                    entries,
+                    members,
+                    w[0].area(),
+                    |e| &e.activation_basis,
+                    |s| self.values(s),
+                );
+                cortex.record_decode_activation_windows(&mut tape, &pa, w)
+            }
+            _ => {
+                let ons = if self.settings.noise_ratio == 0.0 {
+                    Self::summed(
+                        shows,
+                        entries,
+                        members,
+                        n * n,
+                        |e| &e.ons_basis,
+                        |s| self.values(s),
+                    )
+                } else {
+                    let shown = members.iter().flat_map(|&i| self.render(&shows[i]).1);
+                    shown.collect()
+                };
+                let o = tape.constant_from([members.len(), 1, n, n], &ons);
+                match &windows {
+                    Some(w) => cortex.record_decode_windows(&mut tape, o, w),
+                    None => cortex.record_decode(&mut tape, o).percept,
+                }
+            }
         };
         let percept = tape.value(v).data();
         let plane = percept.len() / members.len().max(1);
@@ -194,6 +230,28 @@ impl EyeObserver<'_> {
         let idle = crate::budget::decode_tape_bytes(self.settings.decode_batch, n);
         tape.pool().trim(idle as usize);
         TAPE.set(Some(tape));
+    }
+
+    /// The frames `(members × plane_len)` of shows `members`, each the sum of its entry's
+    /// `basis` planes weighted by its class-plane `values`.
+    fn summed(
+        shows: &[Show],
+        entries: &[Arc<LocationEntry>],
+        members: &[usize],
+        plane_len: usize,
+        basis: impl Fn(&LocationEntry) -> &[f32],
+        values: impl Fn(&Show) -> Vec<f64>,
+    ) -> Vec<f32> {
+        let mut out = vec![0f32; members.len() * plane_len];
+        for (&i, o) in members.iter().zip(out.chunks_exact_mut(plane_len)) {
+            let b = basis(&entries[i]);
+            for (&v, plane) in values(&shows[i]).iter().zip(b.chunks_exact(plane_len)) {
+                o.iter_mut()
+                    .zip(plane)
+                    .for_each(|(x, b)| *x += v as f32 * b);
+            }
+        }
+        out
     }
 
     /// Class-plane values of a show's stimulus (the planes the cones read).
