@@ -33,12 +33,11 @@ from_root() { realpath -m --relative-to="$ROOT" "$1"; }
 TRAINED_IN=$(from_root "$RUN" | json_string)
 if [ -f "$TMP/run.json" ]; then
     FROM=$(sed -n 's/.*"continued_from": *"\([^"]*\)".*/\1/p' "$TMP/run.json")
-    # A run names it from its own folder (older ones by its absolute path); a kept run may
-    # already name it from the root.
+    # A run names it from its own folder (older ones by its absolute path).
     case "$FROM" in
         "") REL="" ;;
         /*) REL=$(from_root "$FROM") ;;
-        *) if [ -e "$RUN/$FROM" ]; then REL=$(from_root "$RUN/$FROM"); else REL=$FROM; fi ;;
+        *) REL=$(from_root "$RUN/$FROM") ;;
     esac
     if [ -n "$REL" ]; then
         REL=$(printf '%s' "$REL" | sed 's/[\\&#]/\\&/g')

@@ -9,9 +9,9 @@
 //! [`crate::observer::CACHE_LIMIT_BYTES`] of bases) the ONS of a unit disc per class read,
 //! `(classes × n²)` f32 for the cortex (counted so for the cortex that decodes windows too,
 //! which keeps the activations of that ONS on its window, `(classes × window)`: on the 256 ×
-//! 256 eye a 160 × 160 window, so there the count is an upper bound), beside the cones it reads (and, for the cortex, their
-//! indices in the window it decodes); the 2·W·P locations are all distinct (drawn per
-//! wavelength).
+//! 256 eye a 160 × 160 window, so there the count is an upper bound), beside the cones it
+//! reads (and, for the cortex, their indices in the window it decodes); the 2·W·P locations
+//! are all distinct (drawn per wavelength).
 //!
 //! The search (`colorimetry::matching`) adds, with K = `max_primaries` and m = classes:
 //! - the front end's model (`FrontEndJacobians`), kept for every wavelength once measured:
