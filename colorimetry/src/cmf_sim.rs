@@ -20,7 +20,8 @@
 //! and — for observers with a linear front end — the first step of every set comes from a model
 //! measured once per location pair ([`FrontEndJacobians`]).
 //!
-//! Files: `base` (step 1), [`sets`] (evaluating one set), `types` (settings and results).
+//! Files: `base` (step 1), `search` (step 2 for one K), `candidates` (converging a failed K's
+//! candidates best first), [`sets`] (evaluating one set), `types` (settings and results).
 //!
 //! The floor `base_error_floor_rel · max_λ energy(λ)` exists for noise-free observers whose base
 //! error is exactly 0 (every analytic observer here): an exact match then has an error at
@@ -46,6 +47,7 @@ use crate::matching::{FrontEndJacobians, TestPercepts};
 use crate::observer::Observer;
 
 mod base;
+mod candidates;
 mod search;
 pub mod sets;
 mod types;
@@ -188,12 +190,12 @@ pub fn run_cmf_sim_until(
     progress: &mut dyn FnMut(&CmfSimProgress),
     stop: &AtomicBool,
 ) -> Result<CmfSimResult> {
-    // A failed K's candidates are bounded by the best converged one: every solve is the one
-    // converging every candidate takes, so only the shows differ (cmf_sim/search.rs).
+    // A failed K's candidates are converged best first: every solve is the one converging
+    // every candidate takes, so only the shows differ (cmf_sim/candidates.rs).
     run(observer, settings, progress, stop, true)
 }
 
-/// [`run_cmf_sim_until`], with the candidates of a failed K bounded by the best converged one
+/// [`run_cmf_sim_until`], with the candidates of a failed K converged best first
 /// or (`bound_candidates = false`, the reference in tests) every candidate solved fully.
 fn run(
     observer: &dyn Observer,

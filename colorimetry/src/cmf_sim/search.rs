@@ -8,25 +8,16 @@
 //! of those by their converged worst ratio. For a passing K the passing set is solved at every
 //! wavelength (it may have stopped below the threshold at the first sub-threshold iterate).
 //!
-//! **Bounded candidates.** Only the best candidate's curve is reported, so a candidate need
-//! not be converged once it cannot beat the best so far. Candidates go in increasing order of
-//! their lower bounds; the first is solved fully. Each later one is skipped when its lower bound
-//! already reaches the best converged ratio `r*`, and otherwise solved in rounds along the
-//! wavelength order, every wavelength to convergence from where its earlier solve stopped —
-//! exactly the solve converging it fully takes, never stopped below a threshold
-//! ([`super::sets::evaluate_converged_until`]). A round in which a converged error reaches
-//! `r* · threshold` proves the candidate cannot be reported, and it is left there; one that
-//! reaches its last round is converged everywhere and competes with the best. So the reported
-//! curve, margin and verdict are those of converging every candidate, solve for solve (tested
-//! on analytic observers, and on a trained cortex, whose solves have several minima); only the
-//! shows differ.
+//! **Bounded candidates.** Only the best candidate's curve is reported, so the candidates are
+//! converged best first and a candidate is left unconverged once it cannot be the best
+//! ([`super::candidates`]). The reported curve, margin and verdict are those of converging
+//! every candidate, solve for solve (tested on analytic observers, and on one whose solves have
+//! several minima); only the shows differ.
 
 use rand::{Rng, RngCore};
 
 use super::base::Base;
-use super::sets::{
-    evaluate_converged_until, evaluate_early, evaluate_fully, FrontEnd, SetOutcome, WavelengthOrder,
-};
+use super::sets::{evaluate_early, evaluate_fully, FrontEnd, SetOutcome, WavelengthOrder};
 use super::{curve, stratified_primaries, CmfSimProgress, CmfSimSettings, ErrorCurve, KSummary};
 use super::{SetRecord, WavelengthPairs};
 use crate::error::{ColorimetryError, Result};
@@ -44,22 +35,22 @@ pub(super) struct Search<'a> {
     pub threshold: &'a [f64],
     /// Set by the caller to stop the search (checked before every primary set).
     pub stop: &'a AtomicBool,
-    /// Whether later candidates of a failed K are bounded by the best converged one (module
+    /// Whether the candidates of a failed K are converged best first and bounded (module
     /// docs); `false` solves every candidate fully (the reference the bound is tested against).
     pub bound_candidates: bool,
 }
 
 /// A set tried: its primaries, locations and seed, and what its evaluation found.
-struct Tried {
-    index: usize,
-    primaries: Vec<f64>,
+pub(super) struct Tried {
+    pub index: usize,
+    pub primaries: Vec<f64>,
     fresh_pairs: Option<WavelengthPairs>,
     seed: u64,
-    outcome: SetOutcome,
+    pub outcome: SetOutcome,
 }
 
 impl Search<'_> {
-    fn problem<'b>(&'b self, t: &'b Tried) -> MatchProblem<'b> {
+    pub(super) fn problem<'b>(&'b self, t: &'b Tried) -> MatchProblem<'b> {
         MatchProblem {
             observer: self.observer,
             test_wavelengths_nm: self.tests,
@@ -70,7 +61,7 @@ impl Search<'_> {
         }
     }
 
-    fn options<'b>(
+    pub(super) fn options<'b>(
         &'b self,
         resume: Option<&'b [crate::matching::WavelengthMatch]>,
     ) -> MatchOptions<'b> {
@@ -139,41 +130,9 @@ impl Search<'_> {
         evaluate_fully(&pb, &self.settings.solver, self.threshold, &options, front)
     }
 
-    /// Solve `t` fully if its converged worst ratio may lie below `best` (module docs, **Bounded
-    /// candidates**): `Ok` with the full outcome, or `Err` with what the bounded solve spent
-    /// when some wavelength's converged ratio reached `best`.
-    fn converge_below(
-        &self,
-        t: &Tried,
-        best: f64,
-        order: &WavelengthOrder,
-        front: Option<&mut FrontEnd<'_>>,
-    ) -> std::result::Result<SetOutcome, SetOutcome> {
-        if t.outcome.fully_evaluated {
-            return Ok(t.outcome.clone());
-        }
-        if !(t.outcome.worst_ratio(self.threshold) < best) {
-            return Err(SetOutcome::default());
-        }
-        let bound: Vec<f64> = self.threshold.iter().map(|&x| best * x).collect();
-        let s = &self.settings;
-        let bounded = evaluate_converged_until(
-            &self.problem(t),
-            &s.solver,
-            &bound,
-            &self.options(Some(&t.outcome.matches)),
-            order,
-            s.first_round_wavelengths,
-            front,
-        );
-        match bounded.fully_evaluated {
-            true => Ok(bounded.judged(self.threshold)),
-            false => Err(bounded),
-        }
-    }
-
-    /// Converge the candidates `tried` (in order) and return the best curve by converged worst
-    /// ratio, the first of equals (module docs).
+    /// Converge the candidates `tried` (in order): best first when bounded
+    /// ([`super::candidates`]), else every one. The best curve by converged worst ratio, the
+    /// first of equals.
     fn report(
         &self,
         k: usize,
@@ -182,26 +141,15 @@ impl Search<'_> {
         summary: &mut KSummary,
         mut front: Option<&mut FrontEnd<'_>>,
     ) -> Result<ErrorCurve> {
+        if self.bound_candidates {
+            return self.converge_best_first(k, tried, order, summary, front);
+        }
         let mut reported: Option<ErrorCurve> = None;
         for t in tried {
             if self.stop.load(Ordering::Relaxed) {
                 return Err(ColorimetryError::Stopped);
             }
-            let full = match (&reported, self.bound_candidates) {
-                (Some(best), true) => {
-                    self.converge_below(t, best.worst_ratio, order, front.as_deref_mut())
-                }
-                _ => Ok(self.converge(t, front.as_deref_mut())),
-            };
-            let full = match full {
-                Ok(full) => full,
-                Err(spent) => {
-                    summary.reported_curve_shows += spent.shows;
-                    summary.account(&spent);
-                    summary.sets_bounded_out += 1;
-                    continue;
-                }
-            };
+            let full = self.converge(t, front.as_deref_mut());
             if !t.outcome.fully_evaluated {
                 summary.reported_curve_shows += full.shows;
                 summary.account(&full);

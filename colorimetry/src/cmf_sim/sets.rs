@@ -217,30 +217,21 @@ pub fn evaluate_early(
     outcome(matches, threshold, false, calls, shows)
 }
 
-/// Like [`evaluate_early`], but every wavelength is solved to convergence (never stopped below
-/// a threshold), so each solve is exactly the one [`evaluate_fully`] with the same `options`
-/// takes: stops after the first round in which a converged error reaches `bound`. The outcome
-/// is judged against `bound`; when it reaches the last round every wavelength is converged, and
-/// judged against the threshold ([`SetOutcome::judged`]) it is [`evaluate_fully`]'s, matches,
-/// errors and shows alike.
-pub fn evaluate_converged_until(
+/// Solve `which` to convergence (never stopped below a threshold), each wavelength exactly as
+/// [`evaluate_fully`] with the same `options` solves it: its matches in the order of `which`,
+/// the observer calls and the shows.
+pub fn converge_wavelengths(
     pb: &MatchProblem<'_>,
     solver: &SolverSettings,
-    bound: &[f64],
+    which: &[usize],
     options: &MatchOptions<'_>,
-    order: &WavelengthOrder,
-    first_round: usize,
-    front: Option<&mut FrontEnd<'_>>,
-) -> SetOutcome {
+    mut front: Option<&mut FrontEnd<'_>>,
+) -> (Vec<WavelengthMatch>, usize, usize) {
     let opts = MatchOptions {
         stop_below: None,
         ..*options
     };
-    let (mut matches, calls, shows) =
-        in_rounds(pb, solver, bound, &opts, order, first_round, front);
-    let all = matches.len() == pb.test_wavelengths_nm.len();
-    matches.sort_by_key(|m| m.wavelength);
-    outcome(matches, bound, all, calls, shows)
+    solve(pb, solver, which, &opts, &mut front)
 }
 
 /// Solve along `order` in rounds of 1, 2, 4, … × `first_round` with `opts`; stop after the

@@ -136,9 +136,9 @@ pub struct KSummary {
     /// Sets solved at every wavelength to convergence (the passing set, or the best rejected
     /// sets of a failed K).
     pub sets_fully_evaluated: usize,
-    /// Candidates of a failed K left unconverged because, at some wavelength, their converged
-    /// error already reached the best converged candidate's worst ratio: they cannot be the
-    /// reported set ([`crate::cmf_sim`] step 2).
+    /// Candidates of a failed K left unconverged: their converged errors so far already
+    /// reached the reported candidate's worst ratio, so they cannot be the reported set
+    /// (converged best first: `cmf_sim/candidates.rs`).
     #[serde(default)]
     pub sets_bounded_out: usize,
     /// The reported set's `max error / threshold` over every test wavelength, after
