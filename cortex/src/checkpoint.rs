@@ -112,6 +112,27 @@ pub fn sha256_hex(bytes: &[u8]) -> String {
         .collect()
 }
 
+/// [`sha256_hex`] of the file at `path`, read in blocks of 1 MiB (a checkpoint's files are
+/// gigabytes at the top of `cortex.p.hidden`'s range).
+pub fn sha256_file(path: &Path) -> std::io::Result<String> {
+    use std::io::Read;
+    let mut file = std::fs::File::open(path)?;
+    let (mut hasher, mut block) = (Sha256::new(), vec![0u8; 1 << 20]);
+    loop {
+        match file.read(&mut block) {
+            Ok(0) => break,
+            Ok(n) => hasher.update(&block[..n]),
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
+            Err(e) => return Err(e),
+        }
+    }
+    Ok(hasher
+        .finalize()
+        .iter()
+        .map(|b| format!("{b:02x}"))
+        .collect())
+}
+
 /// Directory name of the checkpoint of `step`.
 pub fn checkpoint_name(step: u64) -> String {
     format!("step_{step:08}")
@@ -191,8 +212,8 @@ fn write_files(
     let mut meta = meta.clone();
     for f in files_of(meta.format) {
         let path = tmp.join(f);
-        let bytes = std::fs::read(&path).map_err(io(&path))?;
-        meta.files_sha256.insert(f.to_string(), sha256_hex(&bytes));
+        meta.files_sha256
+            .insert(f.to_string(), sha256_file(&path).map_err(io(&path))?);
     }
     let m = tmp.join("meta.json");
     let (text, _) = meta.sealed_json(&m)?;
@@ -298,8 +319,7 @@ pub fn verify(path: &Path) -> Result<CheckpointMeta, CortexError> {
                 format!("no `files_sha256` for {f}"),
             )
         })?;
-        let bytes = std::fs::read(&file).map_err(io(&file))?;
-        let got = sha256_hex(&bytes);
+        let got = sha256_file(&file).map_err(io(&file))?;
         if &got != want {
             return Err(bad(
                 &file,

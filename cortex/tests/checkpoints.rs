@@ -192,3 +192,21 @@ fn two_uninterrupted_runs_are_bit_identical() {
         );
     }
 }
+
+#[test]
+fn a_file_hashed_in_blocks_has_the_hash_of_its_bytes() {
+    let dir = scratch("sha");
+    std::fs::create_dir_all(&dir).unwrap();
+    for len in [0usize, 1, (1 << 20) - 1, 1 << 20, (5 << 20) / 2] {
+        let bytes: Vec<u8> = (0..len).map(|i| (i * 7 % 251) as u8).collect();
+        let path = dir.join(format!("f{len}"));
+        std::fs::write(&path, &bytes).unwrap();
+        let streamed = cortex::checkpoint::sha256_file(&path).unwrap();
+        assert_eq!(
+            streamed,
+            cortex::checkpoint::sha256_hex(&bytes),
+            "{len} bytes"
+        );
+    }
+    std::fs::remove_dir_all(dir).unwrap();
+}

@@ -173,7 +173,7 @@ impl<T: Float> Op<T> for AffineCoupling<T> {
             .par_chunks_mut(2 * BLOCK)
             .zip(inputs[0].data().par_chunks(2 * BLOCK))
             .for_each_init(
-                || Scratch::new(h),
+                || Scratch::forward(h),
                 |sc, (yb, xb)| block.forward(self.isa, xb, yb, sc),
             );
     }
@@ -209,7 +209,7 @@ impl<T: Float> Op<T> for AffineCoupling<T> {
                 .zip(dy.par_chunks(2 * BLOCK))
                 .zip(gx)
                 .for_each_init(
-                    || Scratch::new(h),
+                    || Scratch::backward(h, want_params),
                     |sc, (((acc, xb), dyb), gxb)| block.backward(self.isa, xb, dyb, gxb, acc, sc),
                 );
         }

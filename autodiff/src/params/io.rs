@@ -11,11 +11,14 @@
 //!   half-written checkpoint.
 //! - Every error names the file, and the tensor when one is involved.
 
+mod write;
+
+pub use write::write_safetensors;
+
 use crate::tensor::MAX_RANK;
 use crate::{Float, Shape, Tensor};
-use safetensors::tensor::{Dtype, SafeTensors, TensorView, View};
-use std::borrow::Cow;
-use std::collections::{BTreeMap, HashMap};
+use safetensors::tensor::{Dtype, SafeTensors, TensorView};
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 /// What went wrong reading or writing a safetensors file.
@@ -68,49 +71,12 @@ pub enum SafetensorsError {
     },
 }
 
-/// Little-endian bytes of one tensor, in the file's dtype.
-struct Bytes {
-    dtype: Dtype,
-    shape: Vec<usize>,
-    data: Vec<u8>,
-}
-
-impl View for &Bytes {
-    fn dtype(&self) -> Dtype {
-        self.dtype
-    }
-    fn shape(&self) -> &[usize] {
-        &self.shape
-    }
-    fn data(&self) -> Cow<'_, [u8]> {
-        Cow::Borrowed(&self.data)
-    }
-    fn data_len(&self) -> usize {
-        self.data.len()
-    }
-}
-
-fn to_bytes<T: Float>(t: &Tensor<T>) -> Bytes {
-    let data = if T::DTYPE == "f64" {
-        t.data()
-            .iter()
-            .flat_map(|x| x.as_f64().to_le_bytes())
-            .collect()
-    } else {
-        t.data()
-            .iter()
-            .flat_map(|x| (x.as_f64() as f32).to_le_bytes())
-            .collect()
-    };
-    let dtype = if T::DTYPE == "f64" {
-        Dtype::F64
-    } else {
-        Dtype::F32
-    };
-    Bytes {
-        dtype,
-        shape: t.dims().to_vec(),
-        data,
+impl From<atomic_io::FileError> for SafetensorsError {
+    fn from(e: atomic_io::FileError) -> Self {
+        SafetensorsError::Io {
+            path: e.path,
+            source: e.source,
+        }
     }
 }
 
@@ -119,56 +85,6 @@ fn io_err(path: &Path) -> impl Fn(std::io::Error) -> SafetensorsError + '_ {
         path: path.to_path_buf(),
         source,
     }
-}
-
-/// Writes `tensors` (name, value) and string `metadata` to `path`, atomically.
-pub fn write_safetensors<T: Float>(
-    path: &Path,
-    tensors: &[(&str, &Tensor<T>)],
-    metadata: &BTreeMap<String, String>,
-) -> Result<(), SafetensorsError> {
-    let bytes: Vec<(&str, Bytes)> = tensors.iter().map(|(n, t)| (*n, to_bytes(t))).collect();
-    let info: HashMap<String, String> = metadata.clone().into_iter().collect();
-    let buf = safetensors::tensor::serialize(
-        bytes.iter().map(|(n, b)| (*n, b)),
-        if info.is_empty() { None } else { Some(info) },
-    )
-    .map_err(|e| SafetensorsError::Format {
-        path: path.to_path_buf(),
-        reason: e.to_string(),
-    })?;
-    let buf = canonical_header(buf).map_err(|reason| SafetensorsError::Format {
-        path: path.to_path_buf(),
-        reason,
-    })?;
-
-    atomic_io::write_atomic(path, &buf).map_err(|e| SafetensorsError::Io {
-        path: e.path,
-        source: e.source,
-    })
-}
-
-/// Rewrites the JSON header of serialised safetensors bytes with its keys sorted (the
-/// `safetensors` crate writes `__metadata__` from a hash map, in a different order each run), so
-/// the same tensors and metadata always give the same bytes. Readers locate tensors by their
-/// offsets, not by the order of the header.
-fn canonical_header(buf: Vec<u8>) -> Result<Vec<u8>, String> {
-    let n = buf
-        .get(..8)
-        .map(|b| u64::from_le_bytes(b.try_into().expect("8 bytes")) as usize)
-        .ok_or("shorter than its 8-byte header length")?;
-    let header = buf.get(8..8 + n).ok_or("header longer than the file")?;
-    let value: serde_json::Value =
-        serde_json::from_slice(header).map_err(|e| format!("header: {e}"))?;
-    let mut text = serde_json::to_string(&value).map_err(|e| format!("header: {e}"))?;
-    while text.len() % 8 != 0 {
-        text.push(' ');
-    }
-    let mut out = Vec::with_capacity(8 + text.len() + buf.len() - 8 - n);
-    out.extend_from_slice(&(text.len() as u64).to_le_bytes());
-    out.extend_from_slice(text.as_bytes());
-    out.extend_from_slice(&buf[8 + n..]);
-    Ok(out)
 }
 
 /// Named tensors and the string metadata of a safetensors file.
@@ -245,6 +161,92 @@ fn from_view<T: Float>(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use safetensors::tensor::View;
+    use std::borrow::Cow;
+    use std::collections::HashMap;
+
+    // The reference the streamed writer is tested against: the `safetensors` crate's own
+    // serialisation of the tensors' bytes, with the header's keys sorted.
+    /// Little-endian bytes of one tensor, in the file's dtype.
+    struct Bytes {
+        dtype: Dtype,
+        shape: Vec<usize>,
+        data: Vec<u8>,
+    }
+
+    impl View for &Bytes {
+        fn dtype(&self) -> Dtype {
+            self.dtype
+        }
+        fn shape(&self) -> &[usize] {
+            &self.shape
+        }
+        fn data(&self) -> Cow<'_, [u8]> {
+            Cow::Borrowed(&self.data)
+        }
+        fn data_len(&self) -> usize {
+            self.data.len()
+        }
+    }
+
+    fn to_bytes<T: Float>(t: &Tensor<T>) -> Bytes {
+        let data = if T::DTYPE == "f64" {
+            t.data()
+                .iter()
+                .flat_map(|x| x.as_f64().to_le_bytes())
+                .collect()
+        } else {
+            t.data()
+                .iter()
+                .flat_map(|x| (x.as_f64() as f32).to_le_bytes())
+                .collect()
+        };
+        let dtype = if T::DTYPE == "f64" {
+            Dtype::F64
+        } else {
+            Dtype::F32
+        };
+        Bytes {
+            dtype,
+            shape: t.dims().to_vec(),
+            data,
+        }
+    }
+
+    /// Writes `tensors` (name, value) and string `metadata` to `path`, atomically.
+    fn crate_bytes<T: Float>(
+        tensors: &[(&str, &Tensor<T>)],
+        metadata: &BTreeMap<String, String>,
+    ) -> Vec<u8> {
+        let bytes: Vec<(&str, Bytes)> = tensors.iter().map(|(n, t)| (*n, to_bytes(t))).collect();
+        let info: HashMap<String, String> = metadata.clone().into_iter().collect();
+        let buf = safetensors::tensor::serialize(
+            bytes.iter().map(|(n, b)| (*n, b)),
+            if info.is_empty() { None } else { Some(info) },
+        )
+        .expect("the crate serialises");
+        canonical_header(buf).expect("the crate's header is JSON")
+    }
+
+    /// Rewrites the JSON header of serialised safetensors bytes with its keys sorted.
+    fn canonical_header(buf: Vec<u8>) -> Result<Vec<u8>, String> {
+        let n = buf
+            .get(..8)
+            .map(|b| u64::from_le_bytes(b.try_into().expect("8 bytes")) as usize)
+            .ok_or("shorter than its 8-byte header length")?;
+        let header = buf.get(8..8 + n).ok_or("header longer than the file")?;
+        let value: serde_json::Value =
+            serde_json::from_slice(header).map_err(|e| format!("header: {e}"))?;
+        let mut text = serde_json::to_string(&value).map_err(|e| format!("header: {e}"))?;
+        while text.len() % 8 != 0 {
+            text.push(' ');
+        }
+        let mut out = Vec::with_capacity(8 + text.len() + buf.len() - 8 - n);
+        out.extend_from_slice(&(text.len() as u64).to_le_bytes());
+        out.extend_from_slice(text.as_bytes());
+        out.extend_from_slice(&buf[8 + n..]);
+        Ok(out)
+    }
 
     fn tmp(name: &str) -> PathBuf {
         std::env::temp_dir().join(format!("autodiff-io-{}-{name}", std::process::id()))
@@ -294,6 +296,64 @@ mod tests {
         assert_eq!(back.tensors["u"].data(), t.data());
         let _ = std::fs::remove_file(a);
         let _ = std::fs::remove_file(b);
+    }
+
+    fn streamed_and_crate_bytes<T: Float>(
+        shapes: &[Vec<usize>],
+        names: &[String],
+        metadata: &BTreeMap<String, String>,
+        file: &str,
+    ) -> (Vec<u8>, Vec<u8>) {
+        let tensors: Vec<Tensor<T>> = shapes
+            .iter()
+            .enumerate()
+            .map(|(i, s)| {
+                let n = s.iter().product::<usize>();
+                let v = (0..n)
+                    .map(|j| T::of((i * 31 + j) as f64 / 7.0 - 3.0))
+                    .collect();
+                Tensor::from_vec(Shape::new(s), v)
+            })
+            .collect();
+        let named: Vec<(&str, &Tensor<T>)> =
+            names.iter().map(|n| n.as_str()).zip(&tensors).collect();
+        let p = tmp(file);
+        write_safetensors(&p, &named, metadata).unwrap();
+        let streamed = std::fs::read(&p).unwrap();
+        std::fs::remove_file(&p).unwrap();
+        (streamed, crate_bytes(&named, metadata))
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(48))]
+        /// The streamed writer gives the crate's bytes, for any names (as a set), shapes (up
+        /// to rank 3, empty ones included), metadata and dtype.
+        #[test]
+        fn the_streamed_file_is_the_crates_serialisation(
+            shapes in proptest::collection::vec(proptest::collection::vec(0usize..5, 0..4), 1..6),
+            names in proptest::collection::btree_set("[a-z_.]{1,8}", 6),
+            metadata in proptest::collection::btree_map("[a-z]{1,6}", "[ -~]{0,10}", 0..4),
+            wide in proptest::bool::ANY,
+        ) {
+            let names: Vec<String> = names.into_iter().rev().take(shapes.len()).collect();
+            let (streamed, reference) = match wide {
+                true => streamed_and_crate_bytes::<f64>(&shapes, &names, &metadata, "prop64"),
+                false => streamed_and_crate_bytes::<f32>(&shapes, &names, &metadata, "prop32"),
+            };
+            proptest::prop_assert!(streamed == reference, "{} vs {} bytes", streamed.len(), reference.len());
+        }
+    }
+
+    #[test]
+    fn a_name_given_twice_is_refused_naming_the_file() {
+        let p = tmp("twice.safetensors");
+        let t = Tensor::from_vec([1], vec![1.0f32]);
+        let err = write_safetensors(&p, &[("w", &t), ("w", &t)], &BTreeMap::new()).unwrap_err();
+        assert!(
+            err.to_string().contains("twice.safetensors") && err.to_string().contains("\"w\""),
+            "{err}"
+        );
+        assert!(!p.exists());
     }
 
     #[test]

@@ -118,9 +118,8 @@ pub fn bytes(
     let locations = 2.0 * pairs;
     // The cache stops at its limit as it counts an entry (`science::observer::render::
     // location_entry`: the unit-disc responses and 16 bytes a cell read); beside the cells read
-    // the cortex keeps their indices in the window it decodes (`decode_window`). Not counted:
-    // the responses grow plane by plane in one vector whose capacity doubles, so three planes
-    // are held in room for four (docs/memory-tops.md).
+    // the cortex keeps their indices in the window it decodes (`decode_window`). The responses
+    // are reserved exactly, one plane per class.
     let basis = classes * n2 * 4.0;
     let counted = basis + samples * 16.0;
     let limit = crate::observer::CACHE_LIMIT_BYTES as f64;

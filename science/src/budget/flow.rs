@@ -2,12 +2,14 @@
 //! `cortex.p.hidden`), `H² + 5H + 2` parameters each (`autodiff::nn::realnvp`), which at the top
 //! of H's range outweigh the rest of the cortex.
 //!
-//! Copies of the parameters a training run holds at once, counted in the code:
-//! the store (1), Adam's two moments (2), the step's tape — a leaf copy of each parameter (1),
-//! the copy each coupling op saves for backward, forward and inverse (2), each leaf's gradient
-//! (1) — and the checkpoint's serialised parameters and optimiser state (3); besides, backward
-//! keeps one partial gradient of a coupling per block of `autodiff::nn::coupling::BLOCK`
-//! points of the warp's inverse (batch × ONS pixels).
+//! Copies of the parameters a training run holds at once (a heap profile of a run at the top of
+//! H, docs/memory-tops.md): the store (1), Adam's two moments (2), and the tape kept from step to
+//! step — a leaf copy of each parameter (1), each leaf's gradient slot (1), the gradient
+//! container's copy (1). Besides these, during a step the copy each coupling op saves for
+//! backward, forward and inverse (2); at the run's end, in their place, the tape-free flow in
+//! f64 that places the pictures' learned positions (2). The checkpoint streams its files and
+//! holds no copy. And backward keeps one partial gradient of a coupling per block of
+//! `autodiff::nn::coupling::BLOCK` points of the warp's inverse (batch × ONS pixels).
 
 use crate::config::RunConfig;
 use cortex::config::PMode;

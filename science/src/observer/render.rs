@@ -96,6 +96,11 @@ impl EyeObserver<'_> {
         let (mut ons_basis, mut readout_basis) = (Vec::new(), Vec::new());
         if self.settings.noise_ratio == 0.0 {
             let (k, dim) = (self.retina.classes_read(), self.decoder.dim());
+            // Exactly k planes: a basis grown plane by plane would keep room for a fourth.
+            match self.decoder.is_linear() {
+                true => readout_basis.reserve_exact(k * self.readout.len(dim)),
+                false => ons_basis.reserve_exact(k * self.retina.n() * self.retina.n()),
+            }
             for c in 0..k {
                 let mut unit = vec![0.0; c + 1];
                 unit[c] = 1.0;

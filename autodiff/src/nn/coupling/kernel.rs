@@ -142,23 +142,39 @@ pub(super) struct Scratch<T> {
 }
 
 impl<T: Float> Scratch<T> {
-    pub fn new(h: usize) -> Self {
+    /// A forward pass's buffers: the activations only.
+    pub fn forward(h: usize) -> Self {
+        Self::new(h, false, false)
+    }
+
+    /// A backward pass's buffers: the activations, the errors and, when the parameters'
+    /// gradients are wanted, their lane sums (`MAX_LANES` × one coupling's parameters: at the
+    /// top of `H`'s range a gigabyte per task, so never made for a forward pass).
+    pub fn backward(h: usize, want_params: bool) -> Self {
+        Self::new(h, true, want_params)
+    }
+
+    fn new(h: usize, errors: bool, lanes: bool) -> Self {
         let rows = |n: usize| vec![T::zero(); n * CHUNK];
         let with_ones = |n: usize| {
             let mut b = rows(n + 1);
             b[n * CHUNK..].fill(T::one());
             b
         };
+        let errors_of = |n: usize| if errors { rows(n) } else { Vec::new() };
         Scratch {
             v1: with_ones(1),
             h1: with_ones(h),
             h2: with_ones(h),
             ts: rows(2),
-            g3: rows(2),
-            gh1: rows(h),
-            gh2: rows(h),
-            dv: rows(1),
-            lanes: vec![T::zero(); num_params(h) * MAX_LANES],
+            g3: errors_of(2),
+            gh1: errors_of(h),
+            gh2: errors_of(h),
+            dv: errors_of(1),
+            lanes: match lanes {
+                true => vec![T::zero(); num_params(h) * MAX_LANES],
+                false => Vec::new(),
+            },
         }
     }
 
