@@ -1,10 +1,11 @@
 #!/bin/bash
 # Keeps a stopped run in the repository so that it continues on another machine: its settings,
-# start, per-step metrics, newest checkpoint and the CMF-SIM readings a protocol arm has taken
-# (cmf-sim-step*/) go to runs-kept/<GROUP>/<NAME>/ (about 3 MB for a
+# start, per-step metrics, newest checkpoint and the readings a protocol arm has taken
+# (cmf-sim-step*/, percept-alignment/) go to runs-kept/<GROUP>/<NAME>/ (about 3 MB for a
 # quick-eye run). `colorvision train --resume --out DIR …` (or `colorvision resume DIR`) on a copy
 # of that folder continues the run from the kept checkpoint, bit for bit as if it had never
-# stopped (same thread count); scripts/fourth-screen.sh restores its arms from runs-kept/fourth/.
+# stopped (same thread count); scripts/fourth-screen.sh and scripts/rules-screen.sh restore
+# their arms from runs-kept/fourth/ and runs-kept/rules-screen/.
 # Usage: scripts/keep-run.sh RUN_DIR GROUP        e.g. scripts/keep-run.sh runs/fourth/A0-seed21 fourth
 set -euo pipefail
 RUN=${1:?usage: scripts/keep-run.sh RUN_DIR GROUP}
@@ -27,7 +28,7 @@ if [ -n "$FROM" ]; then
     sed -i "s#\"continued_from\": *\"[^\"]*\"#\"continued_from\": \"$REL\"#" "$TMP/run.json"
 fi
 mkdir "$TMP/checkpoints" && cp -r "$NEWEST" "$TMP/checkpoints/"
-for m in "$RUN"/cmf-sim-step*; do   # a protocol arm's CMF-SIM readings taken so far
+for m in "$RUN"/cmf-sim-step* "$RUN"/percept-alignment; do   # a protocol arm's readings so far
     [ -d "$m" ] && cp -r "$m" "$TMP/"
 done
 rm -rf "$DEST"

@@ -25,9 +25,18 @@ arm() {
     "$P" "$R/$1" 0 3000 "3000" "0" --preset main ${OPTS[@]+"${OPTS[@]}"}
 }
 
+# An arm stopped or finished on another machine continues from its kept copy
+# (runs-kept/rules-screen/, in the repository; scripts/keep-run.sh makes one).
+restore() {
+    local kept="$ROOT/runs-kept/rules-screen/$1"
+    if [ -d "$kept" ] && [ ! -d "$R/$1" ]; then cp -r "$kept" "$R/$1"; fi
+}
+
 mkdir -p "$R"
+restore B0   # the percepts of every arm are compared with B0's
 for a in ${ARMS:-B0 F0 F1 B1 F2 B2 F3 B3 K1 D1 G0 G1}; do
     echo "== rules-screen: arm $a ($(date -u +%FT%TZ))"
+    restore "$a"
     arm "$a"
     if [ "$a" != B0 ] && [ -d "$R/B0/checkpoints/step_00003000" ] \
         && [ ! -f "$R/$a/percept-alignment/against-B0.csv" ]; then

@@ -6,9 +6,9 @@
 //! - Tensors are written with the dtype of the tape's float (`F32` or `F64`). Reading accepts
 //!   both and converts to the requested float (f32 → f64 is exact; f64 → f32 rounds). Same-dtype
 //!   round trips are bit-exact.
-//! - Writes are atomic ([`atomic_io::write_atomic`]): the bytes go to a temporary file in the
-//!   same directory, synced, then renamed over the target, so a crash never leaves a
-//!   half-written checkpoint.
+//! - Writes are streamed (`write`: no copy of the tensors is made) and atomic
+//!   ([`atomic_io::write_via`]): the bytes go to a temporary file in the same directory,
+//!   synced, then renamed over the target, so a crash never leaves a half-written checkpoint.
 //! - Every error names the file, and the tensor when one is involved.
 
 mod write;
