@@ -43,8 +43,6 @@ struct Converging<'t> {
     round: usize,
     /// The largest converged `error / threshold` so far: a lower bound on its worst ratio.
     bound: f64,
-    observer_calls: usize,
-    shows: usize,
 }
 
 impl Search<'_> {
@@ -94,11 +92,10 @@ impl Search<'_> {
         let c = candidates.swap_remove(best);
         let mut matches = c.solved;
         matches.sort_by_key(|m| m.wavelength);
+        // The calls and shows spent are in `summary`; the curve reads the matches only.
         let full = SetOutcome {
             matches,
             fully_evaluated: true,
-            observer_calls: c.observer_calls,
-            shows: c.shows,
             ..SetOutcome::default()
         }
         .judged(self.threshold);
@@ -134,8 +131,6 @@ impl Search<'_> {
             done: if full { n } else { 0 },
             round: first_round,
             bound,
-            observer_calls: 0,
-            shows: 0,
         }
     }
 
@@ -162,7 +157,5 @@ impl Search<'_> {
         c.solved.extend(matches);
         c.done += which.len();
         c.round *= 2;
-        c.observer_calls += calls;
-        c.shows += shows;
     }
 }
