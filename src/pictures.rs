@@ -9,7 +9,12 @@
 //! - `learned_c.png` beside `true_mosaic.png` — learned C coloured by the least-squares map from
 //!   C to the true class colours (L red, M green, S blue, Q yellow), and the true mosaic;
 //! - `w_kernel.png` — learned W kernel (7×7 crop of the inverse FFT, left) beside the true DoG;
-//! - `positions.svg` — learned positions P(uv) against the true cone positions.
+//! - `positions.svg` — learned positions P(uv) against the true cone positions;
+//! - `own_<class>.png` — the eye's last class's own signal (what the other classes do not
+//!   predict: S for a trichromat, Q for a tetrachromat, the dimension Neural Scope's three
+//!   channels cannot show), the scene's colour (left), the truth's own image (middle) and the
+//!   percept's reading of it (right), signed grey on the truth's scale; its held-out R² is
+//!   `own_image` in `summary.json` ([`science::invariants::own_image`]).
 
 use crate::io::{signed_to_rgb, upscale_rgb, write_atomic, write_png_rgb};
 use crate::run::error::RunError;
@@ -17,10 +22,16 @@ use colorimetry::{srgb, ScopeAccumulator};
 use cortex::{Cortex, Trainer};
 use retina::Retina;
 use science::config::RunConfig;
+use science::invariants::own_image::{self, OwnImagePicture};
 use science::source::RetinaSource;
-use science::summary::{Invariants, HUE_ERROR_MIN_CHROMA};
+use science::summary::{Invariants, OwnImageFigure, HUE_ERROR_MIN_CHROMA};
 use std::fmt::Write as _;
 use std::path::Path;
+
+/// The smallest full scale of `own_<class>.png`, as a fraction of the class's excitation range
+/// in the scene shown (a display setting, not a physical constant: an own signal smaller than 1 %
+/// of the class's range is drawn at that fraction of full contrast, not stretched to it).
+const OWN_IMAGE_FLOOR: f64 = 0.01;
 
 const CLASS_RGB: [[f64; 3]; 4] = [
     [1.0, 0.2, 0.2],
@@ -68,6 +79,9 @@ pub fn write_all(
         &mut scenes,
         science::invariants::HELD_OUT_SCENES,
     );
+    // The last class's own signal on the next held-out scenes of the same stream.
+    let own = own_image::held_out(cortex, &mut scenes, science::invariants::HELD_OUT_SCENES);
+    let own_image = own.map(|own| write_own_image(dir, &own)).transpose()?;
     Ok(Invariants {
         recovery,
         scope_rmse: scope.rmse,
@@ -75,6 +89,7 @@ pub fn write_all(
         truth_hue_axis: scope.truth_hue_axis,
         ideal_hue_axis: scope.ideal_hue_axis,
         scope_hue_error: scope.hue_error,
+        own_image,
     })
 }
 
@@ -190,6 +205,53 @@ fn write_scope(
         ideal_hue_axis,
         hue_error,
     })
+}
+
+/// `own_<class>.png` (module docs): the last held-out scene's colour (normalised by its
+/// brightest channel) beside the class's own signal in the truth and as the percept reads it,
+/// signed grey on the truth's scale (grey 0, white and black ± its largest magnitude there, or
+/// ± [`OWN_IMAGE_FLOOR`] of the class's range when that is larger: an own signal of rounding
+/// size stays grey instead of being stretched into noise).
+fn write_own_image(dir: &Path, own: &OwnImagePicture) -> Result<OwnImageFigure, RunError> {
+    let (n, border) = (own.n, own.border);
+    let (nn, side) = (n * n, n - 2 * border);
+    let peak = own.scene_srgb.iter().fold(1e-6f32, |m, &v| m.max(v)) as f64;
+    let mut scene = vec![0f32; nn * 3];
+    for (i, rgb) in scene.chunks_exact_mut(3).enumerate() {
+        for (c, v) in rgb.iter_mut().enumerate() {
+            *v = srgb::oetf((own.scene_srgb[c * nn + i] as f64 / peak).clamp(0.0, 1.0)) as f32;
+        }
+    }
+    let floor = (OWN_IMAGE_FLOOR * own.class_range).max(1e-12);
+    let scale = own.truth.iter().fold(floor, |m, v| m.max(v.abs()));
+    let panel = |values: &[f64]| {
+        let mut rgb = vec![0.5f32; nn * 3];
+        for (i, v) in values.iter().enumerate() {
+            let (y, x) = (border + i / side, border + i % side);
+            let grey = (0.5 + 0.5 * v / scale).clamp(0.0, 1.0) as f32;
+            rgb[(y * n + x) * 3..][..3].fill(grey);
+        }
+        rgb
+    };
+    let (truth, reading) = (panel(&own.truth), panel(&own.reading));
+    let mut three = Vec::with_capacity(nn * 9);
+    for y in 0..n {
+        for image in [&scene, &truth, &reading] {
+            three.extend_from_slice(&image[y * n * 3..(y + 1) * n * 3]);
+        }
+    }
+    let figure = OwnImageFigure {
+        class: own.class.clone(),
+        held_out_r2: own.held_out_r2,
+    };
+    let f = enlarge(n);
+    write_png_rgb(
+        &dir.join(figure.file_name()),
+        3 * n * f,
+        n * f,
+        &upscale_rgb(3 * n, n, &three, f),
+    )?;
+    Ok(figure)
 }
 
 /// `true_mosaic.png` (dominant class per cone) and, with a learned C, `learned_c.png` (C mapped

@@ -5,7 +5,8 @@
 //! Sections, each present when the run wrote its files: the result (dimension, verdict, each
 //! K's converged margin, held-out prediction error, the first step at each dimension); the
 //! dimension over training (`dimension.svg`, paper Fig. 3.3); CMF-SIM's error curves with the
-//! threshold (`cmf_sim_errors.svg`); Neural Scope beside the true colour (`pictures/scope.png`);
+//! threshold (`cmf_sim_errors.svg`); Neural Scope beside the true colour (`pictures/scope.png`)
+//! and the last class's own signal beside the truth's (`pictures/own_<class>.png`);
 //! learned C beside the true mosaic, W beside the true DoG, P against the true positions,
 //! with the invariants' numbers; the optic nerve signal; the loss; the learning rule's update
 //! against backprop's gradient per bucket (`alignment.svg`); the settings
@@ -224,6 +225,18 @@ pub fn render(out: &Path, s: &Summary) -> String {
         "pictures/scope.png",
         "percept (left) beside the true colour (right)",
     ));
+    if let Some(own) = s.invariants.as_ref().and_then(|i| i.own_image.as_ref()) {
+        html.push_str(&figure(
+            out,
+            &format!("pictures/{}", own.file_name()),
+            &format!(
+                "{c}'s own signal (what the other classes do not predict): the scene (left), \
+                 the truth (middle), the percept's reading (right); held-out R² {r:.2}",
+                c = own.class,
+                r = own.held_out_r2
+            ),
+        ));
+    }
     html.push_str("<h2>Learned C, W, P beside the truth</h2>\n<div class=\"pair\">");
     html.push_str(&figure(
         out,

@@ -73,11 +73,13 @@ fn measurements_of_a_run_never_touch_its_record() {
     );
     for f in [
         "cmf-sim/cmf_sim.json",
+        "pictures/own_S.png",
         "scope/scope.png",
         "stiles-burch/table.json",
         "stiles-burch/trained/stiles_burch.svg",
         "x/cmf_sim.json",
         "y/scope.png",
+        "y/own_S.png",
         "y/scope.json",
         "z/cmf_sim.json",
     ] {

@@ -28,6 +28,7 @@
 
 pub mod directions;
 pub mod hidden;
+pub mod own_image;
 pub mod positions;
 
 use crate::source::RetinaSource;

@@ -33,6 +33,37 @@ pub struct Invariants {
     /// chroma C*ab ≥ [`HUE_ERROR_MIN_CHROMA`] ([`colorimetry::hue_error`]).
     #[serde(default)]
     pub scope_hue_error: Option<colorimetry::HueError>,
+    /// The last cone class's own signal (what the other classes do not predict) as the percept
+    /// reads it on held-out scenes: the picture `pictures/own_<class>.png` and its held-out R²
+    /// ([`crate::invariants::own_image`]); `None` for a one-class eye.
+    #[serde(default)]
+    pub own_image: Option<OwnImageFigure>,
+}
+
+/// The figure of [`Invariants::own_image`].
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct OwnImageFigure {
+    /// The class whose own signal is shown (the eye's last class: S for LMS, Q for LMSQ).
+    pub class: String,
+    /// Held-out R² of the percept's reading of it, over every site of the scoring scenes.
+    #[serde(deserialize_with = "nan_for_null")]
+    pub held_out_r2: f64,
+}
+
+impl OwnImageFigure {
+    /// The picture's file name in `pictures/`: `own_<class>.png`, the class name's characters
+    /// other than letters and digits written as `_`.
+    pub fn file_name(&self) -> String {
+        let class: String = (self.class.chars())
+            .map(|c| if c.is_ascii_alphanumeric() { c } else { '_' })
+            .collect();
+        format!("own_{class}.png")
+    }
+}
+
+/// A figure written as `null` (JSON has no NaN) read back as NaN.
+fn nan_for_null<'de, D: serde::Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+    Ok(Option::<f64>::deserialize(d)?.unwrap_or(f64::NAN))
 }
 
 /// The chroma (CIELAB C*ab) from which a pixel's hue counts in the hue error: greys have no

@@ -1,0 +1,240 @@
+//! A cone class's own signal as a picture: what class k catches beyond the other classes at each
+//! cone, beside the percept's reading of it (the newest colour dimension made visible: S for a
+//! trichromat, the fourth class Q for a tetrachromat). Evaluation only: this reads the true
+//! excitations of held-out scenes; nothing here feeds learning.
+//!
+//! Neural Scope maps the percept to three sRGB channels, so a fourth dimension cannot show in it.
+//! This measure shows it apart:
+//! 1. the **truth's own image** of class k: at every site, `u_k = e_k − (affine least-squares
+//!    prediction of e_k from the other classes' true excitations at the same place)`, one fit over
+//!    every site given (as [`super::hidden`] defines the unique part, but at every cone, not only
+//!    at the hidden ones, so that it makes a whole picture);
+//! 2. the **percept's reading**: an affine least-squares map from the `N`-dimensional percept to
+//!    `u_k`, fitted on the first `fit_sites` sites and applied to every site;
+//! 3. its **held-out R²** on the sites after `fit_sites` (1: the percept carries class k's own
+//!    signal; 0 or below: it carries only what the other classes already tell).
+//!
+//! At a cone of class k itself the eye measures `e_k`, so there a percept can read `u_k` without
+//! having filled anything in; [`super::hidden`]'s `unique_r2` scores the hidden sites alone and is
+//! the figure that says whether the cortex demosaicked class k. This R² is the picture's own.
+//!
+//! Layout: `percept` row-major `(sites, dim)`, `excitation` row-major `(sites, classes)`.
+
+use super::hidden::{affine_residuals, held_out_r2, HiddenSamples};
+use super::HIDDEN_BATCH_SIZE;
+use crate::source::RetinaSource;
+use cortex::Cortex;
+
+/// Class k's own signal at every site and the percept's reading of it (module docs).
+#[derive(Clone, Debug, PartialEq)]
+pub struct OwnImage {
+    /// `u_k` at every site, in excitation units.
+    pub truth: Vec<f64>,
+    /// The percept's affine reading of `u_k` at every site (fitted on the first `fit_sites`).
+    pub reading: Vec<f64>,
+    /// Held-out R² of the reading on the sites after `fit_sites`.
+    pub held_out_r2: f64,
+}
+
+/// Class `k`'s own signal and the percept's reading of it over `excitation.len() / classes`
+/// sites, the reading fitted on the first `fit_sites` (module docs).
+pub fn own_image(
+    percept: &[f64],
+    excitation: &[f64],
+    dim: usize,
+    classes: usize,
+    k: usize,
+    fit_sites: usize,
+) -> OwnImage {
+    let sites = excitation.len() / classes.max(1);
+    assert!(
+        classes >= 2 && k < classes && excitation.len() == sites * classes,
+        "own_image: class {k} of {classes}, {} excitations",
+        excitation.len()
+    );
+    assert!(
+        percept.len() == sites * dim && fit_sites > 0 && fit_sites < sites,
+        "own_image: {} percept values for {sites} sites of {dim} channels, fit on {fit_sites}",
+        percept.len()
+    );
+    let target: Vec<f64> = excitation.chunks_exact(classes).map(|e| e[k]).collect();
+    let others: Vec<f64> = excitation
+        .chunks_exact(classes)
+        .flat_map(|e| {
+            e.iter()
+                .enumerate()
+                .filter(|&(j, _)| j != k)
+                .map(|(_, &v)| v)
+        })
+        .collect();
+    let truth = affine_residuals((&others, &target), (&others, &target), classes - 1);
+    let fit = (&percept[..fit_sites * dim], &truth[..fit_sites]);
+    let left = affine_residuals(fit, (percept, &truth), dim);
+    let reading = truth.iter().zip(&left).map(|(u, r)| u - r).collect();
+    let held_out_r2 = held_out_r2(fit, (&percept[fit_sites * dim..], &truth[fit_sites..]), dim);
+    OwnImage {
+        truth,
+        reading,
+        held_out_r2,
+    }
+}
+
+/// The last class's own signal on held-out scenes, with what its picture shows ([`held_out`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct OwnImagePicture {
+    /// The class (the eye's last: S for LMS, Q for LMSQ).
+    pub class: String,
+    /// Held-out R² of the percept's reading over every site of the scoring half of the scenes.
+    pub held_out_r2: f64,
+    /// Cones per side.
+    pub n: usize,
+    /// The loss border: the own images cover the `side = n − 2·border` cones inside it.
+    pub border: usize,
+    /// The last scene's linear sRGB at each cone, `(3, n, n)`.
+    pub scene_srgb: Vec<f32>,
+    /// The last scene's own signal inside the border, row-major `(side, side)`.
+    pub truth: Vec<f64>,
+    /// The percept's reading of it, row-major `(side, side)`.
+    pub reading: Vec<f64>,
+    /// The range (largest − smallest) of the class's excitation over the last scene's sites:
+    /// the scale against which its own signal is small or not.
+    pub class_range: f64,
+}
+
+/// [`own_image`] of the eye's last class on the next `scenes` held-out scenes of `source`
+/// (frame 0, batches of [`HIDDEN_BATCH_SIZE`], the count rounded up to whole batches), at every
+/// cone inside the loss border: the first half of the scenes fits the reading, the second half
+/// scores it, and the picture is the last scene's. `None` for a one-class eye or fewer than two
+/// scenes.
+pub fn held_out(
+    cortex: &Cortex,
+    source: &mut RetinaSource,
+    scenes: usize,
+) -> Option<OwnImagePicture> {
+    let (n, classes) = (source.retina.n(), source.retina.mosaic.n_classes());
+    let (dim, border) = (cortex.percept_dim(), cortex.config.loss.border_px);
+    let dominant = source.retina.mosaic.dominant_class();
+    let mut samples = HiddenSamples::new(dim, classes);
+    let (mut frames, mut scene_srgb) = (Vec::new(), Vec::new());
+    for _ in 0..scenes.div_ceil(HIDDEN_BATCH_SIZE) {
+        let batch = source.next_eye_batch(HIDDEN_BATCH_SIZE).clone();
+        batch.signal.frames(0, &mut frames);
+        let count = batch.signal.batch;
+        let percept = cortex.decode_frames(&frames, count);
+        let excitation = source.retina.class_excitations_at_cones(&batch.truth, 0);
+        let (p, e) = (dim * n * n, classes * n * n);
+        for s in 0..count {
+            let (percept, excitation) = (&percept[s * p..][..p], &excitation[s * e..][..e]);
+            samples.add(percept, excitation, &dominant, n, border);
+        }
+        let srgb = source.retina.srgb_at_cones(&batch.truth, 0);
+        scene_srgb = srgb[(count - 1) * 3 * n * n..].to_vec();
+    }
+    if classes < 2 || samples.len() < 2 {
+        return None;
+    }
+    let per_sample = (n - 2 * border).pow(2);
+    let (percept, excitation) = samples.all_sites(0..samples.len());
+    let fit_sites = samples.len() / 2 * per_sample;
+    let own = own_image(&percept, &excitation, dim, classes, classes - 1, fit_sites);
+    let shown = own.truth.len() - per_sample;
+    let last_class = excitation[shown * classes..]
+        .iter()
+        .skip(classes - 1)
+        .step_by(classes);
+    let (low, high) = last_class.fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &v| {
+        (l.min(v), h.max(v))
+    });
+    Some(OwnImagePicture {
+        class: source.retina.mosaic.classes[classes - 1].name.clone(),
+        held_out_r2: own.held_out_r2,
+        n,
+        border,
+        scene_srgb,
+        truth: own.truth[shown..].to_vec(),
+        reading: own.reading[shown..].to_vec(),
+        class_range: high - low,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Four classes at `sites` sites: L, M, S share a luminance, Q = a mix of them plus an own
+    /// signal `q_own`; returns the excitations and the own signal.
+    fn tetrachromat(sites: usize) -> (Vec<f64>, Vec<f64>) {
+        let mut state = 12345u64;
+        let mut draw = || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (state >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+        };
+        let (mut excitation, mut own) = (Vec::new(), Vec::new());
+        for _ in 0..sites {
+            let (lum, rg, by, q_own) = (1.0 + draw(), draw(), draw(), 0.3 * draw());
+            let (l, m, s) = (lum + rg, lum - rg, lum + by);
+            excitation.extend([l, m, s, 0.5 * l + 0.3 * m + 0.2 * s + q_own]);
+            own.push(q_own);
+        }
+        (excitation, own)
+    }
+
+    fn percept_of(excitation: &[f64], carries_q: bool) -> Vec<f64> {
+        excitation
+            .chunks_exact(4)
+            .flat_map(|e| {
+                let q = if carries_q { e[3] } else { 0.2 * e[0] };
+                [e[0] + e[1], e[0] - e[1], e[2] - 0.5 * e[0], q]
+            })
+            .collect()
+    }
+
+    fn correlation(a: &[f64], b: &[f64]) -> f64 {
+        let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
+        let (ma, mb) = (mean(a), mean(b));
+        let dot = |f: &dyn Fn(usize) -> f64| (0..a.len()).map(f).sum::<f64>();
+        let ab = dot(&|i| (a[i] - ma) * (b[i] - mb));
+        ab / (dot(&|i| (a[i] - ma).powi(2)) * dot(&|i| (b[i] - mb).powi(2))).sqrt()
+    }
+
+    #[test]
+    fn a_percept_that_carries_the_fourth_class_reads_its_own_signal() {
+        let (excitation, own) = tetrachromat(4000);
+        let percept = percept_of(&excitation, true);
+        let s = own_image(&percept, &excitation, 4, 4, 3, 2000);
+        assert!(s.held_out_r2 > 0.999, "R² {}", s.held_out_r2);
+        let r = correlation(&s.truth, &own);
+        assert!(
+            r > 0.99,
+            "the truth's own image against the own signal drawn: r = {r}"
+        );
+        for c in 0..3 {
+            let column: Vec<f64> = excitation.iter().skip(c).step_by(4).copied().collect();
+            let r = correlation(&s.truth, &column);
+            assert!(
+                r.abs() < 1e-9,
+                "own image correlates with class {c}: r = {r}"
+            );
+        }
+        for (i, (u, r)) in s.truth.iter().zip(&s.reading).enumerate() {
+            assert!((u - r).abs() < 1e-9, "site {i}: truth {u}, reading {r}");
+        }
+    }
+
+    #[test]
+    fn a_percept_of_l_m_s_alone_reads_nothing_of_the_fourth() {
+        let (excitation, _) = tetrachromat(4000);
+        let percept = percept_of(&excitation, false);
+        let s = own_image(&percept, &excitation, 4, 4, 3, 2000);
+        assert!(s.held_out_r2 < 0.02, "R² {}", s.held_out_r2);
+        let size = |v: &[f64]| v.iter().map(|x| x * x).sum::<f64>().sqrt();
+        assert!(
+            size(&s.reading) < 0.1 * size(&s.truth),
+            "reading {} against truth {}",
+            size(&s.reading),
+            size(&s.truth)
+        );
+    }
+}
