@@ -71,15 +71,22 @@ LMSQ-humanQ-idealised-surfaces-24k|LMSQ|0|24000|-|$IDEAL
 # A run folder's border measurement, when its verdict is on the border: the final step and the
 # two location seeds after the run's own (`cmf_sim.seed`); nothing otherwise, and an error when
 # summary.json does not read. An undefined verdict (0: every K tried failed) is on the border
-# when its last K failed by less than 1.1.
+# when its last K failed by less than 1.1. A run whose base test lies on the line where colour
+# constancy ends (its final cmf_sim.json's Σ base error / Σ percept energy between 0.9 and 1.1:
+# a light's percept changes between two places by nearly its own size) is on the border too,
+# whatever its K margins: at another location seed its verdict may be undefined, or defined.
 border_measurements() {
-    python3 - "$1/summary.json" <<'EOF'
-import json, sys
+    python3 - "$1/summary.json" "$1/cmf_sim.json" <<'EOF'
+import json, os, sys
 s = json.load(open(sys.argv[1]))
 ratios = dict((k, r) for k, r in s["converged_ratio_per_k"])
 d = s["dimension"]
 last_failing = d - 1 if d else max(ratios, default=0)
 near = (d in ratios and ratios[d] > 0.9) or (last_failing in ratios and ratios[last_failing] < 1.1)
+if os.path.exists(sys.argv[2]):
+    r = json.load(open(sys.argv[2]))
+    base = sum(r["base_error"]) / max(sum(r["energy"]), 1e-300)
+    near = near or 0.9 < base < 1.1
 if near and s.get("dimension_over_steps"):
     own = s["config"]["cmf_sim"]["seed"]
     print(s["steps"], own + 1, own + 2)
