@@ -6,7 +6,8 @@
 # (scripts/protocol-arm.sh) and each rule run's percept against its seed's backprop run at every
 # common checkpoint (`colorvision percept-alignment`). One run after another on one thread;
 # running it again continues (a stopped run resumes from its newest checkpoint, finished work
-# is skipped). Two copies may run at once on different SEEDS lists (e.g. SEEDS="10 11", "12").
+# is skipped; a run kept in runs-kept/rules-confirm/ is restored first). Two copies may run at
+# once on different SEEDS lists (e.g. SEEDS="10 11", "12").
 #
 # Usage: nice -n 10 scripts/rules-confirm.sh ARM
 #   SEEDS="10" scripts/rules-confirm.sh F1     only those seeds
@@ -29,9 +30,18 @@ run() { # arm seed
     "$P" "$R/$1-seed$2" "$2" 12000 "12000" "0 1 2" --preset main ${OPTS[@]+"${OPTS[@]}"}
 }
 
+# A run stopped on another machine continues from its kept copy (runs-kept/rules-confirm/, in
+# the repository; scripts/keep-run.sh RUN rules-confirm makes one).
+restore() {
+    local kept="$ROOT/runs-kept/rules-confirm/$1"
+    if [ -d "$kept" ] && [ ! -d "$R/$1" ]; then cp -r "$kept" "$R/$1"; fi
+}
+
 mkdir -p "$R"
 for s in ${SEEDS:-10 11 12}; do
     echo "== rules-confirm: $ARM and $CONTROL, seed $s ($(date -u +%FT%TZ))"
+    restore "$CONTROL-seed$s"
+    restore "$ARM-seed$s"
     run "$CONTROL" "$s"
     run "$ARM" "$s"
     if [ ! -f "$R/$ARM-seed$s/percept-alignment/against-$CONTROL-seed$s.csv" ]; then
