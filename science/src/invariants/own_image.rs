@@ -134,8 +134,10 @@ pub fn held_out(
         return None;
     }
     let per_sample = (n - 2 * border).pow(2);
-    let (percept, excitation) = samples.all_sites(0..samples.len());
-    let fit_sites = samples.len() / 2 * per_sample;
+    let count = samples.len();
+    let (percept, excitation) = samples.all_sites(0..count);
+    drop(samples);
+    let fit_sites = count / 2 * per_sample;
     let own = own_image(&percept, &excitation, dim, classes, classes - 1, fit_sites);
     let shown = own.truth.len() - per_sample;
     let last_class = excitation[shown * classes..]
