@@ -158,7 +158,7 @@ fn the_array_script_runs_its_task_resumes_and_skips() {
     assert!(page.starts_with("<!DOCTYPE html>") && page.ends_with("</html>\n"));
     assert_eq!(
         page.matches("data:image/png;base64,").count(),
-        5,
+        6, // scope, own_S (the last class's own signal), learned C, true mosaic, W, ONS
         "PNG pictures"
     );
     assert_eq!(
