@@ -250,8 +250,31 @@ fn held_out_of(
     batches: &[retina::EyeBatch],
     dim: usize,
     border: usize,
-    mut decode: impl FnMut(&[f32], usize) -> Vec<f32>,
+    decode: impl FnMut(&[f32], usize) -> Vec<f32>,
 ) -> (HiddenRecovery, DirectionRecovery) {
+    let samples = held_out_samples(retina, batches, dim, border, decode);
+    let names: Vec<String> = retina
+        .mosaic
+        .classes
+        .iter()
+        .map(|c| c.name.clone())
+        .collect();
+    (
+        samples.measure(&names),
+        measure_directions(&samples, &names),
+    )
+}
+
+/// The percepts (`dim` channels) `decode(frames, count)` gives for frame 0 of `batches` of
+/// `retina`, with the true excitations and dominant class of every cone inside `border`, sample
+/// after sample.
+pub(crate) fn held_out_samples(
+    retina: &Retina,
+    batches: &[retina::EyeBatch],
+    dim: usize,
+    border: usize,
+    mut decode: impl FnMut(&[f32], usize) -> Vec<f32>,
+) -> HiddenSamples {
     let n = retina.n();
     let classes = retina.mosaic.n_classes();
     let dominant = retina.mosaic.dominant_class();
@@ -268,16 +291,7 @@ fn held_out_of(
             samples.add(p, e, &dominant, n, border);
         }
     }
-    let names: Vec<String> = retina
-        .mosaic
-        .classes
-        .iter()
-        .map(|c| c.name.clone())
-        .collect();
-    (
-        samples.measure(&names),
-        measure_directions(&samples, &names),
-    )
+    samples
 }
 
 /// Per-class figures as `a/b/c` with `digits` decimals; one that is not finite (no recall for

@@ -20,8 +20,8 @@
 //!
 //! Layout: `percept` row-major `(sites, dim)`, `excitation` row-major `(sites, classes)`.
 
-use super::hidden::{affine_residuals, held_out_r2, HiddenSamples};
-use super::HIDDEN_BATCH_SIZE;
+use super::hidden::{affine_residuals, held_out_r2};
+use super::{held_out_samples, HIDDEN_BATCH_SIZE};
 use crate::source::RetinaSource;
 use cortex::Cortex;
 
@@ -113,23 +113,17 @@ pub fn held_out(
 ) -> Option<OwnImagePicture> {
     let (n, classes) = (source.retina.n(), source.retina.mosaic.n_classes());
     let (dim, border) = (cortex.percept_dim(), cortex.config.loss.border_px);
-    let dominant = source.retina.mosaic.dominant_class();
-    let mut samples = HiddenSamples::new(dim, classes);
-    let (mut frames, mut scene_srgb) = (Vec::new(), Vec::new());
-    for _ in 0..scenes.div_ceil(HIDDEN_BATCH_SIZE) {
-        let batch = source.next_eye_batch(HIDDEN_BATCH_SIZE).clone();
-        batch.signal.frames(0, &mut frames);
-        let count = batch.signal.batch;
-        let percept = cortex.decode_frames(&frames, count);
-        let excitation = source.retina.class_excitations_at_cones(&batch.truth, 0);
-        let (p, e) = (dim * n * n, classes * n * n);
-        for s in 0..count {
-            let (percept, excitation) = (&percept[s * p..][..p], &excitation[s * e..][..e]);
-            samples.add(percept, excitation, &dominant, n, border);
-        }
-        let srgb = source.retina.srgb_at_cones(&batch.truth, 0);
-        scene_srgb = srgb[(count - 1) * 3 * n * n..].to_vec();
-    }
+    let batches: Vec<_> = (0..scenes.div_ceil(HIDDEN_BATCH_SIZE))
+        .map(|_| source.next_eye_batch(HIDDEN_BATCH_SIZE).clone())
+        .collect();
+    let retina = &source.retina;
+    let samples = held_out_samples(retina, &batches, dim, border, |frames, count| {
+        cortex.decode_frames(frames, count)
+    });
+    let last = batches.last()?;
+    let srgb = retina.srgb_at_cones(&last.truth, 0);
+    let scene_srgb = srgb[(last.signal.batch - 1) * 3 * n * n..].to_vec();
+    drop(batches);
     if classes < 2 || samples.len() < 2 {
         return None;
     }
@@ -148,7 +142,7 @@ pub fn held_out(
         (l.min(v), h.max(v))
     });
     Some(OwnImagePicture {
-        class: source.retina.mosaic.classes[classes - 1].name.clone(),
+        class: retina.mosaic.classes[classes - 1].name.clone(),
         held_out_r2: own.held_out_r2,
         n,
         border,
