@@ -147,6 +147,7 @@ fn tetrachromats(options: &CommonOptions, out: &Path) -> Result<(), RunError> {
             config.retina.scenes.tetra = environment.map(|environment| TetraMix {
                 environment,
                 fraction: TETRA_SCENE_FRACTION,
+                hue_rule: Default::default(),
             });
             let s = full_run(&config, &sub(out, cones).join(name), options)?;
             table.push((cones, name, s.dimension, s.steps));

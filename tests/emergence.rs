@@ -54,6 +54,7 @@ fn emerged_dimension(cones: &str, steps: u64) -> (usize, String) {
     mixed.config.retina.scenes.tetra = Some(retina::scene::pool::TetraMix {
         environment: retina::scene::tetra::TetraEnvironment::HueSphere,
         fraction: 0.1,
+        hue_rule: Default::default(),
     });
     let words = colorvision::run::in_words(&out, &mixed).expect("CMF-SIM measured");
     assert!(

@@ -296,6 +296,15 @@ impl RetinaConfig {
             let classes = crate::mosaic::MosaicSpec::parse(&self.cones)?
                 .class_names()
                 .len();
+            if t.environment != TetraEnvironment::HueSphere && !t.hue_rule.is_default() {
+                return Err(RetinaError::setting(
+                    "scenes.tetra.hue_rule",
+                    format!(
+                        "{:?} chooses hue-sphere colours; the environment is {:?}",
+                        t.hue_rule, t.environment
+                    ),
+                ));
+            }
             if t.environment == TetraEnvironment::HueSphere && classes < 2 {
                 return Err(RetinaError::setting(
                     "scenes.tetra.environment",

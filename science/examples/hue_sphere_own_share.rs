@@ -6,10 +6,11 @@
 //! (`science::fourth::own_signal`).
 //!
 //! `cargo run --release -p science --example hue_sphere_own_share -- [CONES] [COUNT] [SEED]
-//! [STEP_NM] [LIGHT] [OUT_DIR]`, defaults `LMSQ,Q:506` (pigeon Q; `LMSQ` is human Q), 3481
+//! [STEP_NM] [LIGHT] [OUT_DIR] [--rule=RULE]`, defaults `LMSQ,Q:506` (pigeon Q; `LMSQ` is human Q), 3481
 //! colours, seed 0, the eye's 10 nm grid (400–700 nm), `D6504` (the hue sphere's own reference
 //! daylight; `E` is equal energy, for A/B checks: the projector is divided by that daylight
-//! before `HueSphere::new` multiplies it back), no files. Prints, in % of Q's variance over the colours:
+//! before `HueSphere::new` multiplies it back), no files, and the hue rule `support_point`
+//! (`--rule=max_chroma`: `retina::scene::hue_sphere::HueRule`). Prints, in % of Q's variance over the colours:
 //! the in-sample share (one fit on every colour, as over a fixed set) and the held-out share
 //! (fit on the first half, scored on the second: `own_share`'s "across" with the halves as its
 //! two tiles); then the fit `[c₀, c_L, c_M, c_S]`, Q's variance (white-normalised units²) and
@@ -20,7 +21,7 @@
 use colorimetry::{ConeTemplate, WavelengthGrid};
 use rand::rngs::StdRng;
 use rand::SeedableRng;
-use retina::scene::hue_sphere::{HueSphere, HUE_SPHERE_DAYLIGHT_CCT_K};
+use retina::scene::hue_sphere::{HueRule, HueSphere, HUE_SPHERE_DAYLIGHT_CCT_K};
 use retina::scene::library::daylight_unit_luminance;
 use retina::scene::projection::SceneProjection;
 use retina::MosaicSpec;
@@ -29,7 +30,15 @@ use std::collections::HashSet;
 use std::fmt::Write as _;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let a: Vec<String> = std::env::args().skip(1).collect();
+    let all: Vec<String> = std::env::args().skip(1).collect();
+    let rule = match all.iter().find(|a| a.starts_with("--rule=")) {
+        Some(r) => toml::Value::String(r["--rule=".len()..].into()).try_into::<HueRule>()?,
+        None => HueRule::SupportPoint,
+    };
+    let a: Vec<String> = all
+        .into_iter()
+        .filter(|a| !a.starts_with("--rule="))
+        .collect();
     let arg = |i: usize, default: &str| a.get(i).cloned().unwrap_or_else(|| default.into());
     let (cones, count, seed) = (arg(0, "LMSQ,Q:506"), arg(1, "3481").parse()?, arg(2, "0"));
     let step: f64 = arg(3, "10").parse()?;
@@ -55,7 +64,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     let sphere = HueSphere::new(&projector, 4)?;
     let mut rng = StdRng::seed_from_u64(seed.parse()?);
-    let reflectances = sphere.library(count, &mut rng).spectra;
+    let reflectances = sphere.library_by(rule, count, &mut rng)?.spectra;
     let colours: Vec<[f64; 4]> = reflectances
         .iter()
         .map(|r| {

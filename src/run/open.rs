@@ -158,6 +158,12 @@ impl<'a> RunState<'a> {
                 100.0 * mix.fraction,
                 mix.environment.describe()
             );
+            if !mix.hue_rule.is_default() {
+                println!(
+                    "  hue-sphere colours: hues drawn evenly in a max basis, each the most \
+                     chromatic surface of its hue (retina.scenes.tetra.hue_rule = max_chroma)"
+                );
+            }
         }
         if !c.learning_rule.is_backprop() {
             println!(

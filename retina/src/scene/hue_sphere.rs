@@ -17,9 +17,14 @@
 //!   tetrachromat get different sets.
 //!
 //! A monochromat has no hue; [`HueSphere::new`] refuses fewer than two classes.
+//!
+//! How a hue becomes a colour is a [`HueRule`]: the support point above (the default), or the
+//! most chromatic colour of each hue in a max basis ([`max_chroma`]), which spreads the colours
+//! over the hues (docs/notebook/2026-12-03-hue-sphere-colours.md measures both).
 
 use rand::Rng;
 use rand_distr::StandardNormal;
+use serde::{Deserialize, Serialize};
 
 use super::library::{daylight_unit_luminance, ReflectanceLibrary};
 use super::Projector;
@@ -28,6 +33,28 @@ use crate::error::{Result, RetinaError};
 /// Correlated colour temperature of the reference daylight the hue sphere is computed under, K
 /// (CIE D65's nominal 6504 K; CIE 015:2018).
 pub const HUE_SPHERE_DAYLIGHT_CCT_K: f64 = 6504.0;
+
+pub mod max_chroma;
+
+/// How a drawn hue becomes a surface colour.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum HueRule {
+    /// Hues drawn uniformly in white-normalised cone coordinates; the colour is the optimal
+    /// colour that reaches furthest along the hue ([`HueSphere::reflectance`]).
+    #[default]
+    SupportPoint,
+    /// Hues drawn uniformly in a max basis (Lee et al. 2024); the colour is the surface whose
+    /// chroma goes furthest along exactly that hue ([`max_chroma`]).
+    MaxChroma,
+}
+
+impl HueRule {
+    /// Whether this is the default rule (a run's config leaves the default unwritten).
+    pub fn is_default(&self) -> bool {
+        *self == HueRule::default()
+    }
+}
 
 /// The weights `F̃_c(λ)` of an observer's classes (module docs).
 #[derive(Debug, Clone)]
@@ -113,7 +140,7 @@ impl HueSphere {
             .collect()
     }
 
-    /// `count` optimal reflectances of uniformly drawn hues.
+    /// `count` optimal reflectances of uniformly drawn hues (the support-point rule).
     pub fn library<R: Rng + ?Sized>(&self, count: usize, rng: &mut R) -> ReflectanceLibrary {
         let spectra = (0..count)
             .map(|_| self.reflectance(&self.random_hue(rng)))
@@ -122,6 +149,29 @@ impl HueSphere {
             grid: self.grid.clone(),
             spectra,
         }
+    }
+
+    /// `count` reflectances of uniformly drawn hues, each made a colour by `rule`. Error when
+    /// the max basis cannot be built ([`max_chroma::MaxChromaHues::new`]).
+    pub fn library_by<R: Rng + ?Sized>(
+        &self,
+        rule: HueRule,
+        count: usize,
+        rng: &mut R,
+    ) -> Result<ReflectanceLibrary> {
+        let spectra = match rule {
+            HueRule::SupportPoint => return Ok(self.library(count, rng)),
+            HueRule::MaxChroma => {
+                let hues = max_chroma::MaxChromaHues::new(self)?;
+                (0..count)
+                    .map(|_| hues.reflectance(&self.random_hue(rng)))
+                    .collect()
+            }
+        };
+        Ok(ReflectanceLibrary {
+            grid: self.grid.clone(),
+            spectra,
+        })
     }
 }
 

@@ -218,11 +218,12 @@ impl ScenePool {
             (Some(prepared), order)
         };
         let mut patch_rng = StdRng::seed_from_u64(rng.random());
-        let patch_library = match config.tetra.map(|t| t.environment) {
-            Some(TetraEnvironment::HueSphere) => {
-                HueSphere::new(&projection.projector, projection.k)?
-                    .library(OPTIMAL_LIBRARY_SIZE, &mut patch_rng)
-            }
+        let patch_library = match config.tetra {
+            Some(t) if t.environment == TetraEnvironment::HueSphere => HueSphere::new(
+                &projection.projector,
+                projection.k,
+            )?
+            .library_by(t.hue_rule, OPTIMAL_LIBRARY_SIZE, &mut patch_rng)?,
             _ => optimal_colour_library(&grid, OPTIMAL_LIBRARY_SIZE, &mut patch_rng),
         };
         let mut pool = ScenePool {

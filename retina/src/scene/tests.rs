@@ -201,6 +201,7 @@ fn a_hue_sphere_pool_holds_more_tetrachromatic_contrast_than_natural_scenes() {
     let hue = Some(TetraMix {
         environment: TetraEnvironment::HueSphere,
         fraction: 1.0,
+        hue_rule: Default::default(),
     });
     let mean_contrast = |pool: &ScenePool| {
         let nn = 64 * 64;

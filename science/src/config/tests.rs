@@ -1,4 +1,5 @@
 use super::*;
+use retina::scene::hue_sphere::HueRule;
 
 fn options(config: Option<PathBuf>) -> Overrides {
     Overrides {
@@ -182,6 +183,18 @@ fn a_wrong_setting_given_with_set_names_set_and_the_key() {
     };
     let tetra = RunConfig::resolve(&o, "quick").unwrap().retina.scenes.tetra;
     assert_eq!(tetra.map(|t| t.fraction), Some(0.1));
+    assert_eq!(tetra.map(|t| t.hue_rule), Some(HueRule::SupportPoint));
+    // The hue rule is a third key of the table; it chooses hue-sphere colours only.
+    let mut o = o;
+    o.set.push("retina.scenes.tetra.hue_rule=max_chroma".into());
+    let tetra = RunConfig::resolve(&o, "quick").unwrap().retina.scenes.tetra;
+    assert_eq!(tetra.map(|t| t.hue_rule), Some(HueRule::MaxChroma));
+    let e = resolve(&[
+        "retina.scenes.tetra.environment=Idealised",
+        "retina.scenes.tetra.fraction=0.1",
+        "retina.scenes.tetra.hue_rule=max_chroma",
+    ]);
+    assert!(e.contains("scenes.tetra.hue_rule"), "{e}");
     let e = resolve(&["retina.scenes.tetra.environment=HueSphere"]);
     assert!(
         e.starts_with("--set retina.scenes.tetra.environment=HueSphere: ")

@@ -29,6 +29,7 @@ use crate::Error;
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
 use retina::config::RetinaConfig;
+use retina::scene::hue_sphere::HueRule;
 use retina::scene::pool::TetraMix;
 use retina::scene::q_from_lms::QFromLms;
 use retina::scene::tetra::TetraEnvironment;
@@ -56,17 +57,23 @@ pub enum GateScenes {
     NaturalIdealisedTenth,
     /// Natural scenes with half of the tiles from the hue sphere.
     NaturalHueSphereHalf,
+    /// Every tile from the hue sphere, its colours by [`HueRule::MaxChroma`].
+    HueSphereMaxChroma,
+    /// Natural scenes with a tenth of the tiles from the hue sphere by [`HueRule::MaxChroma`].
+    NaturalHueSphereMaxChromaTenth,
 }
 
 impl GateScenes {
     /// Every source, in table order.
-    pub const ALL: [GateScenes; 6] = [
+    pub const ALL: [GateScenes; 8] = [
         GateScenes::Natural,
         GateScenes::HueSphere,
         GateScenes::Idealised,
         GateScenes::NaturalHueSphereTenth,
         GateScenes::NaturalIdealisedTenth,
         GateScenes::NaturalHueSphereHalf,
+        GateScenes::HueSphereMaxChroma,
+        GateScenes::NaturalHueSphereMaxChromaTenth,
     ];
 
     /// A short name.
@@ -78,6 +85,8 @@ impl GateScenes {
             GateScenes::NaturalHueSphereTenth => "natural + 10 % hue-sphere",
             GateScenes::NaturalIdealisedTenth => "natural + 10 % idealised",
             GateScenes::NaturalHueSphereHalf => "natural + 50 % hue-sphere",
+            GateScenes::HueSphereMaxChroma => "hue-sphere tiles (max chroma)",
+            GateScenes::NaturalHueSphereMaxChromaTenth => "natural + 10 % hue-sphere (max chroma)",
         }
     }
 
@@ -87,6 +96,14 @@ impl GateScenes {
             Some(TetraMix {
                 environment,
                 fraction,
+                hue_rule: HueRule::SupportPoint,
+            })
+        };
+        let max_chroma = |fraction| {
+            Some(TetraMix {
+                environment: TetraEnvironment::HueSphere,
+                fraction,
+                hue_rule: HueRule::MaxChroma,
             })
         };
         match self {
@@ -96,6 +113,8 @@ impl GateScenes {
             GateScenes::NaturalHueSphereTenth => mix(TetraEnvironment::HueSphere, 0.1),
             GateScenes::NaturalIdealisedTenth => mix(TetraEnvironment::Idealised, 0.1),
             GateScenes::NaturalHueSphereHalf => mix(TetraEnvironment::HueSphere, 0.5),
+            GateScenes::HueSphereMaxChroma => max_chroma(1.0),
+            GateScenes::NaturalHueSphereMaxChromaTenth => max_chroma(0.1),
         }
     }
 
@@ -103,7 +122,9 @@ impl GateScenes {
     /// tiles.
     pub fn tiles(self, base: usize) -> usize {
         match self {
-            GateScenes::NaturalHueSphereTenth | GateScenes::NaturalIdealisedTenth => 2 * base,
+            GateScenes::NaturalHueSphereTenth
+            | GateScenes::NaturalIdealisedTenth
+            | GateScenes::NaturalHueSphereMaxChromaTenth => 2 * base,
             _ => base,
         }
     }

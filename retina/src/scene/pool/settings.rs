@@ -7,6 +7,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::scene::band_stack::BandStackOptions;
 use crate::scene::dead_leaves::DeadLeavesConfig;
+use crate::scene::hue_sphere::HueRule;
 use crate::scene::mat_io::MatOptions;
 use crate::scene::prepared::FileScale;
 use crate::scene::q_from_lms::QFromLms;
@@ -43,6 +44,9 @@ pub struct TetraMix {
     pub environment: TetraEnvironment,
     /// Fraction of tiles drawn from it.
     pub fraction: f64,
+    /// How the hue sphere's hues become colours (`HueSphere` only; default: the support point).
+    #[serde(default, skip_serializing_if = "HueRule::is_default")]
+    pub hue_rule: HueRule,
 }
 
 /// Pool settings.
