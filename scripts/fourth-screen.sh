@@ -1,7 +1,7 @@
 #!/bin/bash
 # The screen of the fourth-dimension protocol (docs/notebook/2026-12-02-fourth-dimension-protocol.md),
 # its quick-eye arms in the protocol's order — the controls first (A0, A0i, C1b, C1c, C2), then
-# A3, A4 (with A4-LMS), C1a, A2a, A2b — one after another on one thread, each with exactly the
+# A3, A4 (with A4-LMS), C1a, A2a, A2b, and the hue-rule arms A5c, A5 — one after another on one thread, each with exactly the
 # protocol's command (scripts/protocol-arm.sh). Running it again continues: a stopped arm
 # resumes from its newest checkpoint, a finished arm and a measured location seed are skipped.
 # Two copies may run at once on different ARMS lists (e.g. ARMS="A0 C1b C2" and ARMS="A0i C1c").
@@ -21,6 +21,10 @@ export COLORVISION=$B RAYON_NUM_THREADS=1
 TETRA=(--preset main --cones LMSQ,Q:506)
 IDEAL=(--set retina.scenes.tetra.environment=Idealised --set retina.scenes.tetra.fraction=0.1)
 HUE=(--set retina.scenes.tetra.environment=HueSphere --set retina.scenes.tetra.fraction=0.5)
+# The paper's hue-sphere cell, and with it the max-chroma hue rule
+# (docs/notebook/2026-12-03-hue-rule-protocol.md).
+HUE10=(--set retina.scenes.tetra.environment=HueSphere --set retina.scenes.tetra.fraction=0.1)
+MAXCHROMA=(--set retina.scenes.tetra.hue_rule=max_chroma)
 
 continue_to() { # folder of a finished run, copy, steps: the A2 arms
     [ -d "$2/checkpoints/step_$(printf %08d "$3")" ] && return 0
@@ -39,6 +43,9 @@ arm() {
         A0)  "$P" "$R/A0-seed$S" "$S" 24000 "24000" "0 1 2" "${TETRA[@]}" ;;
         A0i) "$P" "$R/A0i-seed$S" "$S" 24000 "24000" "0 1 2" "${TETRA[@]}" "${IDEAL[@]}" ;;
         A3)  "$P" "$R/A3-seed$S" "$S" 24000 "24000" "0 1 2" "${TETRA[@]}" "${HUE[@]}" ;;
+        A5c) "$P" "$R/A5c-seed$S" "$S" 24000 "24000" "0 1 2" "${TETRA[@]}" "${HUE10[@]}" ;;
+        A5)  "$P" "$R/A5-seed$S" "$S" 24000 "24000" "0 1 2" "${TETRA[@]}" "${HUE10[@]}" \
+                 "${MAXCHROMA[@]}" ;;
         C1a) "$P" "$R/C1a-seed$S" "$S" 24000 "24000" "0 1 2" "${TETRA[@]}" \
                  --set retina.scenes.q_from_lms=before_balance ;;
         C1b) "$P" "$R/C1b-seed$S" "$S" 24000 "24000" "0 1 2" "${TETRA[@]}" \
