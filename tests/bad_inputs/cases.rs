@@ -91,6 +91,18 @@ pub const CASES: &[Case] = &[
         &["bad.toml", "retina.scenes.tetra.environment"],
     ),
     case(
+        "hue rule for idealised colours",
+        Some("[retina.scenes.tetra]\nenvironment = \"Idealised\"\nfraction = 0.1\nhue_rule = \"max_chroma\""),
+        &[],
+        &["bad.toml", "retina.scenes.tetra.hue_rule"],
+    ),
+    case(
+        "unknown hue rule",
+        Some("[retina.scenes.tetra]\nenvironment = \"HueSphere\"\nfraction = 0.1\nhue_rule = \"brightest\""),
+        &[],
+        &["bad.toml", "hue_rule", "max_chroma"],
+    ),
+    case(
         "jitter base 0",
         Some("[retina.layout.Foveated.jitter]\nbase_resolution = 0"),
         &[],
