@@ -76,7 +76,14 @@ fn the_noise_ratios_mean_square_is_the_eyes() {
 #[test]
 fn the_table_has_every_cone_set_scene_and_balance_and_the_controls() {
     let cases = gate_cases();
-    assert_eq!(cases.len(), 3 * 6 * 2 + 6);
+    assert_eq!(cases.len(), 3 * GateScenes::ALL.len() * 2 + 6);
+    assert_eq!(GateScenes::ALL.len(), 8);
+    // The max-chroma sources draw their tiles by that rule, and only they.
+    for scenes in GateScenes::ALL {
+        let rule = scenes.tetra().map(|t| t.hue_rule).unwrap_or_default();
+        let named = scenes.name().contains("max chroma");
+        assert_eq!(rule == HueRule::MaxChroma, named, "{}", scenes.name());
+    }
     assert!(cases
         .iter()
         .filter(|c| c.q_from_lms.is_some())
