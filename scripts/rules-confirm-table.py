@@ -10,8 +10,8 @@ One row per run found (ARM and its backprop control on each seed, seeds in order
 - empty warp: the share of steps whose prediction loss is exactly 0, and the last such step;
 - held-out gain at the end (summary.json's `heldout_prediction[2]`);
 - CMF-SIM at 12 000, location seeds 0, 1, 2: the dimension at each, their median, and the
-  median of log K3 (the best three-primary set's converged worst ratio: below 0 three
-  primaries match);
+  medians of log K2 and log K3 (the best two- and three-primary sets' converged worst ratios:
+  below 0 that many primaries match; "—" where the search stopped before that K);
 - the mean cosine to backprop per bucket W/C/D/P (metrics.csv's `align_cos_*`);
 - the rule run's percept against its seed's backprop run at the last common checkpoint: R² of
   backprop's percept read from the rule's, and linear CKA
@@ -39,17 +39,20 @@ STEPS = 12000
 
 
 def readings(run_dir):
-    """(dimensions per location seed, K3 converged worst ratios) of the 12 000-step readings."""
-    dims, k3 = [], []
+    """(dimensions per location seed, K2 and K3 converged worst ratios) of the 12 000-step
+    readings (a K the search did not reach has none)."""
+    dims, k2, k3 = [], [], []
     for loc in (0, 1, 2):
         d = read_json(os.path.join(run_dir, f"cmf-sim-step{STEPS}-loc{loc}", "cmf_sim.json"))
         if d is None:
             continue
         dims.append(d["dimension"])
         per_k = d.get("per_k", [])
+        if len(per_k) >= 2 and per_k[1].get("converged_worst_ratio") is not None:
+            k2.append(per_k[1]["converged_worst_ratio"])
         if len(per_k) >= 3 and per_k[2].get("converged_worst_ratio") is not None:
             k3.append(per_k[2]["converged_worst_ratio"])
-    return dims, k3
+    return dims, k2, k3
 
 
 def against(run_dir, control, seed):
@@ -68,7 +71,7 @@ def main():
     root = sys.argv[2] if len(sys.argv) > 2 else "runs/rules-confirm"
     control = "B0"
     print("| seed | run | steps | empty warp (last step) | held-out gain | dimension at "
-          "location seeds 0, 1, 2 (median) | median log K3 | cos W/C/D/P | R² of backprop's "
+          "location seeds 0, 1, 2 (median) | median log K2 / log K3 | cos W/C/D/P | R² of backprop's "
           "percept, CKA |")
     print("|---|---|---|---|---|---|---|---|---|")
     medians = {}
@@ -79,13 +82,14 @@ def main():
             if m is None:
                 continue
             steps, share, last_empty, cos = m
-            dims, k3 = readings(d)
+            dims, k2, k3 = readings(d)
             median_dim = statistics.median(dims) if len(dims) == 3 else None
             if run == arm:
                 medians[seed] = median_dim
             dim_text = "—" if not dims else (
                 ", ".join(str(x) for x in dims)
                 + ("" if median_dim is None else f" ({median_dim:g})"))
+            log_k2 = statistics.median(math.log(r) for r in k2) if len(k2) == 3 else None
             log_k3 = statistics.median(math.log(r) for r in k3) if len(k3) == 3 else None
             empty = "—" if last_empty is None else f"{share:.1%} ({last_empty})"
             cosines = "—" if run == control else "/".join(fmt(cos[b], ".2f") for b in BUCKETS)
@@ -93,7 +97,7 @@ def main():
             align = "—" if a is None else (
                 f"{float(a['r2_b_from_a']):.2f}, {float(a['cka']):.2f} (step {a['step']})")
             print(f"| {seed} | {run} | {steps} | {empty} | {fmt(gain(d), '.2f')} | {dim_text} "
-                  f"| {fmt(log_k3, '+.3f')} | {cosines} | {align} |")
+                  f"| {fmt(log_k2, '+.3f')} / {fmt(log_k3, '+.3f')} | {cosines} | {align} |")
     done = [s for s in SEEDS if medians.get(s) is not None]
     threes = sum(1 for s in done if medians[s] == 3)
     if len(done) < len(SEEDS):
