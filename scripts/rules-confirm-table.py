@@ -100,7 +100,13 @@ def main():
                   f"| {fmt(log_k2, '+.3f')} / {fmt(log_k3, '+.3f')} | {cosines} | {align} |")
     done = [s for s in SEEDS if medians.get(s) is not None]
     threes = sum(1 for s in done if medians[s] == 3)
-    if len(done) < len(SEEDS):
+    best_case = threes + len(SEEDS) - len(done)
+    if len(done) < len(SEEDS) and best_case < 2:
+        print(f"\n{arm}: median dimension 3 on {threes} of the {len(done)} seeds read; even if "
+              f"every seed left reads 3, at most {best_case} of {len(SEEDS)} can: **does not "
+              "learn colour** (the protocol asks for at least two; the seeds left are still "
+              "reported).")
+    elif len(done) < len(SEEDS):
         print(f"\n{arm}: {len(done)} of {len(SEEDS)} seeds read so far "
               f"({threes} with median dimension 3); the verdict waits for all three.")
     else:
