@@ -200,6 +200,11 @@ impl Mosaic {
         self.classes.len()
     }
 
+    /// The classes' names, in class order.
+    pub fn class_names(&self) -> Vec<String> {
+        self.classes.iter().map(|c| c.name.clone()).collect()
+    }
+
     /// The class weights of cell `(row, col)`.
     pub fn cell(&self, row: usize, col: usize) -> &[f32] {
         let k = self.classes.len();

@@ -113,13 +113,7 @@ pub fn measure(source: &mut RetinaSource, wavelengths_nm: &[f64], batches: u64) 
     }
     let (nearest_deg, share_near) = compare(&lights, &colours, k, NEAR_DEG);
     Gamut {
-        classes: source
-            .retina
-            .mosaic
-            .classes
-            .iter()
-            .map(|c| c.name.clone())
-            .collect(),
+        classes: source.retina.mosaic.class_names(),
         wavelengths_nm: wavelengths_nm.to_vec(),
         nearest_deg,
         share_near,

@@ -178,12 +178,7 @@ pub struct Recovery {
 /// Measures every learned invariant of `cortex` against `retina`.
 pub fn measure(cortex: &Cortex, retina: &Retina) -> Recovery {
     let n = retina.n();
-    let classes: Vec<String> = retina
-        .mosaic
-        .classes
-        .iter()
-        .map(|c| c.name.clone())
-        .collect();
+    let classes = retina.mosaic.class_names();
     let c = cortex.learned_c().map(|c| {
         let dim = cortex.percept_dim();
         measure_c(c.data(), dim, &retina.mosaic.dominant_class(), &classes)
@@ -253,12 +248,7 @@ fn held_out_of(
     decode: impl FnMut(&[f32], usize) -> Vec<f32>,
 ) -> (HiddenRecovery, DirectionRecovery) {
     let samples = held_out_samples(retina, batches, dim, border, decode);
-    let names: Vec<String> = retina
-        .mosaic
-        .classes
-        .iter()
-        .map(|c| c.name.clone())
-        .collect();
+    let names = retina.mosaic.class_names();
     (
         samples.measure(&names),
         measure_directions(&samples, &names),

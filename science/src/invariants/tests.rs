@@ -11,20 +11,11 @@ fn tiny_eye() -> (RunConfig, Retina) {
     (config, retina)
 }
 
-fn class_names(retina: &Retina) -> Vec<String> {
-    retina
-        .mosaic
-        .classes
-        .iter()
-        .map(|c| c.name.clone())
-        .collect()
-}
-
 #[test]
 fn c_from_class_prototypes_is_recovered_and_random_c_is_not() {
     let (_, retina) = tiny_eye();
     let truth = retina.mosaic.dominant_class();
-    let names = class_names(&retina);
+    let names = retina.mosaic.class_names();
     let dim = 8;
     let mut rng = CortexRng::seed_from(3);
     let prototypes: Vec<Vec<f64>> = (0..names.len())

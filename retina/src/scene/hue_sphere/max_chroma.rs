@@ -281,7 +281,9 @@ fn determinant(mut a: Vec<f64>) -> f64 {
     det
 }
 
-/// Solves the square system `a·x = b` (row-major), `None` when singular.
+/// Solves the square system `a·x = b` (row-major), `None` when singular. (Not
+/// `colorimetry::linalg::lstsq`: its SVD gives other last bits, and the runs recorded with this
+/// rule, e.g. `results/fourth-A5-seed21`, rest on these colours bit for bit.)
 fn solve(mut a: Vec<f64>, mut b: Vec<f64>) -> Option<Vec<f64>> {
     let m = b.len();
     for col in 0..m {
