@@ -1,7 +1,7 @@
 #!/bin/bash
 # The screen of the fourth-dimension protocol (docs/notebook/2026-12-02-fourth-dimension-protocol.md),
-# its quick-eye arms in the protocol's order — the controls first (A0, A0i, C1b, C1c, C2), then
-# A3, A4 (with A4-LMS), C1a, A2a, A2b, and the hue-rule arms A5c, A5 — one after another on one thread, each with exactly the
+# its arms in the protocol's order — the controls first (A0, A0i, C1b, C1c, C2), then
+# A3, A4 (with A4-LMS), C1a, A2a, A2b, the `large` eye's A1, and the hue-rule arms A5c, A5 — one after another on one thread, each with exactly the
 # protocol's command (scripts/protocol-arm.sh). Running it again continues: a stopped arm
 # resumes from its newest checkpoint, a finished arm and a measured location seed are skipped.
 # Two copies may run at once on different ARMS lists (e.g. ARMS="A0 C1b C2" and ARMS="A0i C1c").
@@ -41,6 +41,7 @@ continue_to() { # folder of a finished run, copy, steps: the A2 arms
 arm() {
     case "$1" in
         A0)  "$P" "$R/A0-seed$S" "$S" 24000 "24000" "0 1 2" "${TETRA[@]}" ;;
+        A1)  "$P" "$R/A1-seed$S" "$S" 24000 "24000" "0 1 2" --preset large --cones LMSQ,Q:506 ;;
         A0i) "$P" "$R/A0i-seed$S" "$S" 24000 "24000" "0 1 2" "${TETRA[@]}" "${IDEAL[@]}" ;;
         A3)  "$P" "$R/A3-seed$S" "$S" 24000 "24000" "0 1 2" "${TETRA[@]}" "${HUE[@]}" ;;
         A5c) "$P" "$R/A5c-seed$S" "$S" 24000 "24000" "0 1 2" "${TETRA[@]}" "${HUE10[@]}" ;;
