@@ -40,6 +40,7 @@ pub mod synthetic;
 pub mod trainer;
 pub mod window;
 
+pub use autodiff::nn::unet::OutputBox;
 pub use config::CortexConfig;
 pub use data::{DataSource, OnsBatch};
 pub use error::CortexError;

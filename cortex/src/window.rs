@@ -10,7 +10,10 @@
 //! whole-field percept: the same arithmetic on the same values, up to the order in which a
 //! matrix product sums. W's inverse is linear: a caller whose frames are weighted sums of a
 //! few fixed frames can take their activations once ([`Cortex::activations`]), sum those in
-//! the window and decode from there ([`Cortex::record_decode_activation_windows`]).
+//! the window and decode from there ([`Cortex::record_decode_activation_windows`]). Inside the
+//! window, the encoder of D must run on all of it, but its decoder only where the cells read
+//! reach: a caller that reads a box of cells asks for it ([`OutputBox`]) and gets the percept
+//! there alone.
 //!
 //! Conventions: cells are `(row, column)` of the `n × n` ONS grid, row-major; a [`Window`] is
 //! rows `top .. top + height` and columns `left .. left + width`. The windows are cut out as
@@ -19,6 +22,7 @@
 use crate::buckets::d::DBucket;
 use crate::model::{enter, Bucket};
 use crate::Cortex;
+use autodiff::nn::unet::OutputBox;
 use autodiff::{Tape, Var};
 
 /// A window of the ONS grid (module docs), in cells.
@@ -103,8 +107,18 @@ impl Cortex {
 
     /// Records decode Φ of `ons (B, 1, n, n)` with D on frame b's window `windows[b]` alone
     /// (all of one size `h × w`): the percept `(B, N, h, w)` (module docs; evaluation only).
+    /// With `out_box` (rows × columns inside each window, the same for every frame), only the
+    /// percept in the box, `(B, N, box rows, box columns)`, equal to the window's there: D's
+    /// up blocks run only where the box reaches (`autodiff::nn::unet` window docs). A caller
+    /// reading a patch's cells asks for their bounding box.
     #[track_caller]
-    pub fn record_decode_windows(&self, tape: &mut Tape<f32>, ons: Var, windows: &[Window]) -> Var {
+    pub fn record_decode_windows(
+        &self,
+        tape: &mut Tape<f32>,
+        ons: Var,
+        windows: &[Window],
+        out_box: Option<OutputBox>,
+    ) -> Var {
         let n = self.n();
         let (b, _, _, _) = tape.shape(ons).bchw("Cortex::record_decode_windows");
         let (h, w) = self.check_windows(windows, b, "Cortex::record_decode_windows");
@@ -116,20 +130,21 @@ impl Cortex {
         for (f, (v, out)) in windows.iter().zip(cut.chunks_exact_mut(h * w)).enumerate() {
             v.cut(&whole[f * n * n..(f + 1) * n * n], n, out);
         }
-        self.record_decode_activation_windows(tape, &cut, windows)
+        self.record_decode_activation_windows(tape, &cut, windows, out_box)
     }
 
     /// Records decode Φ from cone activations already cut to windows: `pa (B × h × w)`, frame
     /// b's activations `pa = W⁻¹(ons)` on `windows[b]` (all of one size), gives the percept
     /// `(B, N, h, w)` that [`Cortex::record_decode_windows`] gives from the ONS. W's inverse is
     /// a linear filter, so an observer whose frames are sums of a few fixed ones can take their
-    /// activations once ([`Cortex::activations`]) and sum those.
+    /// activations once ([`Cortex::activations`]) and sum those. `out_box` as there.
     #[track_caller]
     pub fn record_decode_activation_windows(
         &self,
         tape: &mut Tape<f32>,
         pa: &[f32],
         windows: &[Window],
+        out_box: Option<OutputBox>,
     ) -> Var {
         let n = self.n();
         let b = windows.len();
@@ -142,7 +157,10 @@ impl Cortex {
         );
         let paw = tape.constant_from([b, 1, h, w], pa);
         let Some(cb) = &self.c else {
-            return paw;
+            return match out_box {
+                Some(o) => tape.crop2d(paw, o.rows[0], o.cols[0], o.size().0, o.size().1),
+                None => paw,
+            };
         };
         // X = pa·C per cell: C cut to each frame's window, the same products as over the field.
         enter(tape, Bucket::C);
@@ -158,7 +176,10 @@ impl Cortex {
         let cw = tape.constant_from([b, ch, h, w], &cut);
         let x = cb.inject(tape, cw, paw);
         enter(tape, Bucket::D);
-        self.d.forward(tape, &self.params, x)
+        match out_box {
+            Some(o) => self.d.forward_box(tape, &self.params, x, o),
+            None => self.d.forward(tape, &self.params, x),
+        }
     }
 
     /// Φ_W alone: the cone activations `pa (B × n × n)` of ONS frames `(B × n × n)`.
@@ -191,13 +212,13 @@ impl Cortex {
 }
 
 #[cfg(test)]
-mod tests {
+mod tests_support {
     use super::*;
     use crate::CortexConfig;
 
     /// A cortex of the tiny preset with every parameter drawn at random (so W, C and D are far
     /// from their identity initialisation).
-    fn scrambled(n: usize, widths: Vec<usize>) -> Cortex {
+    pub(super) fn scrambled(n: usize, widths: Vec<usize>) -> Cortex {
         let mut cfg = CortexConfig::preset("tiny").expect("tiny preset");
         cfg.ons_size_px = n;
         cfg.d.widths = widths;
@@ -212,6 +233,12 @@ mod tests {
         }
         cortex
     }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::tests_support::scrambled;
+    use super::*;
 
     #[test]
     fn windows_give_the_whole_field_percept_at_the_cells_asked_for() {
@@ -238,7 +265,7 @@ mod tests {
         let windows: Vec<Window> = sizes.iter().map(|v| v.grown_to(h, w, n)).collect();
         let mut tape = Tape::<f32>::new();
         let o = tape.constant_from([frames, 1, n, n], &ons);
-        let v = cortex.record_decode_windows(&mut tape, o, &windows);
+        let v = cortex.record_decode_windows(&mut tape, o, &windows, None);
         let got = tape.value(v).data();
         for (f, (&(rows, cols), win)) in boxes.iter().zip(&windows).enumerate() {
             for c in 0..dim {
@@ -285,9 +312,9 @@ mod tests {
         }
         let mut tape = Tape::<f32>::new();
         let o = tape.constant_from([2, 1, n, n], &ons);
-        let from_ons = cortex.record_decode_windows(&mut tape, o, &windows);
+        let from_ons = cortex.record_decode_windows(&mut tape, o, &windows, None);
         let from_ons = tape.value(from_ons).data().to_vec();
-        let from_pa = cortex.record_decode_activation_windows(&mut tape, &pa, &windows);
+        let from_pa = cortex.record_decode_activation_windows(&mut tape, &pa, &windows, None);
         let from_pa = tape.value(from_pa).data();
         assert_eq!(from_ons.len(), from_pa.len());
         let scale = from_ons.iter().fold(0f32, |m, x| m.max(x.abs()));
@@ -299,11 +326,61 @@ mod tests {
         }
         // and a frame that is not the sum decodes otherwise
         pa.iter_mut().for_each(|x| *x *= 1.5);
-        let other = cortex.record_decode_activation_windows(&mut tape, &pa, &windows);
+        let other = cortex.record_decode_activation_windows(&mut tape, &pa, &windows, None);
         let other = tape.value(other).data();
         assert!(from_ons
             .iter()
             .zip(other)
             .any(|(a, b)| (a - b).abs() > 1e-3 * scale));
+    }
+}
+
+#[cfg(test)]
+mod box_tests {
+    use super::tests_support::scrambled;
+    use super::*;
+
+    #[test]
+    fn a_boxed_decode_gives_the_windows_percept_in_its_box() {
+        let n = 64;
+        let cortex = scrambled(n, vec![4, 8, 16]);
+        let window = cortex.exact_window([20, 27], [30, 37]);
+        let windows = [window; 2];
+        let (h, w) = (window.height, window.width);
+        let pa: Vec<f32> = (0..2 * h * w)
+            .map(|i| ((i as u32).wrapping_mul(2_654_435_761) % 983) as f32 / 983.0)
+            .collect();
+        let mut tape = Tape::<f32>::new();
+        let whole = cortex.record_decode_activation_windows(&mut tape, &pa, &windows, None);
+        let whole = tape.value(whole).data().to_vec();
+        let dim = cortex.percept_dim();
+        // The cells asked for, inside the window; and a box at the window's corner.
+        let inside = |r: usize, c: usize| (r - window.top, c - window.left);
+        let (r0, c0) = inside(20, 30);
+        let (r1, c1) = inside(27, 37);
+        for out_box in [
+            OutputBox {
+                rows: [r0, r1],
+                cols: [c0, c1],
+            },
+            OutputBox {
+                rows: [0, 3],
+                cols: [w - 5, w - 1],
+            },
+        ] {
+            let v =
+                cortex.record_decode_activation_windows(&mut tape, &pa, &windows, Some(out_box));
+            let (bh, bw) = out_box.size();
+            assert_eq!(tape.shape(v).dims(), &[2, dim, bh, bw]);
+            let boxed = tape.value(v).data();
+            for (i, &b) in boxed.iter().enumerate() {
+                let (plane, r, k) = (i / (bh * bw), i / bw % bh, i % bw);
+                let a = whole[(plane * h + r + out_box.rows[0]) * w + k + out_box.cols[0]];
+                assert!(
+                    a == b,
+                    "{out_box:?}: plane {plane} at ({r}, {k}): {a} window, {b} box"
+                );
+            }
+        }
     }
 }

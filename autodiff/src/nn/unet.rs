@@ -285,6 +285,21 @@ impl UNet {
         self.record(tape, x, &mut |t, id| params.var(t, id))
     }
 
+    /// Like [`UNet::forward`], but only the outputs in `out_box` `(B, out_channels, box rows,
+    /// box columns)`, equal to the whole input's there: the decoder computes each up block
+    /// only where those outputs reach (window module docs).
+    #[track_caller]
+    pub fn forward_box<T: Float>(
+        &self,
+        tape: &mut Tape<T>,
+        params: &ParamStore<T>,
+        x: Var,
+        out_box: OutputBox,
+    ) -> Var {
+        self.record_boxed(tape, x, &mut |t, id| params.var(t, id), Some(out_box))
+            .output
+    }
+
     /// Enters the scope of block `k`, when blocks have scopes.
     fn enter_block<T: Float>(&self, tape: &mut Tape<T>, k: usize) {
         if let Some(names) = &self.block_scopes {
@@ -299,11 +314,24 @@ impl UNet {
         x: Var,
         param: &mut ParamFn<'_, T>,
     ) -> UNetActivations {
+        self.record_boxed(tape, x, param, None)
+    }
+
+    /// [`UNet::record`], with the decoder computing only what the outputs in `out_box` need
+    /// when one is given (the output is then that box: window module docs).
+    #[track_caller]
+    fn record_boxed<T: Float>(
+        &self,
+        tape: &mut Tape<T>,
+        x: Var,
+        param: &mut ParamFn<'_, T>,
+        out_box: Option<OutputBox>,
+    ) -> UNetActivations {
         let s = tape.shape(x);
-        let (_, c, h, w) = s.bchw("UNet");
+        let (_, c, h_in, w_in) = s.bchw("UNet");
         let m = 1 << self.downs.len();
         assert!(
-            c == self.config.in_channels && h % m == 0 && w % m == 0,
+            c == self.config.in_channels && h_in % m == 0 && w_in % m == 0,
             "UNet: input {s:?} does not fit (want {} channels, H and W divisible by {m})",
             self.config.in_channels
         );
@@ -319,15 +347,23 @@ impl UNet {
             h = down.forward(tape, param, p);
             blocks.push(h);
         }
+        let crops = out_box.map(|b| self.up_crops(b, h_in, w_in));
         for (k, (up, skip)) in self.ups.iter().zip(skips.into_iter().rev()).enumerate() {
             self.enter_block(tape, 1 + self.downs.len() + k);
+            let (lower, skip) = match &crops {
+                Some(c) => c.cut_inputs(tape, self.downs.len() - 1 - k, h, skip),
+                None => (h, skip),
+            };
             let (wt, bt) = (param(tape, up.weight), param(tape, up.bias));
             // One fused op: conv_transpose2x2(h, wt) + bt per channel.
-            let u = tape.conv_transpose2x2_bias(h, wt, bt);
+            let u = tape.conv_transpose2x2_bias(lower, wt, bt);
             tape.tag(u, up.tag);
             let cat = tape.concat(&[skip, u]);
             h = up.conv.forward(tape, param, cat);
             blocks.push(h);
+        }
+        if let Some(c) = &crops {
+            h = c.cut_output(tape, h);
         }
         let (wo, bo) = (param(tape, self.out_weight), param(tape, self.out_bias));
         let y = tape.conv2d(h, wo, Padding::Zero);
@@ -341,3 +377,4 @@ impl UNet {
 #[cfg(test)]
 mod tests;
 mod window;
+pub use window::OutputBox;

@@ -7,7 +7,7 @@
 //! layer tagged by its parameter name.
 
 use crate::config::{CortexConfig, DMode};
-use autodiff::nn::unet::{UNet, UNetConfig};
+use autodiff::nn::unet::{OutputBox, UNet, UNetConfig};
 use autodiff::{Float, ParamStore, Tape, Var};
 
 /// The D bucket.
@@ -40,6 +40,24 @@ impl DBucket {
     /// Records D on the tape.
     pub fn forward<T: Float>(&self, tape: &mut Tape<T>, params: &ParamStore<T>, x: Var) -> Var {
         self.forward_blocks(tape, params, x).0
+    }
+
+    /// Records D's outputs in `out_box` alone (`autodiff::nn::unet` window docs): the
+    /// U-Net's up blocks run only where those outputs reach; the identity is cut to the box.
+    pub fn forward_box<T: Float>(
+        &self,
+        tape: &mut Tape<T>,
+        params: &ParamStore<T>,
+        x: Var,
+        out_box: OutputBox,
+    ) -> Var {
+        match self {
+            DBucket::UNet(net) => net.forward_box(tape, params, x, out_box),
+            DBucket::Identity => {
+                let (h, w) = out_box.size();
+                tape.crop2d(x, out_box.rows[0], out_box.cols[0], h, w)
+            }
+        }
     }
 
     /// Records D on the tape; returns its output and each block's (none for the identity).

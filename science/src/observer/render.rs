@@ -3,7 +3,7 @@
 //! and the batched decoding jobs behind [`Observer::percepts`].
 
 use super::*;
-use cortex::Window;
+use cortex::{OutputBox, Window};
 use std::collections::BTreeMap;
 
 pub(super) mod external;
@@ -22,9 +22,8 @@ pub(crate) const LOCATION_ENTRY_BYTES: usize = std::mem::size_of::<LocationEntry
 struct LocationEntry {
     /// The cones read.
     cells: Vec<usize>,
-    /// For the cortex: the window its decoder D runs on for this location, and the cones read
-    /// as indices inside it (`None`: the whole field).
-    window: Option<(Window, Vec<usize>)>,
+    /// For the cortex: where its decoder D runs for this location (`None`: the whole field).
+    window: Option<WindowRead>,
     /// Noise-free, per cone-read plane: the ONS of a unit disc `(k × n·n)` for the cortex
     /// decoding the whole field and for decoders from outside, the readout of its percept
     /// `(k × readout length)` for linear decoders; empty with noise.
@@ -34,6 +33,16 @@ struct LocationEntry {
     /// inverse is linear, so a show's activations are their sum weighted by its class values).
     activation_basis: Vec<f32>,
     readout_basis: Vec<f64>,
+}
+
+/// A patch's decode on a window: the window D's encoder runs on, the box of the cones read
+/// inside it (D's decoder runs where that box reaches, `cortex::window` docs), and the cones
+/// read as indices inside the box.
+#[derive(Clone)]
+struct WindowRead {
+    window: Window,
+    out_box: OutputBox,
+    local: Vec<usize>,
 }
 
 thread_local! {
@@ -116,7 +125,9 @@ impl EyeObserver<'_> {
             }
         }
         let activation_basis = match (&self.decoder, &window) {
-            (Decoder::Cortex(cortex), Some((w, _))) if !ons_basis.is_empty() => {
+            (Decoder::Cortex(cortex), Some(WindowRead { window: w, .. }))
+                if !ons_basis.is_empty() =>
+            {
                 let (k, n) = (self.retina.classes_read(), self.retina.n());
                 let pa = cortex.activations(&ons_basis, k);
                 let mut cut = vec![0f32; k * w.height * w.width];
@@ -147,7 +158,7 @@ impl EyeObserver<'_> {
     }
 
     /// The window the cortex decodes for a patch reading `cells` (`None`: the whole field).
-    fn decode_window(&self, cells: &[usize]) -> Option<(Window, Vec<usize>)> {
+    fn decode_window(&self, cells: &[usize]) -> Option<WindowRead> {
         let Decoder::Cortex(cortex) = &self.decoder else {
             return None;
         };
@@ -160,15 +171,29 @@ impl EyeObserver<'_> {
             ([r[0].min(y), r[1].max(y)], [c[0].min(x), c[1].max(x)])
         });
         let window = cortex.exact_window(rows, cols);
+        let out_box = OutputBox {
+            rows: [rows[0] - window.top, rows[1] - window.top],
+            cols: [cols[0] - window.left, cols[1] - window.left],
+        };
+        let in_box = Window {
+            top: rows[0],
+            left: cols[0],
+            height: rows[1] - rows[0] + 1,
+            width: cols[1] - cols[0] + 1,
+        };
         let local = cells
             .iter()
             .map(|&i| {
-                window
+                in_box
                     .local_index(i, n)
-                    .expect("a read cone lies in its window")
+                    .expect("a read cone lies in its box")
             })
             .collect();
-        Some((window, local))
+        Some(WindowRead {
+            window,
+            out_box,
+            local,
+        })
     }
 
     /// Decodes the shows `members` (indices into `shows`, whose entries' windows share a size)
@@ -187,8 +212,10 @@ impl EyeObserver<'_> {
         tape.clear();
         let windows: Option<Vec<Window>> = members
             .iter()
-            .map(|&i| entries[i].window.as_ref().map(|(w, _)| *w))
+            .map(|&i| entries[i].window.as_ref().map(|r| r.window))
             .collect();
+        // One box for the batch: the caller groups shows by window size and box.
+        let out_box = entries[members[0]].window.as_ref().map(|r| r.out_box);
         let v = match &windows {
             Some(w) if !entries[members[0]].activation_basis.is_empty() => {
                 let pa = Self::summed(
@@ -199,7 +226,7 @@ impl EyeObserver<'_> {
                     |e| &e.activation_basis,
                     |s| self.values(s),
                 );
-                cortex.record_decode_activation_windows(&mut tape, &pa, w)
+                cortex.record_decode_activation_windows(&mut tape, &pa, w, out_box)
             }
             _ => {
                 let ons = if self.settings.noise_ratio == 0.0 {
@@ -217,7 +244,7 @@ impl EyeObserver<'_> {
                 };
                 let o = tape.constant_from([members.len(), 1, n, n], &ons);
                 match &windows {
-                    Some(w) => cortex.record_decode_windows(&mut tape, o, w),
+                    Some(w) => cortex.record_decode_windows(&mut tape, o, w, out_box),
                     None => cortex.record_decode(&mut tape, o).percept,
                 }
             }
@@ -226,7 +253,7 @@ impl EyeObserver<'_> {
         let plane = percept.len() / members.len().max(1);
         for (s, &i) in members.iter().enumerate() {
             let e = &entries[i];
-            let cells = e.window.as_ref().map_or(&e.cells, |(_, local)| local);
+            let cells = e.window.as_ref().map_or(&e.cells, |r| &r.local);
             let rows = &mut out[i * len..(i + 1) * len];
             self.readout
                 .read(&percept[s * plane..(s + 1) * plane], dim, cells, rows);
@@ -288,14 +315,15 @@ impl EyeObserver<'_> {
             return;
         }
         if let Decoder::Cortex(cortex) = &self.decoder {
-            // Shows whose windows share a size are decoded together (the whole field is one).
-            let mut groups: BTreeMap<(usize, usize), Vec<usize>> = BTreeMap::new();
+            // Shows whose windows share a size and a box are decoded together (the whole field
+            // is one).
+            let mut groups: BTreeMap<(usize, usize, Option<OutputBox>), Vec<usize>> =
+                BTreeMap::new();
             for (i, e) in entries.iter().enumerate() {
-                let size = e
-                    .window
-                    .as_ref()
-                    .map_or((nn, 0), |(w, _)| (w.height, w.width));
-                groups.entry(size).or_default().push(i);
+                let key = e.window.as_ref().map_or((nn, 0, None), |r| {
+                    (r.window.height, r.window.width, Some(r.out_box))
+                });
+                groups.entry(key).or_default().push(i);
             }
             for members in groups.values() {
                 self.decode_cortex(cortex, shows, &entries, members, out);

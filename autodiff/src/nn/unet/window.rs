@@ -15,8 +15,93 @@
 //! on its own must start and end on the pooling grid (multiples of [`UNet::alignment_px`]), or at
 //! the field's edges, where the window's reflect padding is the field's: then every pixel inside
 //! the returned interval sees exactly the values it sees in the whole field.
+//!
+//! Inside a window, the encoder must run on all of it (the deepest level reaches furthest), but
+//! the decoder need not: [`UNet::forward_box`] runs each up block on the region its part of an
+//! [`OutputBox`] reaches. Going up from the box at level 0, an up block's outputs `[a, b]` need
+//! its concatenated input on `[a − 2, b + 2]` (two 3×3 convs), clamped to the image and widened
+//! to `[2⌊·/2⌋, 2⌊·/2⌋ + 1]` so that the transposed conv fills it from the level below's
+//! `[⌊a′/2⌋, ⌊b′/2⌋]`, which is that block's outputs. The skip is cut to the same region. The
+//! up block's reflect padding at a cut inside the image makes wrong values within two pixels of
+//! it, which no output of the box reads; at the image's edge it is the image's own. So the box
+//! holds the same arithmetic on the same values as the whole input's output there.
 
 use super::UNet;
+use crate::{Float, Tape, Var};
+
+/// Output pixels asked of a decode: rows × columns, inclusive, at the input's resolution.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct OutputBox {
+    pub rows: [usize; 2],
+    pub cols: [usize; 2],
+}
+
+impl OutputBox {
+    /// `(rows, columns)` in the box.
+    pub fn size(&self) -> (usize, usize) {
+        (
+            self.rows[1] - self.rows[0] + 1,
+            self.cols[1] - self.cols[0] + 1,
+        )
+    }
+}
+
+/// Where a boxed decode runs each up block: per level (0: the shallowest), the rows and
+/// columns (inclusive, at that level's resolution) of the block's input and output.
+pub(super) struct UpCrops {
+    rows: Vec<[usize; 2]>,
+    cols: Vec<[usize; 2]>,
+    out_box: OutputBox,
+}
+
+impl UpCrops {
+    /// Cuts the inputs of the up block at `level`: `lower` (the level below's output: the
+    /// bottleneck, whole, or that up block's region) to what the transposed conv needs, and
+    /// `skip` (the encoder's whole output at `level`) to the block's region.
+    pub(super) fn cut_inputs<T: Float>(
+        &self,
+        tape: &mut Tape<T>,
+        level: usize,
+        lower: Var,
+        skip: Var,
+    ) -> (Var, Var) {
+        let (r, c) = (self.rows[level], self.cols[level]);
+        let (r0, c0) = match self.rows.get(level + 1) {
+            Some(lr) => (lr[0], self.cols[level + 1][0]),
+            None => (0, 0),
+        };
+        let lower = cut(
+            tape,
+            lower,
+            [r[0] / 2 - r0, c[0] / 2 - c0],
+            len(r) / 2,
+            len(c) / 2,
+        );
+        let skip = cut(tape, skip, [r[0], c[0]], len(r), len(c));
+        (lower, skip)
+    }
+
+    /// Cuts the last up block's output (its region at level 0) to the box.
+    pub(super) fn cut_output<T: Float>(&self, tape: &mut Tape<T>, h: Var) -> Var {
+        let (b, r, c) = (self.out_box, self.rows[0], self.cols[0]);
+        let (bh, bw) = b.size();
+        cut(tape, h, [b.rows[0] - r[0], b.cols[0] - c[0]], bh, bw)
+    }
+}
+
+fn len(iv: [usize; 2]) -> usize {
+    iv[1] - iv[0] + 1
+}
+
+/// `x`'s `h × w` window at `at`, or `x` itself when that is all of it.
+fn cut<T: Float>(tape: &mut Tape<T>, x: Var, at: [usize; 2], h: usize, w: usize) -> Var {
+    let (_, _, xh, xw) = tape.shape(x).bchw("UNet box");
+    if at == [0, 0] && (h, w) == (xh, xw) {
+        x
+    } else {
+        tape.crop2d(x, at[0], at[1], h, w)
+    }
+}
 
 /// `[a − r, b + r]`.
 fn widen(iv: [i64; 2], r: i64) -> [i64; 2] {
@@ -62,6 +147,38 @@ impl UNet {
         [start.max(0) as usize, (end as usize).min(size_px)]
     }
 
+    /// The up blocks' regions (module docs) for the outputs `out_box` of an `h × w` input.
+    #[track_caller]
+    pub(super) fn up_crops(&self, out_box: OutputBox, h: usize, w: usize) -> UpCrops {
+        assert!(
+            out_box.rows[0] <= out_box.rows[1]
+                && out_box.rows[1] < h
+                && out_box.cols[0] <= out_box.cols[1]
+                && out_box.cols[1] < w,
+            "UNet::forward_box: {out_box:?} of a {h} × {w} input"
+        );
+        UpCrops {
+            rows: self.up_regions(out_box.rows, h),
+            cols: self.up_regions(out_box.cols, w),
+            out_box,
+        }
+    }
+
+    /// One axis of [`UNet::up_crops`]: each up block's region, shallowest first, for the
+    /// outputs `out` of an axis of `size_px`.
+    fn up_regions(&self, out: [usize; 2], size_px: usize) -> Vec<[usize; 2]> {
+        let (mut iv, mut size) = (out, size_px);
+        let mut regions = Vec::with_capacity(self.downs.len());
+        for _ in 0..self.downs.len() {
+            let (lo, hi) = (iv[0].saturating_sub(2), (iv[1] + 2).min(size - 1));
+            let region = [lo / 2 * 2, hi / 2 * 2 + 1];
+            regions.push(region);
+            iv = [region[0] / 2, region[1] / 2];
+            size /= 2;
+        }
+        regions
+    }
+
     /// What the encoder's block at `level` (0: `inc`) needs of the input for its outputs `iv`.
     fn encoder_reach(&self, level: usize, iv: [i64; 2]) -> [i64; 2] {
         let iv = widen(iv, 2); // DoubleConv: two 3×3 convs.
@@ -88,6 +205,7 @@ impl UNet {
 #[cfg(test)]
 mod tests {
     use super::super::{UNet, UNetConfig};
+    use super::OutputBox;
     use crate::{ParamStore, Tape, Tensor};
 
     fn net(widths: Vec<usize>) -> (UNet, ParamStore<f32>) {
@@ -164,6 +282,81 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn a_boxed_decode_gives_the_whole_inputs_outputs_in_its_box() {
+        for widths in [vec![4, 8], vec![4, 8, 16], vec![4, 8, 16, 32]] {
+            let (net, ps) = net(widths);
+            let (h, w) = (64, 48);
+            let x = image(h, w, 11);
+            let full = run(&net, &ps, &x, h, w);
+            // Middle, corners, edges, one pixel, a thin strip and the whole input.
+            for (rows, cols) in [
+                ([20, 37], [13, 30]),
+                ([0, 5], [42, 47]),
+                ([58, 63], [0, 0]),
+                ([31, 31], [17, 17]),
+                ([1, 62], [23, 24]),
+                ([0, 63], [0, 47]),
+            ] {
+                let mut tape = Tape::<f32>::new();
+                let v = tape.constant_from([1, 2, h, w], &x);
+                let out_box = OutputBox { rows, cols };
+                let y = net.forward_box(&mut tape, &ps, v, out_box);
+                let (bh, bw) = out_box.size();
+                assert_eq!(tape.shape(y).dims(), &[1, 3, bh, bw]);
+                let boxed = tape.value(y).data();
+                for c in 0..3 {
+                    for r in 0..bh {
+                        for k in 0..bw {
+                            let a = full[(c * h + r + rows[0]) * w + k + cols[0]];
+                            let b = boxed[(c * bh + r) * bw + k];
+                            assert!(
+                                a == b,
+                                "{} levels, box {rows:?}×{cols:?}, channel {c} at ({r}, {k}): \
+                                 {a} whole, {b} boxed",
+                                net.downs.len()
+                            );
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn the_up_blocks_regions_of_a_box_in_the_middle_are_worked_by_hand() {
+        let (net, _) = net(vec![4, 8, 16, 32]);
+        // Level 0: [40, 41] → [38, 43]; level 1: [19, 21] → [17, 23] → [16, 23];
+        // level 2: [8, 11] → [6, 13]. A box at the edge is clamped to the image.
+        assert_eq!(
+            net.up_regions([40, 41], 64),
+            vec![[38, 43], [16, 23], [6, 13]]
+        );
+        assert_eq!(net.up_regions([0, 0], 64), vec![[0, 3], [0, 3], [0, 3]]);
+        assert_eq!(
+            net.up_regions([63, 63], 64),
+            vec![[60, 63], [28, 31], [12, 15]]
+        );
+    }
+
+    #[test]
+    fn a_box_outside_its_input_is_refused() {
+        let (net, ps) = net(vec![4, 8]);
+        let mut tape = Tape::<f32>::new();
+        let v = tape.constant_from([1, 2, 8, 8], &image(8, 8, 1));
+        let out_box = OutputBox {
+            rows: [2, 8],
+            cols: [0, 1],
+        };
+        let caught = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+            net.forward_box(&mut tape, &ps, v, out_box)
+        }));
+        assert!(
+            caught.is_err(),
+            "a box past the input's last row was decoded"
+        );
     }
 
     #[test]
