@@ -51,10 +51,11 @@ const PAGE_BYTES: f64 = 4096.0;
 /// peak memory in `cortex.train.batch_size` on `tiny` and `quick`).
 const STEP_F32_PER_PIXEL: (f64, f64) = (10.0, 17.4);
 /// A decode of one show by the cortex, in `f32`s per ONS pixel (cones_per_side²): the slope of
-/// CMF-SIM's peak memory in `observer.decode_batch` (a 12-show batch against one show), measured
-/// as 171 on `tiny` (32²), 141–194 on `quick` (64²) and 148–203 on `paper` (256², D on its
-/// windows), the last two between 11 and 15 extra shows a batch (docs/memory-tops.md); the top.
-const DECODE_F32_PER_PIXEL: f64 = 205.0;
+/// CMF-SIM's peak memory in `observer.decode_batch` (16 shows a batch against one), measured
+/// with D's decoder on the box of cells read (docs/memory-tops.md) as 131 on `quick` (64²,
+/// whose window is the whole field) and 43 on `paper` (256², D's encoder on 160² windows); the
+/// top. (Before the box: 141–194 on `quick`, 148–203 on `paper`.)
+const DECODE_F32_PER_PIXEL: f64 = 131.0;
 
 /// One thread's decode of `decode_batch` shows by the cortex of an eye of `cones_per_side²`
 /// cones, bytes ([`DECODE_F32_PER_PIXEL`] per ONS pixel a show). The observer keeps at most
