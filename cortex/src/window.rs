@@ -135,7 +135,8 @@ impl Cortex {
 
     /// Records decode Φ from cone activations already cut to windows: `pa (B × h × w)`, frame
     /// b's activations `pa = W⁻¹(ons)` on `windows[b]` (all of one size), gives the percept
-    /// `(B, N, h, w)` that [`Cortex::record_decode_windows`] gives from the ONS. W's inverse is
+    /// `(B, N, h, w)` (with `out_box`, `(B, N, box rows, box columns)`) that
+    /// [`Cortex::record_decode_windows`] gives from the ONS. W's inverse is
     /// a linear filter, so an observer whose frames are sums of a few fixed ones can take their
     /// activations once ([`Cortex::activations`]) and sum those. `out_box` as there.
     #[track_caller]
@@ -377,7 +378,7 @@ mod box_tests {
                 let (plane, r, k) = (i / (bh * bw), i / bw % bh, i % bw);
                 let a = whole[(plane * h + r + out_box.rows[0]) * w + k + out_box.cols[0]];
                 assert!(
-                    a == b,
+                    (a - b).abs() <= 1e-6 * (1.0 + a.abs()),
                     "{out_box:?}: plane {plane} at ({r}, {k}): {a} window, {b} box"
                 );
             }

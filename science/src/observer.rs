@@ -22,8 +22,9 @@
 //! location many times. With noise every show is rendered and decoded. The cortex decodes in
 //! rayon jobs of at most `decode_batch` shows, split evenly over the threads, and runs its
 //! decoder D only on the window that the patch's read cones depend on
-//! ([`cortex::Cortex::record_decode_windows`]): the percepts are the whole field's, at a
-//! fraction of the cost on a large eye (a patch of the 256 × 256 eye needs a 160 × 160 window).
+//! ([`cortex::Cortex::record_decode_windows`]), and D's up blocks only where the box of those
+//! cones reaches (`cortex::OutputBox`): the percepts are the whole field's, at a fraction of
+//! the cost on a large eye (a patch of the 256 × 256 eye needs a 160 × 160 window).
 //! W's inverse is linear too, so without noise each location keeps, for the windowed cortex,
 //! the cone activations W's inverse makes of each `B_c`, cut to its window, instead of `B_c`:
 //! a show's activations are their weighted sum, and W's Fourier filter runs once per location

@@ -196,8 +196,9 @@ impl EyeObserver<'_> {
         })
     }
 
-    /// Decodes the shows `members` (indices into `shows`, whose entries' windows share a size)
-    /// through the cortex, D on each show's window, and reads them into their rows of `out`.
+    /// Decodes the shows `members` (indices into `shows`, whose entries' windows share a size
+    /// and a box) through the cortex, D on each show's window (its decoder on the box), and
+    /// reads them into their rows of `out`.
     fn decode_cortex(
         &self,
         cortex: &Cortex,
@@ -251,6 +252,10 @@ impl EyeObserver<'_> {
         };
         let percept = tape.value(v).data();
         let plane = percept.len() / members.len().max(1);
+        if let Some(o) = out_box {
+            let (h, w) = o.size();
+            debug_assert_eq!(plane, dim * h * w, "a windowed percept is its box's");
+        }
         for (s, &i) in members.iter().enumerate() {
             let e = &entries[i];
             let cells = e.window.as_ref().map_or(&e.cells, |r| &r.local);
