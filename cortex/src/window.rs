@@ -159,7 +159,7 @@ impl Cortex {
         let paw = tape.constant_from([b, 1, h, w], pa);
         let Some(cb) = &self.c else {
             return match out_box {
-                Some(o) => tape.crop2d(paw, o.rows[0], o.cols[0], o.size().0, o.size().1),
+                Some(o) => o.crop(tape, paw),
                 None => paw,
             };
         };

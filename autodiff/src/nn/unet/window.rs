@@ -42,10 +42,13 @@ pub struct OutputBox {
 impl OutputBox {
     /// `(rows, columns)` in the box.
     pub fn size(&self) -> (usize, usize) {
-        (
-            self.rows[1] - self.rows[0] + 1,
-            self.cols[1] - self.cols[0] + 1,
-        )
+        (len(self.rows), len(self.cols))
+    }
+
+    /// `x (…, H, W)` cut to the box (`x` itself when the box is all of it).
+    pub fn crop<T: Float>(&self, tape: &mut Tape<T>, x: Var) -> Var {
+        let (h, w) = self.size();
+        cut(tape, x, [self.rows[0], self.cols[0]], h, w)
     }
 }
 
@@ -93,8 +96,11 @@ impl UpCrops {
             .first()
             .zip(self.cols.first())
             .map_or((0, 0), |(r, c)| (r[0], c[0]));
-        let (bh, bw) = b.size();
-        cut(tape, h, [b.rows[0] - r0, b.cols[0] - c0], bh, bw)
+        let local = OutputBox {
+            rows: [b.rows[0] - r0, b.rows[1] - r0],
+            cols: [b.cols[0] - c0, b.cols[1] - c0],
+        };
+        local.crop(tape, h)
     }
 }
 
