@@ -10,7 +10,7 @@
 # the run before it ran — its page and the commit that added it, e.g.
 # "docs/notebook/2026-11-28-paper-table-protocol.md @ f0603a6" — and goes into record.json, so
 # the runs' index marks the run as pre-registered.
-# No checkpoints, pictures or per-step log.
+# Its last checkpoint with the parameters only; no pictures or per-step log.
 # Usage: scripts/record-run.sh RUN_DIR NAME [PROTOCOL]
 set -euo pipefail
 USAGE="usage: scripts/record-run.sh RUN_DIR NAME [PROTOCOL]"
@@ -82,6 +82,14 @@ if [ "$COUNT" -ge 3 ] && [ $((COUNT % 2)) -eq 1 ] \
     LINE="  \"protocol_reading\": {\"step\": $STEPS, \"dimension\": $MEDIAN, \"location_seeds\": [$SEEDS], \"files\": \"cmf-sim-step$STEPS-loc<L>/cmf_sim.json\"},"
     awk -v line="$LINE" 'NR == 1 {print; print line; next} {print}' "$TMP/summary.json" \
         > "$TMP/summary.tmp" && mv "$TMP/summary.tmp" "$TMP/summary.json"
+fi
+# The run's last checkpoint with its parameters only (meta.json and params.safetensors, a third
+# of the whole): readings load it (`colorvision cmf-sim --run results/NAME`), so anyone can
+# measure the record again; resuming training needs the run folder.
+LAST=$(find "$RUN/checkpoints" -maxdepth 1 -name 'step_*' -type d 2>/dev/null | sort | tail -n 1)
+if [ -n "$LAST" ]; then
+    K="$TMP/checkpoints/$(basename "$LAST")"
+    mkdir -p "$K" && cp "$LAST/meta.json" "$LAST/params.safetensors" "$K/"
 fi
 if [ -f "$RUN/stiles-burch/table.json" ]; then
     mkdir "$TMP/stiles-burch" && cp "$RUN/stiles-burch/table.json" "$TMP/stiles-burch/"

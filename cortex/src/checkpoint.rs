@@ -19,6 +19,10 @@
 //! step's checkpoint meanwhile, so there is no moment at which the step has no checkpoint.
 //! [`verify`] checks every checksum; [`latest_valid`] falls back to older checkpoints, saying
 //! why it skipped the newer ones.
+//!
+//! A checkpoint kept for readings may hold `params.safetensors` and `meta.json` only
+//! ([`is_params_only`]): readings and continued runs load it ([`verify_params`]), resuming
+//! training refuses it ([`verify`]).
 
 use crate::config::CortexConfig;
 use crate::optimizer::CortexOptimizer;
@@ -294,9 +298,37 @@ pub fn read_meta(path: &Path) -> Result<CheckpointMeta, CortexError> {
     Ok(meta)
 }
 
+/// Whether the checkpoint at `path` holds its parameters only: `params.safetensors` without
+/// `optim.safetensors` and `rule.safetensors` (a checkpoint kept for readings, a third of the
+/// size; `scripts/record-run.sh` keeps a run's last one so).
+pub fn is_params_only(path: &Path) -> bool {
+    path.join(CHECKPOINT_FILES[0]).is_file()
+        && CHECKPOINT_FILES[1..].iter().all(|f| !path.join(f).exists())
+}
+
 /// Reads the metadata of the checkpoint at `path` and checks every checksum and that the step
-/// is the folder's. Format-1 checkpoints carry no checksums; only their metadata is checked.
+/// is the folder's: the whole state training resumes from. Format-1 checkpoints carry no
+/// checksums; only their metadata is checked. A checkpoint with its parameters only
+/// ([`is_params_only`]) is refused, saying so; [`verify_params`] accepts it.
 pub fn verify(path: &Path) -> Result<CheckpointMeta, CortexError> {
+    if is_params_only(path) {
+        return Err(bad(
+            path,
+            "holds the parameters only (kept for readings, without the optimiser's and the \
+             learning rule's state): training cannot resume from it; readings and \
+             --continue-from load it",
+        ));
+    }
+    verify_files(path, false)
+}
+
+/// [`verify`] for what a reading or a continued run loads (the parameters): a checkpoint
+/// with its parameters only verifies too; every file present is still checked.
+pub fn verify_params(path: &Path) -> Result<CheckpointMeta, CortexError> {
+    verify_files(path, is_params_only(path))
+}
+
+fn verify_files(path: &Path, params_only: bool) -> Result<CheckpointMeta, CortexError> {
     let meta = read_meta(path)?;
     let folder = path
         .file_name()
@@ -308,7 +340,8 @@ pub fn verify(path: &Path) -> Result<CheckpointMeta, CortexError> {
             format!("field `step` is {} but the folder is {folder}", meta.step),
         ));
     }
-    for f in files_of(meta.format) {
+    let files = files_of(meta.format);
+    for f in if params_only { &files[..1] } else { files } {
         let file = path.join(f);
         let want = meta.files_sha256.get(*f).ok_or_else(|| {
             bad(

@@ -133,12 +133,13 @@ impl Trainer {
     /// (dimensionality boosting, gene therapy; authors' code, docs/references.md#training): parameters are loaded, the optimiser is
     /// recreated (its state is not restored, as official), the step count continues.
     /// `config` may change training settings (steps, learning rate, M); the buckets' shapes
-    /// must match the checkpoint.
+    /// must match the checkpoint. A checkpoint with its parameters only loads
+    /// ([`checkpoint::verify_params`]); readings load checkpoints through here.
     pub fn continue_from(
         path: &Path,
         config: Option<CortexConfig>,
     ) -> Result<Trainer, CortexError> {
-        let meta = checkpoint::verify(path)?;
+        let meta = checkpoint::verify_params(path)?;
         let cfg = config.unwrap_or_else(|| meta.config.clone());
         let mut t = Trainer::new(cfg)?;
         checkpoint::load_params(path, &mut t.cortex.params)?;

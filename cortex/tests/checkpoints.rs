@@ -210,3 +210,61 @@ fn a_file_hashed_in_blocks_has_the_hash_of_its_bytes() {
     }
     std::fs::remove_dir_all(dir).unwrap();
 }
+
+#[test]
+fn a_checkpoint_kept_with_its_parameters_only_is_read_but_not_resumed() {
+    let cfg = CortexConfig::tiny();
+    let dir = scratch("params-only");
+    let mut t = Trainer::new(cfg.clone()).unwrap();
+    let mut src = source(&cfg);
+    t.run(&mut src, 2, Some(&dir), |_, _| {}).unwrap();
+    let path = latest_checkpoint(&dir).unwrap().unwrap();
+    let want = params_bits(&t);
+    for f in ["optim.safetensors", "rule.safetensors"] {
+        std::fs::remove_file(path.join(f)).unwrap();
+    }
+    assert!(cortex::checkpoint::is_params_only(&path));
+    // A reading (and a continued run) loads the same parameters.
+    let read = Trainer::continue_from(&path, None).unwrap();
+    assert_eq!(params_bits(&read), want);
+    let newest = cortex::checkpoint::latest_valid(&dir).unwrap().unwrap();
+    assert_eq!(newest.path, path);
+    // Resuming training refuses it, saying why.
+    let msg = Trainer::resume(&path, None).err().unwrap().to_string();
+    assert!(msg.contains("holds the parameters only"), "{msg}");
+    let resumed = Trainer::resume_latest(&dir, None).unwrap();
+    assert!(resumed.trainer.is_none() && resumed.skipped.len() == 1);
+    // Its parameters are still checked: a damaged file is refused.
+    let p = path.join("params.safetensors");
+    let mut bytes = std::fs::read(&p).unwrap();
+    let last = bytes.len() - 1;
+    bytes[last] ^= 1;
+    std::fs::write(&p, bytes).unwrap();
+    let msg = Trainer::continue_from(&path, None)
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(
+        msg.contains("SHA-256") && msg.contains("params.safetensors"),
+        "{msg}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_checkpoint_missing_one_state_file_is_damaged_not_params_only() {
+    let cfg = CortexConfig::tiny();
+    let dir = scratch("one-missing");
+    let mut t = Trainer::new(cfg.clone()).unwrap();
+    let mut src = source(&cfg);
+    t.run(&mut src, 1, Some(&dir), |_, _| {}).unwrap();
+    let path = latest_checkpoint(&dir).unwrap().unwrap();
+    std::fs::remove_file(path.join("optim.safetensors")).unwrap();
+    assert!(!cortex::checkpoint::is_params_only(&path));
+    let msg = Trainer::continue_from(&path, None)
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(msg.contains("optim.safetensors"), "{msg}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

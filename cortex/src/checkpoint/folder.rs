@@ -50,8 +50,8 @@ pub fn latest_checkpoint(dir: &Path) -> Result<Option<PathBuf>, CortexError> {
     Ok(newest_first(dir)?.into_iter().next())
 }
 
-/// The newest checkpoint under `dir` that passes [`verify`], its metadata, and every newer one
-/// that failed with the reason.
+/// The newest checkpoint under `dir` that passes [`verify_params`] (what a reading or a
+/// continued run loads), its metadata, and every newer one that failed with the reason.
 pub struct Valid {
     /// The checkpoint folder.
     pub path: PathBuf,
@@ -66,7 +66,7 @@ pub struct Valid {
 pub fn latest_valid(dir: &Path) -> Result<Result<Valid, Vec<(PathBuf, CortexError)>>, CortexError> {
     let mut skipped = Vec::new();
     for path in newest_first(dir)? {
-        match verify(&path) {
+        match verify_params(&path) {
             Ok(meta) => {
                 return Ok(Ok(Valid {
                     path,
