@@ -20,6 +20,7 @@
 //! constants: evaluation only, no gradient reaches W or C through them.
 
 use crate::buckets::d::DBucket;
+use crate::config::CortexConfig;
 use crate::model::{enter, Bucket};
 use crate::Cortex;
 use autodiff::nn::unet::OutputBox;
@@ -79,6 +80,24 @@ impl Window {
             height,
             width,
         }
+    }
+}
+
+/// The largest `(height, width)` that [`Cortex::exact_window`] gives a box of `rows_len ×
+/// cols_len` cells, wherever the box lies on the `n × n` grid, for the cortex `config` describes
+/// (from its shapes alone: nothing is allocated). A memory estimate counts a decode so.
+pub fn longest_window(
+    config: &CortexConfig,
+    rows_len: usize,
+    cols_len: usize,
+    n: usize,
+) -> (usize, usize) {
+    match DBucket::unet_config(config) {
+        None => (rows_len.min(n), cols_len.min(n)),
+        Some(unet) => (
+            unet.longest_exact_window(rows_len, n),
+            unet.longest_exact_window(cols_len, n),
+        ),
     }
 }
 
@@ -284,6 +303,29 @@ mod tests {
             }
         }
     }
+    #[test]
+    fn the_longest_window_bounds_every_box_and_is_reached() {
+        let n = 64;
+        for widths in [vec![4, 8, 16], vec![4, 8, 16, 32]] {
+            let cortex = scrambled(n, widths);
+            for (rows_len, cols_len) in [(8, 8), (5, 13), (40, 2)] {
+                let mut seen = (0, 0);
+                for top in 0..=n - rows_len {
+                    for left in 0..=n - cols_len {
+                        let w = cortex
+                            .exact_window([top, top + rows_len - 1], [left, left + cols_len - 1]);
+                        seen = (seen.0.max(w.height), seen.1.max(w.width));
+                    }
+                }
+                let got = longest_window(&cortex.config, rows_len, cols_len, n);
+                assert_eq!(got, seen, "boxes of {rows_len} × {cols_len}");
+            }
+        }
+        let mut identity = CortexConfig::preset("tiny").unwrap();
+        identity.d.mode = crate::config::DMode::Identity;
+        assert_eq!(longest_window(&identity, 5, 13, 64), (5, 13));
+    }
+
     #[test]
     fn frames_summed_from_activations_decode_as_the_summed_ons_does() {
         let n = 64;

@@ -50,18 +50,20 @@ const PAGE_BYTES: f64 = 4096.0;
 /// channel of the U-Net summed over its levels at their resolution (measured: the slope of
 /// peak memory in `cortex.train.batch_size` on `tiny` and `quick`).
 const STEP_F32_PER_PIXEL: (f64, f64) = (10.0, 17.4);
-/// A decode of one show by the cortex, in `f32`s per ONS pixel (cones_per_side²): the slope of
-/// CMF-SIM's peak memory in `observer.decode_batch` (16 shows a batch against one), measured
-/// with D's decoder on the box of cells read (docs/memory-tops.md) as 131 on `quick` (64²,
-/// whose window is the whole field) and 43 on `paper` (256², D's encoder on 160² windows); the
-/// top. (Before the box: 141–194 on `quick`, 148–203 on `paper`.)
+/// A decode of one show by the cortex, in `f32`s per ONS pixel of its decode window
+/// ([`cmf_sim::decode_pixels`]): the slope of CMF-SIM's peak memory in `observer.decode_batch`
+/// (16 shows a batch against one), measured with D's decoder on the box of cells read
+/// (docs/memory-tops.md) as 131 on `quick` (whose window is the whole 64² field) and 43 per
+/// pixel of the 256² field on `paper`, 110 per pixel of its 160² window; the top. (Before the
+/// box: 141–194 on `quick`, 148–203 per field pixel on `paper`.)
 const DECODE_F32_PER_PIXEL: f64 = 131.0;
 
-/// One thread's decode of `decode_batch` shows by the cortex of an eye of `cones_per_side²`
-/// cones, bytes ([`DECODE_F32_PER_PIXEL`] per ONS pixel a show). The observer keeps at most
-/// this much idle in each thread's decoding tape between decodes.
-pub fn decode_tape_bytes(decode_batch: usize, cones_per_side: usize) -> f64 {
-    decode_batch as f64 * (cones_per_side as f64).powi(2) * 4.0 * DECODE_F32_PER_PIXEL
+/// One thread's decode of `decode_batch` shows by the cortex, each over `pixels` ONS pixels
+/// (its decode window: [`cmf_sim::decode_pixels`]; at most the whole field), bytes
+/// ([`DECODE_F32_PER_PIXEL`] per pixel a show). The observer keeps at most this much of the
+/// whole field's idle in each thread's decoding tape between decodes.
+pub fn decode_tape_bytes(decode_batch: usize, pixels: f64) -> f64 {
+    decode_batch as f64 * pixels * 4.0 * DECODE_F32_PER_PIXEL
 }
 
 /// The estimated peak memory of a run and its parts.
@@ -157,7 +159,10 @@ pub fn estimate(config: &RunConfig, cmf_sim: bool, threads: usize) -> Estimate {
     let per_sample = n * n * 4.0 * (a + b * channels);
     let decode = if cmf_sim {
         threads as f64
-            * decode_tape_bytes(config.observer.decode_batch, config.retina.cones_per_side)
+            * decode_tape_bytes(
+                config.observer.decode_batch,
+                cmf_sim::decode_pixels(config, &layout),
+            )
     } else {
         0.0
     };
@@ -228,7 +233,10 @@ pub fn estimate_convergence(config: &RunConfig, cmf_sim: bool, threads: usize) -
     let e = estimate(config, false, threads);
     let layout = layout(config);
     let decode = threads as f64
-        * decode_tape_bytes(config.observer.decode_batch, config.retina.cones_per_side);
+        * decode_tape_bytes(
+            config.observer.decode_batch,
+            cmf_sim::decode_pixels(config, &layout),
+        );
     Estimate {
         scenes_bytes: e.scenes_bytes / RUN_SCENE_POOLS,
         step_bytes: 0.0,

@@ -22,18 +22,22 @@ pub enum DBucket {
 impl DBucket {
     /// Adds the U-Net's parameters (seeded from `train.seed`) unless D is the identity.
     pub fn new<T: Float>(params: &mut ParamStore<T>, cfg: &CortexConfig) -> Self {
+        match Self::unet_config(cfg) {
+            None => DBucket::Identity,
+            Some(uc) => DBucket::UNet(UNet::new(params, "d", uc).with_block_scopes("D")),
+        }
+    }
+
+    /// The U-Net's shapes and seed that `cfg` asks for (`None`: D is the identity).
+    pub fn unet_config(cfg: &CortexConfig) -> Option<UNetConfig> {
         match cfg.d.mode {
-            DMode::Identity => DBucket::Identity,
-            DMode::UNet => {
-                let n = cfg.percept_channels;
-                let uc = UNetConfig {
-                    in_channels: n,
-                    out_channels: n,
-                    widths: cfg.d.widths.clone(),
-                    seed: cfg.train.seed,
-                };
-                DBucket::UNet(UNet::new(params, "d", uc).with_block_scopes("D"))
-            }
+            DMode::Identity => None,
+            DMode::UNet => Some(UNetConfig {
+                in_channels: cfg.percept_channels,
+                out_channels: cfg.percept_channels,
+                widths: cfg.d.widths.clone(),
+                seed: cfg.train.seed,
+            }),
         }
     }
 

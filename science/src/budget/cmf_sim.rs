@@ -7,11 +7,10 @@
 //! Φ(test at a), Φ(black at b), Φ(test at b), kept for the search (R: the readout length,
 //! samples × percept channels). The observer caches per location (`science::observer`, at most
 //! [`crate::observer::CACHE_LIMIT_BYTES`] of bases) the ONS of a unit disc per class read,
-//! `(classes × n²)` f32 for the cortex (counted so for the cortex that decodes windows too,
-//! which keeps the activations of that ONS on its window, `(classes × window)`: on the 256 ×
-//! 256 eye a 160 × 160 window, so there the count is an upper bound), beside the cones it
-//! reads (and, for the cortex, their indices in the window it decodes); the 2·W·P locations
-//! are all distinct (drawn per wavelength).
+//! `(classes × n²)` f32, or for the cortex the activations of that ONS on its decode window,
+//! `(classes × window)` f32 (the largest window a patch needs, [`decode_pixels`]: on the 256 ×
+//! 256 eye 160 × 160), beside the cones it reads (and, for the cortex, their indices in the
+//! window it decodes); the 2·W·P locations are all distinct (drawn per wavelength).
 //!
 //! The search (`colorimetry::matching`) adds, with K = `max_primaries` and m = classes:
 //! - the front end's model (`FrontEndJacobians`), kept for every wavelength once measured:
@@ -64,17 +63,60 @@ const LINE_BYTES: f64 = 32.0;
 const ENTRY_BYTES: f64 =
     crate::observer::LOCATION_ENTRY_BYTES as f64 + 16.0 + 2.0 * 24.0 + 4.0 * 16.0;
 
-/// Readout samples of the observer of `config` (`observer.readout`, patch and spacing).
-fn readout_samples(config: &RunConfig, layout: &ConeLayout) -> usize {
+/// The readout of the observer of `config` (`observer.readout`, patch and spacing).
+fn readout(config: &RunConfig, layout: &ConeLayout) -> Readout {
     let o = &config.observer;
-    let readout = Readout::new(
+    Readout::new(
         o.readout,
         layout,
         o.patch_radius_fraction * layout.field_px as f64,
         o.fringe_cones,
         o.sample_spacing_cones,
+    )
+}
+
+/// Readout samples of the observer of `config`.
+fn readout_samples(config: &RunConfig, layout: &ConeLayout) -> usize {
+    readout(config, layout).samples()
+}
+
+/// The ONS pixels one show's decode by the cortex covers: the largest window D's encoder runs
+/// on for a patch's cells (`cortex::window::longest_window` of the largest box of cells a patch
+/// reads, over the field's centre and the eight places a patch centre may lie nearest its
+/// border, where a foveated mosaic's patches hold the most and the fewest cones). On the quick
+/// eye it is the whole field; on the 256 × 256 eye a 160 × 160 window of the default patch.
+pub fn decode_pixels(config: &RunConfig, layout: &ConeLayout) -> f64 {
+    let readout = readout(config, layout);
+    let n = layout.n;
+    let (mid, half) = (
+        (layout.field_px as f64 - 1.0) / 2.0,
+        layout.field_px as f64 / 2.0,
     );
-    readout.samples()
+    let edge = 1.0 - colorimetry::observer::DEFAULT_BORDER_MARGIN;
+    let mut longest = (0, 0);
+    for x in [-edge, 0.0, edge] {
+        for y in [-edge, 0.0, edge] {
+            let cells = readout.cells(layout, [mid + x * half, mid + y * half]);
+            let (rows, cols) = cells.iter().fold(([n, 0], [n, 0]), |(r, c), &i| {
+                let (y, x) = (i / n, i % n);
+                ([r[0].min(y), r[1].max(y)], [c[0].min(x), c[1].max(x)])
+            });
+            if cells.is_empty() {
+                continue;
+            }
+            let (h, w) = cortex::window::longest_window(
+                &config.cortex,
+                rows[1] - rows[0] + 1,
+                cols[1] - cols[0] + 1,
+                n,
+            );
+            longest = (longest.0.max(h), longest.1.max(w));
+        }
+    }
+    if longest == (0, 0) {
+        return (n * n) as f64;
+    }
+    (longest.0 * longest.1) as f64
 }
 
 /// Length of one show's readout by observer `kind`, f64s: samples × the decoder's percept
@@ -120,7 +162,13 @@ pub fn bytes(
     // location_entry`: the unit-disc responses and 16 bytes a cell read); beside the cells read
     // the cortex keeps their indices in the window it decodes (`decode_window`). The responses
     // are reserved exactly, one plane per class.
-    let basis = classes * n2 * 4.0;
+    // The cortex keeps each location's activations on its decode window, other observers the
+    // ONS of the whole field.
+    let pixels = match kind {
+        ObserverKind::Cortex => decode_pixels(config, layout),
+        _ => n2,
+    };
+    let basis = classes * pixels * 4.0;
     let counted = basis + samples * 16.0;
     let limit = crate::observer::CACHE_LIMIT_BYTES as f64;
     let cached = match kind {

@@ -102,6 +102,29 @@ fn a_quick_tetrachromat_reading_is_estimated_at_its_measured_peak() {
 }
 
 #[test]
+fn a_paper_eye_reading_counts_the_cortexs_decode_window_not_the_field() {
+    // The quick eye's patches need the whole 64² field; the 256² eye's a window (measured in
+    // the observer: 160² for most patches), so its decodes and location bases count less than
+    // the field's. Measured (docs/memory-tops.md): two threads, `cmf-sim --run
+    // results/slow-colour-anchor-paper-seed0-10k --checkpoint-step 1000 --location-seed 0`,
+    // peak 3 476 MiB; the estimate was 5 213 MiB (1.50×) when it counted the field, and is
+    // 4 585 MiB (1.32×) with the window: above the 1.3 the tops of the ranges keep, by a part
+    // not yet located (the search's states do not grow with K here: one group of wavelengths).
+    let quick = RunConfig::preset("main", "LMS").unwrap();
+    let paper = RunConfig::preset("paper", "LMS").unwrap();
+    let pixels = |c: &RunConfig| {
+        let layout = layout(c);
+        cmf_sim::decode_pixels(c, &layout)
+    };
+    assert_eq!(pixels(&quick), 64.0 * 64.0);
+    let p = pixels(&paper);
+    assert!((160.0 * 160.0..256.0 * 256.0).contains(&p), "{p} pixels");
+    let m = crate::measure::measurement_config(&paper);
+    let e = estimate_cmf_sim(&m, ObserverKind::Cortex, 2).total_bytes() / MIB;
+    assert!((3476.0..=1.35 * 3476.0).contains(&e), "{e:.0} MiB");
+}
+
+#[test]
 fn an_observer_without_a_cortex_is_estimated_by_its_own_readout() {
     // The analytic observer at the top of location_pairs: one value per class a show, no
     // decodes, no location cache, no front end, at most as many primaries as classes.

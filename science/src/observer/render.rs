@@ -264,7 +264,7 @@ impl EyeObserver<'_> {
                 .read(&percept[s * plane..(s + 1) * plane], dim, cells, rows);
         }
         tape.clear();
-        let idle = crate::budget::decode_tape_bytes(self.settings.decode_batch, n);
+        let idle = crate::budget::decode_tape_bytes(self.settings.decode_batch, (n * n) as f64);
         tape.pool().trim(idle as usize);
         TAPE.set(Some(tape));
     }

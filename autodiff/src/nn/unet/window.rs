@@ -29,7 +29,7 @@
 //! whatever the region, but the 1×1 output conv (and any conv on the GEMM lowering) is a
 //! matrix product whose order may change with the region's size, in the last bit.
 
-use super::UNet;
+use super::{UNet, UNetConfig};
 use crate::{Float, Tape, Var};
 
 /// Output pixels asked of a decode: rows × columns, inclusive, at the input's resolution.
@@ -128,14 +128,19 @@ fn union(a: [i64; 2], b: [i64; 2]) -> [i64; 2] {
     [a[0].min(b[0]), a[1].max(b[1])]
 }
 
-impl UNet {
+impl UNetConfig {
+    /// Pooling levels: `widths.len() − 1`.
+    fn levels(&self) -> usize {
+        self.widths.len().saturating_sub(1)
+    }
+
     /// The pooling factor `2^(levels − 1)`: input sides and window offsets must be multiples of it.
     pub fn alignment_px(&self) -> usize {
-        1 << self.downs.len()
+        1 << self.levels()
     }
 
     /// The input interval (one axis, inclusive) that the output pixels `[a, b]` depend on
-    /// (module docs; unclamped).
+    /// (module docs; unclamped). A property of the shapes alone: no weight is read.
     pub fn input_interval(&self, output: [i64; 2]) -> [i64; 2] {
         assert!(
             output[0] <= output[1],
@@ -160,6 +165,64 @@ impl UNet {
         let start = lo.div_euclid(m) * m;
         let end = (hi + 1 + m - 1).div_euclid(m) * m;
         [start.max(0) as usize, (end as usize).min(size_px)]
+    }
+
+    /// The longest [`UNetConfig::exact_window`] of `len_px` consecutive outputs of a field of
+    /// `size_px` pixels, wherever they start (the pooling grid makes it depend on the start):
+    /// what a memory estimate counts for a decode of that many outputs.
+    pub fn longest_exact_window(&self, len_px: usize, size_px: usize) -> usize {
+        let (m, len) = (self.alignment_px(), len_px.max(1));
+        // Far enough from a field's edges that no window is clamped.
+        let [lo, hi] = self.input_interval([0, len as i64 - 1]);
+        let base = ((hi - lo) as usize + len).next_multiple_of(m);
+        (base..base + m)
+            .map(|a| {
+                let [s, e] = self.exact_window([a, a + len - 1], 3 * base);
+                e - s
+            })
+            .max()
+            .unwrap_or(size_px)
+            .min(size_px)
+    }
+
+    /// What the encoder's block at `level` (0: `inc`) needs of the input for its outputs `iv`.
+    fn encoder_reach(&self, level: usize, iv: [i64; 2]) -> [i64; 2] {
+        let iv = widen(iv, 2); // DoubleConv: two 3×3 convs.
+        if level == 0 {
+            iv
+        } else {
+            self.encoder_reach(level - 1, [2 * iv[0], 2 * iv[1] + 1]) // 2×2 max pool
+        }
+    }
+
+    /// What the decoder's output at `level` (the bottleneck at the deepest level) needs of the
+    /// input for its outputs `iv`.
+    fn decoder_reach(&self, level: usize, iv: [i64; 2]) -> [i64; 2] {
+        if level == self.levels() {
+            return self.encoder_reach(level, iv);
+        }
+        let cat = widen(iv, 2); // the up block's DoubleConv over [skip, up]
+        let skip = self.encoder_reach(level, cat);
+        let up = self.decoder_reach(level + 1, [cat[0].div_euclid(2), cat[1].div_euclid(2)]);
+        union(skip, up)
+    }
+}
+
+impl UNet {
+    /// [`UNetConfig::alignment_px`] of this net.
+    pub fn alignment_px(&self) -> usize {
+        self.config.alignment_px()
+    }
+
+    /// [`UNetConfig::input_interval`] of this net.
+    pub fn input_interval(&self, output: [i64; 2]) -> [i64; 2] {
+        self.config.input_interval(output)
+    }
+
+    /// [`UNetConfig::exact_window`] of this net.
+    #[track_caller]
+    pub fn exact_window(&self, output: [usize; 2], size_px: usize) -> [usize; 2] {
+        self.config.exact_window(output, size_px)
     }
 
     /// The up blocks' regions (module docs) for the outputs `out_box` of an `h × w` input.
@@ -192,28 +255,6 @@ impl UNet {
             size /= 2;
         }
         regions
-    }
-
-    /// What the encoder's block at `level` (0: `inc`) needs of the input for its outputs `iv`.
-    fn encoder_reach(&self, level: usize, iv: [i64; 2]) -> [i64; 2] {
-        let iv = widen(iv, 2); // DoubleConv: two 3×3 convs.
-        if level == 0 {
-            iv
-        } else {
-            self.encoder_reach(level - 1, [2 * iv[0], 2 * iv[1] + 1]) // 2×2 max pool
-        }
-    }
-
-    /// What the decoder's output at `level` (the bottleneck at the deepest level) needs of the
-    /// input for its outputs `iv`.
-    fn decoder_reach(&self, level: usize, iv: [i64; 2]) -> [i64; 2] {
-        if level == self.downs.len() {
-            return self.encoder_reach(level, iv);
-        }
-        let cat = widen(iv, 2); // the up block's DoubleConv over [skip, up]
-        let skip = self.encoder_reach(level, cat);
-        let up = self.decoder_reach(level + 1, [cat[0].div_euclid(2), cat[1].div_euclid(2)]);
-        union(skip, up)
     }
 }
 
@@ -262,6 +303,45 @@ mod tests {
         assert_eq!(n4.input_interval([40, 40]), [-6, 85]);
         assert_eq!(n4.exact_window([40, 40], 256), [0, 88]);
         assert_eq!(n4.exact_window([100, 130], 256), [48, 184]);
+    }
+
+    #[test]
+    fn the_longest_window_is_the_longest_over_every_start() {
+        for widths in [
+            vec![4],
+            vec![4, 8],
+            vec![4, 8, 16, 32],
+            vec![4, 8, 16, 32, 64],
+        ] {
+            let (unet, _) = net(widths.clone());
+            let config = UNetConfig {
+                in_channels: 2,
+                out_channels: 3,
+                widths,
+                seed: 7,
+            };
+            for (len, size) in [(1, 256), (31, 256), (40, 64), (200, 256), (64, 64)] {
+                // Every start in the field, clamped as a real window is.
+                let longest = (0..=size - len)
+                    .map(|a| {
+                        let [s, e] = unet.exact_window([a, a + len - 1], size);
+                        e - s
+                    })
+                    .max()
+                    .unwrap();
+                let got = config.longest_exact_window(len, size);
+                assert!(got >= longest, "{len} of {size}: {got} < {longest}");
+                // Unclamped, in a field large enough, the longest start is reached.
+                let free = (0..64)
+                    .map(|a| {
+                        let [s, e] = unet.exact_window([512 + a, 512 + a + len - 1], 2048);
+                        e - s
+                    })
+                    .max()
+                    .unwrap();
+                assert_eq!(got, free.min(size), "{len} of {size}");
+            }
+        }
     }
 
     #[test]
