@@ -293,8 +293,9 @@ pub fn run_in(
             path: path.clone(),
             reason: format!("invalid summary: {e}; --force runs it again"),
         })?;
-        // The report is written after summary.json: a run stopped between them gets it now.
-        if !out.join(crate::report::REPORT_FILE).is_file() {
+        // The report is written after summary.json: a run stopped between them gets it now. A
+        // record (`results/NAME`, `record.json`) keeps what `scripts/record-run.sh` copied.
+        if !out.join(crate::report::REPORT_FILE).is_file() && !out.join("record.json").is_file() {
             crate::report::write(out, &summary)?;
             println!("  wrote the report the stopped run had not written");
         }

@@ -249,3 +249,40 @@ fn an_extended_run_keeps_the_measurement_of_its_old_last_step() {
     );
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+#[test]
+fn resuming_a_record_writes_nothing_into_it() {
+    // A record as scripts/record-run.sh makes one: the run's small files, record.json, and the
+    // last checkpoint with its parameters only. `resume` reads it as a finished run and adds
+    // nothing to it (no report); extending it is refused, naming the missing per-step log.
+    let dir = std::env::temp_dir().join(format!("cv_record_resume_{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let o = colorvision(
+        &dir,
+        &["train", "--preset", "tiny", "--steps", "2", "--out", "run"],
+    );
+    assert!(o.status.success(), "{}", text(&o));
+    let (run, rec) = (dir.join("run"), dir.join("rec"));
+    let step = "checkpoints/step_00000002";
+    std::fs::create_dir_all(rec.join(step)).unwrap();
+    for f in ["config.toml", "run.json", "summary.json"] {
+        std::fs::copy(run.join(f), rec.join(f)).unwrap();
+    }
+    for f in ["meta.json", "params.safetensors"] {
+        std::fs::copy(run.join(step).join(f), rec.join(step).join(f)).unwrap();
+    }
+    std::fs::write(rec.join("record.json"), "{\"trained_in\": \"run\"}\n").unwrap();
+    let before = snapshot(&rec, &[]);
+    let o = colorvision(&dir, &["resume", "rec"]);
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(text(&o).contains("finished"), "{}", text(&o));
+    let o = colorvision(&dir, &["resume", "rec", "--steps", "3"]);
+    assert!(!o.status.success());
+    assert!(text(&o).contains("metrics.csv"), "{}", text(&o));
+    let after = snapshot(&rec, &[]);
+    let names = |s: &BTreeMap<PathBuf, Vec<u8>>| s.keys().cloned().collect::<Vec<_>>();
+    assert_eq!(names(&after), names(&before), "files of the record");
+    assert!(after == before, "a file of the record changed");
+    let _ = std::fs::remove_dir_all(&dir);
+}
