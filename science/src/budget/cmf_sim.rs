@@ -97,13 +97,9 @@ pub fn decode_pixels(config: &RunConfig, layout: &ConeLayout) -> f64 {
     for x in [-edge, 0.0, edge] {
         for y in [-edge, 0.0, edge] {
             let cells = readout.cells(layout, [mid + x * half, mid + y * half]);
-            let (rows, cols) = cells.iter().fold(([n, 0], [n, 0]), |(r, c), &i| {
-                let (y, x) = (i / n, i % n);
-                ([r[0].min(y), r[1].max(y)], [c[0].min(x), c[1].max(x)])
-            });
-            if cells.is_empty() {
+            let Some((rows, cols)) = crate::observer::readout::cells_box(&cells, n) else {
                 continue;
-            }
+            };
             let (h, w) = cortex::window::longest_window(
                 &config.cortex,
                 rows[1] - rows[0] + 1,

@@ -43,6 +43,17 @@ pub struct Readout {
     read_radius_px: f64,
 }
 
+/// The rows and columns (inclusive) of the smallest box of the `n × n` grid holding `cells`
+/// (row-major indices; `None` when there is none): what a cortex decodes a patch's cells on.
+pub fn cells_box(cells: &[usize], n: usize) -> Option<([usize; 2], [usize; 2])> {
+    (!cells.is_empty()).then(|| {
+        cells.iter().fold(([n, 0], [n, 0]), |(r, c), &i| {
+            let (y, x) = (i / n, i % n);
+            ([r[0].min(y), r[1].max(y)], [c[0].min(x), c[1].max(x)])
+        })
+    })
+}
+
 impl Readout {
     /// The readout of a disc of `radius_px` on `layout`.
     pub fn new(

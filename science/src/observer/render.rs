@@ -162,14 +162,11 @@ impl EyeObserver<'_> {
         let Decoder::Cortex(cortex) = &self.decoder else {
             return None;
         };
-        if self.whole_field || cells.is_empty() {
+        if self.whole_field {
             return None;
         }
         let n = self.retina.n();
-        let (rows, cols) = cells.iter().fold(([n, 0], [n, 0]), |(r, c), &i| {
-            let (y, x) = (i / n, i % n);
-            ([r[0].min(y), r[1].max(y)], [c[0].min(x), c[1].max(x)])
-        });
+        let (rows, cols) = super::readout::cells_box(cells, n)?;
         let window = cortex.exact_window(rows, cols);
         let out_box = OutputBox {
             rows: [rows[0] - window.top, rows[1] - window.top],
