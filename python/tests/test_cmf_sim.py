@@ -11,7 +11,7 @@ import pytest
 
 import colorvision as cv
 
-from conftest import cli
+from conftest import ROOT, cli
 
 
 @pytest.fixture(scope="module")
@@ -89,6 +89,20 @@ def test_a_run_folder_measured_from_python_equals_the_command_line(colorvision_b
     # The cortex as a plain decoder: (N, n, n) -> (N, C, n, n).
     ons_t, _, _ = run.eye.batch(3)
     assert run(ons_t).shape == (3, run.channels, 32, 32)
+
+
+def test_a_record_kept_with_its_parameters_only_loads_and_decodes():
+    # results/ keeps a record's last checkpoint without the optimiser's state
+    # (scripts/record-run.sh): the 4-D quick tetrachromat at 96 000 steps.
+    record = ROOT / "results" / "fourth-A2b-seed23"
+    checkpoint = record / "checkpoints" / "step_00096000"
+    assert not (checkpoint / "optim.safetensors").exists()
+    run = cv.load_run(record, checkpoint_step=96000)
+    assert run.checkpoint == checkpoint
+    ons_t, _, _ = run.eye.batch(2)
+    percept = run(ons_t)
+    assert percept.shape == (2, run.channels, 64, 64)
+    assert np.isfinite(percept).all() and np.abs(percept).max() > 0
 
 
 def test_a_missing_run_folder_is_a_value_error(tmp_path):
