@@ -8,9 +8,10 @@
 //! samples × percept channels). The observer caches per location (`science::observer`, at most
 //! [`crate::observer::CACHE_LIMIT_BYTES`] of bases) the ONS of a unit disc per class read,
 //! `(classes × n²)` f32, or for the cortex the activations of that ONS on its decode window,
-//! `(classes × window)` f32 (the largest window a patch needs, [`decode_pixels`]: on the 256 ×
-//! 256 eye 160 × 160), beside the cones it reads (and, for the cortex, their indices in the
-//! window it decodes); the 2·W·P locations are all distinct (drawn per wavelength).
+//! `(classes × window)` f32 (the largest window a patch needs, [`decode_pixels`]: on the
+//! 256 × 256 eye 200 × 200; most patches need 160 × 160), beside the cones it reads (and, for
+//! the cortex, their indices in the window it decodes); the 2·W·P locations are all distinct
+//! (drawn per wavelength).
 //!
 //! The search (`colorimetry::matching`) adds, with K = `max_primaries` and m = classes:
 //! - the front end's model (`FrontEndJacobians`), kept for every wavelength once measured:
@@ -84,7 +85,9 @@ fn readout_samples(config: &RunConfig, layout: &ConeLayout) -> usize {
 /// on for a patch's cells (`cortex::window::longest_window` of the largest box of cells a patch
 /// reads, over the field's centre and the eight places a patch centre may lie nearest its
 /// border, where a foveated mosaic's patches hold the most and the fewest cones). On the quick
-/// eye it is the whole field; on the 256 × 256 eye a 160 × 160 window of the default patch.
+/// eye it is the whole field; on the 256 × 256 eye 200 × 200 (most of its patches are decoded
+/// on 160 × 160 windows; 200 × 200 is the largest over the placements and the pooling grid's
+/// offsets).
 pub fn decode_pixels(config: &RunConfig, layout: &ConeLayout) -> f64 {
     let readout = readout(config, layout);
     let n = layout.n;
