@@ -11,8 +11,9 @@ median exceeds its seed's control by more than 0.25. A2b is supported when both 
 (seeds 21 and 22) move, refuted when neither does, inconclusive otherwise. A reading not taken
 yet is shown as "—" and leaves the verdict open.
 
-Each folder is looked for in results/fourth-ARM-seedS, then runs/fourth/ARM-seedS (where A2a
-and A2b of a seed share A2b's folder once it exists). Standard library only.
+Each arm's readings are looked for in runs/fourth/ARM-seedS and the folders that continue it,
+then in the records results/fourth-ARM-seedS (a continued run's record carries its A0's
+readings). Standard library only.
 
 Usage: scripts/fourth-steps-table.py [ROOT]   (default: the repository)
 """
@@ -29,13 +30,14 @@ ARMS = [("A0", 24000), ("A2a", 48000), ("A2b", 96000)]
 
 
 def folders(arm, seed):
-    """Where the readings of `arm` at `seed` may be, most final first."""
-    names = [arm] + (["A2b"] if arm == "A2a" else []) + (["A2a", "A2b"] if arm == "A0" else [])
-    out = []
-    for name in names:
-        out.append(os.path.join(ROOT, "results", f"fourth-{name}-seed{seed}"))
-        out.append(os.path.join(ROOT, "runs", "fourth", f"{name}-seed{seed}"))
-    return out
+    """Where the readings of `arm` at `seed` may be: the run folders first, then the records.
+    A2a and A2b continue A0's folder, so they carry its readings: the control is the A0 of the
+    same run (the amendment: where a retrained A0 differs from its record, the retrained one's
+    readings are the control)."""
+    names = {"A0": ["A0", "A2a", "A2b"], "A2a": ["A2a", "A2b"], "A2b": ["A2b"]}[arm]
+    runs = [os.path.join(ROOT, "runs", "fourth", f"{n}-seed{seed}") for n in names]
+    records = [os.path.join(ROOT, "results", f"fourth-{n}-seed{seed}") for n in reversed(names)]
+    return runs + records
 
 
 def log_k3(path):
