@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::{colorvision, text};
+use common::{colorvision, scratch_dir, text};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
@@ -31,9 +31,7 @@ fn snapshot(dir: &Path, skip: &[&str]) -> BTreeMap<PathBuf, Vec<u8>> {
 
 #[test]
 fn measurements_of_a_run_never_touch_its_record() {
-    let dir = std::env::temp_dir().join(format!("cv_record_{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = scratch_dir("run_record", "record");
     let o = colorvision(
         &dir,
         &["run", "--preset", "tiny", "--steps", "3", "--out", "run"],
@@ -167,9 +165,7 @@ fn measurements_of_a_run_never_touch_its_record() {
 
 #[test]
 fn resume_with_more_steps_extends_a_finished_run_like_a_longer_one() {
-    let dir = std::env::temp_dir().join(format!("cv_extend_{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = scratch_dir("run_record", "extend");
     let run = |args: &[&str]| {
         let o = colorvision(&dir, args);
         assert!(o.status.success(), "{args:?}: {}", text(&o));
@@ -223,9 +219,7 @@ fn resume_with_more_steps_extends_a_finished_run_like_a_longer_one() {
 
 #[test]
 fn an_extended_run_keeps_the_measurement_of_its_old_last_step() {
-    let dir = std::env::temp_dir().join(format!("cv_extend_cmf_{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = scratch_dir("run_record", "extend_cmf");
     for args in [
         &["run", "--preset", "tiny", "--steps", "3", "--out", "run"][..],
         &["resume", "run", "--steps", "5"],
@@ -255,9 +249,7 @@ fn resuming_a_record_writes_nothing_into_it() {
     // A record as scripts/record-run.sh makes one: the run's small files, record.json, and the
     // last checkpoint with its parameters only. `resume` reads it as a finished run and adds
     // nothing to it (no report); extending it is refused, naming the missing per-step log.
-    let dir = std::env::temp_dir().join(format!("cv_record_resume_{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = scratch_dir("run_record", "record_resume");
     let o = colorvision(
         &dir,
         &["train", "--preset", "tiny", "--steps", "2", "--out", "run"],

@@ -211,14 +211,21 @@ fn a_file_hashed_in_blocks_has_the_hash_of_its_bytes() {
     std::fs::remove_dir_all(dir).unwrap();
 }
 
+/// A tiny cortex trained `steps` steps into a fresh folder `name`: the folder, its newest
+/// checkpoint and the trainer.
+fn trained(name: &str, steps: u64) -> (PathBuf, PathBuf, Trainer) {
+    let cfg = CortexConfig::tiny();
+    let dir = scratch(name);
+    let mut t = Trainer::new(cfg.clone()).unwrap();
+    t.run(&mut source(&cfg), steps, Some(&dir), |_, _| {})
+        .unwrap();
+    let path = latest_checkpoint(&dir).unwrap().unwrap();
+    (dir, path, t)
+}
+
 #[test]
 fn a_checkpoint_kept_with_its_parameters_only_is_read_but_not_resumed() {
-    let cfg = CortexConfig::tiny();
-    let dir = scratch("params-only");
-    let mut t = Trainer::new(cfg.clone()).unwrap();
-    let mut src = source(&cfg);
-    t.run(&mut src, 2, Some(&dir), |_, _| {}).unwrap();
-    let path = latest_checkpoint(&dir).unwrap().unwrap();
+    let (dir, path, t) = trained("params-only", 2);
     let want = params_bits(&t);
     for f in ["optim.safetensors", "rule.safetensors"] {
         std::fs::remove_file(path.join(f)).unwrap();
@@ -253,12 +260,7 @@ fn a_checkpoint_kept_with_its_parameters_only_is_read_but_not_resumed() {
 
 #[test]
 fn a_checkpoint_missing_one_state_file_is_damaged_not_params_only() {
-    let cfg = CortexConfig::tiny();
-    let dir = scratch("one-missing");
-    let mut t = Trainer::new(cfg.clone()).unwrap();
-    let mut src = source(&cfg);
-    t.run(&mut src, 1, Some(&dir), |_, _| {}).unwrap();
-    let path = latest_checkpoint(&dir).unwrap().unwrap();
+    let (dir, path, _) = trained("one-missing", 1);
     std::fs::remove_file(path.join("optim.safetensors")).unwrap();
     assert!(!cortex::checkpoint::is_params_only(&path));
     let msg = Trainer::continue_from(&path, None)
