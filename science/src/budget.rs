@@ -157,26 +157,19 @@ pub fn estimate(config: &RunConfig, cmf_sim: bool, threads: usize) -> Estimate {
         .sum();
     let (a, b) = STEP_F32_PER_PIXEL;
     let per_sample = n * n * 4.0 * (a + b * channels);
-    let decode = if cmf_sim {
-        threads as f64
-            * decode_tape_bytes(
-                config.observer.decode_batch,
-                cmf_sim::decode_pixels(config, &layout),
-            )
-    } else {
-        0.0
-    };
     // The larger of the measurements during training and the final one.
-    let cmf_sim_bytes = if cmf_sim {
-        [false, true]
+    let (decode, cmf_sim_bytes) = if cmf_sim {
+        let window_px = cmf_sim::decode_pixels(config, &layout);
+        let cmf_sim_bytes = [false, true]
             .map(|last| {
                 let settings = config.cmf_settings(last);
-                cmf_sim::bytes(config, &settings, &layout, ObserverKind::Cortex)
+                cmf_sim::bytes(config, &settings, &layout, ObserverKind::Cortex, window_px)
             })
             .into_iter()
-            .fold(0.0, f64::max)
+            .fold(0.0, f64::max);
+        (decodes_bytes(config, window_px, threads), cmf_sim_bytes)
     } else {
-        0.0
+        (0.0, 0.0)
     };
     Estimate {
         fixed_bytes: FIXED_BYTES + PER_CONE_BYTES * n * n,
@@ -213,14 +206,25 @@ pub fn estimate_eye(config: &RunConfig) -> Estimate {
 /// `cmf_sim` settings), on `threads` threads: no training step; the cortex's decodes only for
 /// the cortex; the search's buffers sized by that observer's readout.
 pub fn estimate_cmf_sim(config: &RunConfig, kind: ObserverKind, threads: usize) -> Estimate {
-    let mut e = estimate(config, true, threads);
+    let mut e = estimate(config, false, threads);
+    let layout = layout(config);
     e.step_bytes = 0.0;
-    if kind != ObserverKind::Cortex {
-        e.decode_bytes = 0.0;
+    let window_px = if kind == ObserverKind::Cortex {
+        let window_px = cmf_sim::decode_pixels(config, &layout);
+        e.decode_bytes = decodes_bytes(config, window_px, threads);
+        window_px
+    } else {
         e.flow_bytes = 0.0;
-    }
-    e.cmf_sim_bytes = cmf_sim::bytes(config, &config.cmf_sim, &layout(config), kind);
+        (config.retina.cones_per_side as f64).powi(2)
+    };
+    e.cmf_sim_bytes = cmf_sim::bytes(config, &config.cmf_sim, &layout, kind, window_px);
     e
+}
+
+/// The cortex's decodes on `threads` threads, each of `observer.decode_batch` shows on
+/// `window_px` ONS pixels ([`decode_tape_bytes`]).
+fn decodes_bytes(config: &RunConfig, window_px: f64, threads: usize) -> f64 {
+    threads as f64 * decode_tape_bytes(config.observer.decode_batch, window_px)
 }
 
 /// The estimate for `colorvision convergence` of a run of `config` (with CMF-SIM at its
@@ -232,20 +236,26 @@ pub fn estimate_cmf_sim(config: &RunConfig, kind: ObserverKind, threads: usize) 
 pub fn estimate_convergence(config: &RunConfig, cmf_sim: bool, threads: usize) -> Estimate {
     let e = estimate(config, false, threads);
     let layout = layout(config);
-    let decode = threads as f64
-        * decode_tape_bytes(
-            config.observer.decode_batch,
-            cmf_sim::decode_pixels(config, &layout),
-        );
+    let (decode_bytes, cmf_sim_bytes) = if cmf_sim {
+        let window_px = cmf_sim::decode_pixels(config, &layout);
+        (
+            decodes_bytes(config, window_px, threads),
+            cmf_sim::bytes(
+                config,
+                &config.cmf_sim,
+                &layout,
+                ObserverKind::Cortex,
+                window_px,
+            ),
+        )
+    } else {
+        (0.0, 0.0)
+    };
     Estimate {
         scenes_bytes: e.scenes_bytes / RUN_SCENE_POOLS,
         step_bytes: 0.0,
-        decode_bytes: if cmf_sim { decode } else { 0.0 },
-        cmf_sim_bytes: if cmf_sim {
-            cmf_sim::bytes(config, &config.cmf_sim, &layout, ObserverKind::Cortex)
-        } else {
-            0.0
-        },
+        decode_bytes,
+        cmf_sim_bytes,
         ..e
     }
 }

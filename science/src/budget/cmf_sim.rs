@@ -139,12 +139,15 @@ fn classes(config: &RunConfig) -> usize {
 }
 
 /// Bytes CMF-SIM with `settings` holds beyond the decodes, on observer `kind` through the eye
-/// of `config` (the analytic observer has no eye, so no per-location cache).
+/// of `config` (the analytic observer has no eye, so no per-location cache). `window_px`: the
+/// ONS pixels the cortex keeps a location's basis on ([`decode_pixels`], computed once by the
+/// caller); other observers keep the whole field and ignore it.
 pub fn bytes(
     config: &RunConfig,
     settings: &CmfSimSettings,
     layout: &ConeLayout,
     kind: ObserverKind,
+    window_px: f64,
 ) -> f64 {
     let r = &config.retina;
     let classes = classes(config) as f64;
@@ -164,7 +167,7 @@ pub fn bytes(
     // The cortex keeps each location's activations on its decode window, other observers the
     // ONS of the whole field.
     let pixels = match kind {
-        ObserverKind::Cortex => decode_pixels(config, layout),
+        ObserverKind::Cortex => window_px,
         _ => n2,
     };
     let basis = classes * pixels * 4.0;

@@ -44,10 +44,11 @@ fn the_flow_part_counts_the_parameters_realnvp_makes() {
 fn the_cmf_sim_part_grows_with_the_pairs_but_not_with_k_at_the_top() {
     let c = RunConfig::preset("tiny", "LMS").unwrap();
     let layout = layout(&c);
+    let window = cmf_sim::decode_pixels(&c, &layout);
     let at = |pairs: usize| {
         let mut s = c.cmf_settings(true);
         s.location_pairs = pairs;
-        cmf_sim::bytes(&c, &s, &layout, ObserverKind::Cortex)
+        cmf_sim::bytes(&c, &s, &layout, ObserverKind::Cortex, window)
     };
     // More pairs, more shows and cached locations.
     assert!(at(8) > at(4), "{} {}", at(4), at(8));
@@ -74,20 +75,21 @@ fn the_cmf_sim_part_grows_with_the_pairs_but_not_with_k_at_the_top() {
 fn the_cmf_sim_part_counts_the_solvers_states_per_primary() {
     let c = RunConfig::preset("quick", "LMSQ,Q:506").unwrap();
     let layout = layout(&c);
+    let window = cmf_sim::decode_pixels(&c, &layout);
     let s = c.cmf_settings(true);
     let rows = (s.n_test_wavelengths * s.location_pairs) as f64
         * cmf_sim::readout_len(&c, &layout, ObserverKind::Cortex) as f64;
     let at = |k: usize| {
         let mut s = s.clone();
         s.max_primaries = k;
-        cmf_sim::bytes(&c, &s, &layout, ObserverKind::Cortex)
+        cmf_sim::bytes(&c, &s, &layout, ObserverKind::Cortex, window)
     };
     // Each primary more: two Jacobian columns in every state and two readouts a row in the
     // Jacobian pass, f64.
     assert!(at(4) - at(3) >= 4.0 * rows * 8.0, "{} {}", at(3), at(4));
     let mut off = s.clone();
     off.front_end_jacobians = false;
-    assert!(cmf_sim::bytes(&c, &off, &layout, ObserverKind::Cortex) < at(s.max_primaries));
+    assert!(cmf_sim::bytes(&c, &off, &layout, ObserverKind::Cortex, window) < at(s.max_primaries));
 }
 
 #[test]
