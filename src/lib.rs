@@ -14,6 +14,7 @@ pub mod commands;
 pub mod convergence;
 pub mod experiments;
 pub mod gather;
+pub mod instruction_set;
 pub mod interrupt;
 pub mod io;
 pub mod percept_alignment;

@@ -100,6 +100,11 @@ pub struct Progress {
     /// checkpoints written before the count was recorded.
     #[serde(default)]
     pub threads: Option<usize>,
+    /// The CPU's instruction set when the checkpoint was written
+    /// ([`crate::instruction_set::current`]); `None` in checkpoints written before it was
+    /// recorded.
+    #[serde(default)]
+    pub instruction_set: Option<String>,
 }
 
 /// `run.json`: what the run does besides training and where its cortex came from, so

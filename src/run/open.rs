@@ -140,6 +140,11 @@ impl<'a> RunState<'a> {
             if let Some(warning) = thread_count_change(self.progress.threads, now) {
                 println!("  warning: {warning}");
             }
+            let cpu = crate::instruction_set::current();
+            let recorded = self.progress.instruction_set.as_deref();
+            if let Some(warning) = crate::instruction_set::change(recorded, cpu) {
+                println!("  warning: {warning}");
+            }
         }
         if c.oracle_motion {
             println!("  note: the cortex receives the ORACLE eye motion (true shift) besides the optic nerve signal");

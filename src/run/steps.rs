@@ -217,6 +217,7 @@ impl RunState<'_> {
         self.progress.heldout_state = self.heldout.save_state();
         self.progress.wall_seconds = self.started.elapsed().as_secs_f64();
         self.progress.threads = Some(rayon::current_num_threads());
+        self.progress.instruction_set = Some(crate::instruction_set::current().to_string());
         let state = serde_json::to_value(&self.progress).expect("plain data");
         let path = self.trainer.save_checkpoint_with(
             &self.out.join("checkpoints"),
