@@ -39,6 +39,22 @@ const FIXED_BYTES: f64 = 33.0 * MIB;
 /// Per cone of the lattice, bytes: the eye's sampler and the cortex's per-pixel structures
 /// (measured: `quick` and `tiny` differ by 52 MiB over 3 072 cones).
 const PER_CONE_BYTES: f64 = 17.4 * 1024.0;
+/// Per cone of the lattice beyond the `quick` eye's 64² in a reading (`colorvision cmf-sim`:
+/// the eye with one scene tile and an observer, no training), bytes: the eye's slope, measured
+/// as the peak of `colorvision simulate` less its scenes from `quick` to `large` (1.9 KiB a
+/// cone) and to `paper` (1.7; docs/memory-tops.md). Up to 64² cones a reading counts
+/// [`PER_CONE_BYTES`], as fitted.
+const READING_PER_CONE_BYTES: f64 = 1.9 * 1024.0;
+/// The cones up to which [`PER_CONE_BYTES`] was fitted (the `quick` eye).
+const FITTED_CONES: f64 = 64.0 * 64.0;
+
+/// The fixed part of a reading on `cones` cones, bytes: [`PER_CONE_BYTES`] a cone up to
+/// [`FITTED_CONES`], [`READING_PER_CONE_BYTES`] beyond.
+fn reading_fixed_bytes(cones: f64) -> f64 {
+    FIXED_BYTES
+        + PER_CONE_BYTES * cones.min(FITTED_CONES)
+        + READING_PER_CONE_BYTES * (cones - FITTED_CONES).max(0.0)
+}
 /// Scene pools a run holds at its peak: the training eye's, the held-out eye's, and the fresh
 /// held-out eye the pictures measure on (`src/pictures.rs`: the same held-out scenes from their
 /// start). Measured (heap profile of `run --preset tiny --steps 1 --set
@@ -208,6 +224,7 @@ pub fn estimate_eye(config: &RunConfig) -> Estimate {
 pub fn estimate_cmf_sim(config: &RunConfig, kind: ObserverKind, threads: usize) -> Estimate {
     let mut e = estimate(config, false, threads);
     let layout = layout(config);
+    e.fixed_bytes = reading_fixed_bytes((config.retina.cones_per_side as f64).powi(2));
     e.step_bytes = 0.0;
     let window_px = if kind == ObserverKind::Cortex {
         let window_px = cmf_sim::decode_pixels(config, &layout);
