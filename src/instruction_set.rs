@@ -6,9 +6,9 @@
 //! micro-kernels where the CPU has them and the GEMM lowering elsewhere
 //! (`autodiff::ops::conv`), and faer's matrix products pick AVX-512F or AVX2 kernels the same
 //! way at run time. Each path sums in its own order, so one seed trained on an AVX-512F CPU
-//! and on an AVX2 one differs in the last bit of the first step's loss and then drifts apart
-//! as two runs of one distribution (a different CMF-SIM margin is possible, a different
-//! trajectory certain).
+//! and on an AVX2 one drifts apart within a few steps (`--preset main --cones LMSQ,Q:506
+//! --seed 21`: one float apart at step 1) as two runs of one distribution do, and its CMF-SIM
+//! margins differ.
 //!
 //! So a checkpoint records [`current`] (`run_state.instruction_set` in its `meta.json`), and a
 //! run resumed on a CPU of another instruction set says that it continues the same training,
