@@ -55,6 +55,19 @@ fn reading_fixed_bytes(cones: f64) -> f64 {
         + PER_CONE_BYTES * cones.min(FITTED_CONES)
         + READING_PER_CONE_BYTES * (cones - FITTED_CONES).max(0.0)
 }
+/// The eye alone (`colorvision simulate`, `gamut`: no cortex, no observer), bytes: its fixed
+/// part. Measured as the peak of `simulate` less its scenes less [`READING_PER_CONE_BYTES`] a
+/// cone (docs/memory-tops.md): 35.7 MiB on `tiny`, 35.9 at 500 tiles, 34.9 on `quick`, 34.4 on
+/// `large`, 26.1 on `paper` — the largest and 4 MiB for the spread between runs (`tiny`'s
+/// peak read 39.5 and 40.2 MiB on two days).
+const EYE_FIXED_BYTES: f64 = 40.0 * MIB;
+
+/// The fixed part of the eye alone on `cones` cones, bytes: [`EYE_FIXED_BYTES`] and the eye's
+/// [`READING_PER_CONE_BYTES`] a cone.
+fn eye_fixed_bytes(cones: f64) -> f64 {
+    EYE_FIXED_BYTES + READING_PER_CONE_BYTES * cones
+}
+
 /// Scene pools a run holds at its peak: the training eye's, the held-out eye's, and the fresh
 /// held-out eye the pictures measure on (`src/pictures.rs`: the same held-out scenes from their
 /// start). Measured (heap profile of `run --preset tiny --steps 1 --set
@@ -206,11 +219,12 @@ pub fn without_pictures(estimate: Estimate) -> Estimate {
     }
 }
 
-/// The estimate for a command that builds the eye alone (`simulate`, `gamut`): the fixed part
-/// and one scene pool (no held-out pool, no cortex, no CMF-SIM).
+/// The estimate for a command that builds the eye alone (`simulate`, `gamut`): the eye's fixed
+/// part ([`eye_fixed_bytes`]) and one scene pool (no held-out pool, no cortex, no CMF-SIM).
 pub fn estimate_eye(config: &RunConfig) -> Estimate {
     let e = estimate(config, false, 1);
     Estimate {
+        fixed_bytes: eye_fixed_bytes((config.retina.cones_per_side as f64).powi(2)),
         scenes_bytes: e.scenes_bytes / RUN_SCENE_POOLS,
         step_bytes: 0.0,
         flow_bytes: 0.0,

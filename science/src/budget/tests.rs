@@ -241,3 +241,23 @@ fn a_readings_fixed_part_is_the_fitted_one_up_to_the_quick_eye_and_the_eyes_slop
     // The eye alone measured 238.7 MiB at 256² (`simulate --preset paper`, scenes included).
     assert!(paper_mib < 238.7);
 }
+
+#[test]
+fn the_eye_alone_is_estimated_at_its_measured_peaks_at_every_size() {
+    // Measured (docs/memory-tops.md, two threads, `/usr/bin/time -f %M colorvision simulate
+    // --preset P`; the higher of two runs where two were taken): the eye alone grows by about 1.9 KiB a cone, not a training run's 17.4, so
+    // the estimate must bound the peak within 1.3 × from 32² to 256² cones.
+    for (preset, peak_mib) in [
+        ("tiny", 40.2),
+        ("quick", 83.5),
+        ("large", 120.8),
+        ("paper", 238.9),
+    ] {
+        let c = RunConfig::preset(preset, "LMS").unwrap();
+        let e = estimate_eye(&c).total_bytes() / MIB;
+        assert!(
+            (peak_mib..=1.3 * peak_mib).contains(&e),
+            "{preset}: estimated {e:.1} MiB, peak {peak_mib} MiB"
+        );
+    }
+}
