@@ -1,0 +1,94 @@
+#!/bin/bash
+# The paper's four tetrachromat rows at 96 000 updates in all
+# (docs/notebook/2026-12-04-tetrachromat-rows-protocol.md): each cell on seed 31, one thread,
+# trained with `colorvision train` (from scratch 96 000 steps; boosted: the LMS cortex of seed 31
+# at 12 000 steps continued 84 000 steps, its checkpoints numbered on from 12 000), then CMF-SIM
+# at step 96 000 with location seeds 0, 1, 2. Cells run in the protocol's order, one after
+# another; running it again continues (a stopped cell resumes from its newest checkpoint, a
+# finished cell and a measured location seed are skipped). Two copies may run at once on
+# disjoint CELLS lists; a boost cell waits for the LMS cortex (LMS-seed31-12k) to finish.
+#
+# Usage: nice -n 10 scripts/fourth-table.sh
+#   CELLS="LMSQ-pigeonQ-surfaces-96k …" scripts/fourth-table.sh    only those cells, in order
+#   COLORVISION=path/to/colorvision                                the binary
+# Records: scripts/record-run.sh runs/fourth-table/CELL CELL \
+#          "docs/notebook/2026-12-04-tetrachromat-rows-protocol.md @ COMMIT"
+set -euo pipefail
+ROOT=$(cd "$(dirname "$0")/.." && pwd)
+SEED=31
+R="$ROOT/runs/fourth-table"
+B=${COLORVISION:-$ROOT/target/release/colorvision}
+export RAYON_NUM_THREADS=1
+ADULT="$R/LMS-seed31-12k"
+HUE=(--set retina.scenes.tetra.environment=HueSphere --set retina.scenes.tetra.fraction=0.1)
+IDEAL=(--set retina.scenes.tetra.environment=Idealised --set retina.scenes.tetra.fraction=0.1)
+
+# The part 4a cells (pigeon Q) first, then part 4b (human Q), as the protocol orders them.
+ALL="LMSQ-pigeonQ-surfaces-96k LMS-seed31-12k LMS-boost-pigeonQ-surfaces-96k
+LMSQ-pigeonQ-huesphere-surfaces-96k LMS-boost-pigeonQ-huesphere-surfaces-96k
+LMSQ-pigeonQ-idealised-surfaces-96k LMS-boost-pigeonQ-idealised-surfaces-96k
+LMSQ-humanQ-idealised-surfaces-96k LMS-boost-humanQ-idealised-surfaces-96k
+LMSQ-humanQ-surfaces-96k LMS-boost-humanQ-surfaces-96k
+LMSQ-humanQ-huesphere-surfaces-96k LMS-boost-humanQ-huesphere-surfaces-96k"
+
+# The cell's cones and scene settings: sets CONES and ENV.
+cell_settings() {
+    case "$1" in
+        *pigeonQ*) CONES=LMSQ,Q:506 ;;
+        *humanQ*) CONES=LMSQ ;;
+        *) echo "fourth-table.sh: unknown cell $1" >&2; exit 2 ;;
+    esac
+    case "$1" in
+        *huesphere*) ENV=("${HUE[@]}") ;;
+        *idealised*) ENV=("${IDEAL[@]}") ;;
+        *) ENV=() ;;
+    esac
+}
+
+# CMF-SIM of run folder $1 at step 96 000, location seeds 0, 1, 2 (each skipped when done).
+read_cell() {
+    for loc in 0 1 2; do
+        dest="$1/cmf-sim-step96000-loc$loc"
+        [ -f "$dest/cmf_sim.json" ] || "$B" cmf-sim --run "$1" --checkpoint-step 96000 \
+            --location-seed "$loc" --out "$dest"
+    done
+}
+
+boost() { # cell
+    local dir="$R/$1"
+    while [ ! -d "$ADULT/checkpoints/step_00012000" ]; do
+        echo "fourth-table.sh: $1 waits for $ADULT ($(date -u +%FT%TZ))"; sleep 300
+    done
+    if [ ! -d "$dir/checkpoints/step_00096000" ]; then
+        if [ -f "$dir/metrics.csv" ]; then
+            "$B" resume "$dir"
+        else
+            "$B" train --preset main --cones "$CONES" ${ENV[@]+"${ENV[@]}"} --seed "$SEED" \
+                --steps 84000 --continue-from "$ADULT" --out "$dir"
+        fi
+    fi
+    read_cell "$dir"
+}
+
+cell() {
+    echo "== fourth-table: $1 ($(date -u +%FT%TZ))"
+    case "$1" in
+        LMS-seed31-12k)
+            "$ROOT/scripts/protocol-arm.sh" "$R/$1" "$SEED" 12000 "12000" "0" \
+                --preset main --cones LMS
+            return ;;
+    esac
+    cell_settings "$1"
+    case "$1" in
+        LMS-boost-*) boost "$1" ;;
+        LMSQ-*)
+            "$ROOT/scripts/protocol-arm.sh" "$R/$1" "$SEED" 96000 "96000" "0 1 2" \
+                --preset main --cones "$CONES" ${ENV[@]+"${ENV[@]}"} ;;
+    esac
+}
+
+mkdir -p "$R"
+export COLORVISION=$B
+for c in ${CELLS:-$ALL}; do
+    cell "$c"
+done
