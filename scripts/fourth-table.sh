@@ -5,7 +5,8 @@
 # at 12 000 steps continued 84 000 steps, its checkpoints numbered on from 12 000), then CMF-SIM
 # at step 96 000 with location seeds 0, 1, 2. Cells run in the protocol's order, one after
 # another; running it again continues (a stopped cell resumes from its newest checkpoint, a
-# finished cell and a measured location seed are skipped). Two copies may run at once on
+# finished cell and a measured location seed are skipped; a cell kept in runs-kept/fourth-table/
+# is restored first). Two copies may run at once on
 # disjoint CELLS lists; a boost cell waits for the LMS cortex (LMS-seed31-12k) to finish.
 #
 # Usage: nice -n 10 scripts/fourth-table.sh
@@ -56,6 +57,7 @@ read_cell() {
 
 boost() { # cell
     local dir="$R/$1"
+    restore "$(basename "$ADULT")"
     while [ ! -d "$ADULT/checkpoints/step_00012000" ]; do
         echo "fourth-table.sh: $1 waits for $ADULT ($(date -u +%FT%TZ))"; sleep 300
     done
@@ -70,8 +72,16 @@ boost() { # cell
     read_cell "$dir"
 }
 
+# A cell stopped on another machine continues from its kept copy (runs-kept/fourth-table/, in
+# the repository; scripts/keep-run.sh runs/fourth-table/CELL fourth-table makes one).
+restore() {
+    local kept="$ROOT/runs-kept/fourth-table/$1"
+    if [ -d "$kept" ] && [ ! -d "$R/$1" ]; then cp -r "$kept" "$R/$1"; fi
+}
+
 cell() {
     echo "== fourth-table: $1 ($(date -u +%FT%TZ))"
+    restore "$1"
     case "$1" in
         LMS-seed31-12k)
             "$ROOT/scripts/protocol-arm.sh" "$R/$1" "$SEED" 12000 "12000" "0" \

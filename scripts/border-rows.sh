@@ -1,0 +1,37 @@
+#!/bin/bash
+# The table's border rows (docs/notebook/2026-12-04-border-rows-protocol.md), one run after
+# another on one thread, each with exactly the protocol's command (scripts/protocol-arm.sh):
+# B1, the no-demosaicker cell trained again from its record's settings and read at location
+# seeds 0, 1, 2; B2, L:M:S 1:1:1 on seeds 41 and 42, each read at location seeds 0, 1, 2.
+# Running it again continues (a stopped run resumes from its newest checkpoint, a measured
+# location seed is skipped; a run kept in runs-kept/border/ is restored first).
+#
+# Usage: nice -n 10 scripts/border-rows.sh
+#   RUNS="B1" scripts/border-rows.sh           only those (B1, B2-41, B2-42), in that order
+#   COLORVISION=path/to/colorvision            the binary (default target/release/colorvision)
+set -euo pipefail
+ROOT=$(cd "$(dirname "$0")/.." && pwd)
+P="$ROOT/scripts/protocol-arm.sh"
+R="$ROOT/runs/border"
+export COLORVISION=${COLORVISION:-$ROOT/target/release/colorvision} RAYON_NUM_THREADS=1
+
+restore() {
+    local kept="$ROOT/runs-kept/border/$1"
+    if [ -d "$kept" ] && [ ! -d "$R/$1" ]; then cp -r "$kept" "$R/$1"; fi
+}
+
+mkdir -p "$R"
+for run in ${RUNS:-B1 B2-41 B2-42}; do
+    echo "== border-rows: $run ($(date -u +%FT%TZ))"
+    case "$run" in
+        B1) restore no-demosaicker-seed0
+            "$P" "$R/no-demosaicker-seed0" 0 8000 "8000" "0 1 2" \
+                --config "$ROOT/results/LMS-baseline-no-demosaicker-surfaces-8k/config.toml" ;;
+        B2-41 | B2-42)
+            S=${run#B2-}
+            restore "LMS-1to1to1-seed$S"
+            "$P" "$R/LMS-1to1to1-seed$S" "$S" 12000 "12000" "0 1 2" \
+                --preset main --cones iid,L=1,M=1,S=1 ;;
+        *) echo "border-rows.sh: unknown run $run" >&2; exit 2 ;;
+    esac
+done
