@@ -136,11 +136,19 @@ fn with_other_location_seeds(run: &Run, own: String) -> String {
     if others.is_empty() {
         return own;
     }
+    // A measured 0 is an undefined verdict (no colour constancy, or every K tried failed).
+    let word = |d: usize| match d {
+        0 => "undefined".to_string(),
+        d => d.to_string(),
+    };
     let seeds: Vec<String> = (others.iter())
-        .map(|(l, d)| format!("{d} at {l}"))
+        .map(|&(l, d)| format!("{} at {l}", word(d)))
         .collect();
     let seeds = seeds.join(", ");
-    match (run.location_median(), own.is_empty()) {
+    match (
+        run.location_median().map(|(m, n)| (word(m), n)),
+        own.is_empty(),
+    ) {
         (Some((median, n)), false) => {
             format!("{median} (median of {n} location seeds; its own: {own}; the others: {seeds})")
         }

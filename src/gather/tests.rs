@@ -113,6 +113,27 @@ fn other_location_seeds_on_the_final_checkpoint_give_the_median() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// Undefined readings at other location seeds (dimension 0) are said as "undefined", and so is
+/// their median.
+#[test]
+fn undefined_readings_at_other_location_seeds_are_said_as_undefined() {
+    let dir = finished_run_folder("loc_undefined");
+    for l in [1, 2] {
+        let name = format!("cmf-sim-step12000-loc{l}");
+        std::fs::create_dir_all(dir.join(&name)).unwrap();
+        std::fs::write(dir.join(&name).join("cmf_sim.json"), r#"{"dimension": 0}"#).unwrap();
+    }
+    let run = read_run(&dir, "x".into(), &BTreeMap::new());
+    assert_eq!(run.dimension(), Some(0), "3, 0, 0: the median is 0");
+    let cell = super::table::dimension_cell(&run);
+    assert!(
+        cell.starts_with("undefined (median of 3 location seeds; its own: 3 (K1 ")
+            && cell.ends_with("; the others: undefined at 1, undefined at 2)"),
+        "{cell}"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
+
 /// A protocol arm trained without measuring (`train`) and measured at three location seeds on
 /// its last checkpoint reads as their median, its own seed among them.
 #[test]
