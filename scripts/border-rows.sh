@@ -2,12 +2,14 @@
 # The table's border rows (docs/notebook/2026-12-04-border-rows-protocol.md), one run after
 # another on one thread, each with exactly the protocol's command (scripts/protocol-arm.sh):
 # B1, the no-demosaicker cell trained again from its record's settings and read at location
-# seeds 0, 1, 2; B2, L:M:S 1:1:1 on seeds 41 and 42, each read at location seeds 0, 1, 2.
+# seeds 0, 1, 2; B2, L:M:S 1:1:1 on seeds 41 and 42, each read at location seeds 0, 1, 2; B3,
+# the same eye on the same seeds in the scenes of the earlier 1:1:1 record (dead leaves with
+# hue-sphere tiles), the A/B of the scenes.
 # Running it again continues (a stopped run resumes from its newest checkpoint, a measured
 # location seed is skipped; a run kept in runs-kept/border/ is restored first).
 #
 # Usage: nice -n 10 scripts/border-rows.sh
-#   RUNS="B1" scripts/border-rows.sh           only those (B1, B2-41, B2-42), in that order
+#   RUNS="B1" scripts/border-rows.sh           only those (B1, B2-41, B2-42, B3-41, B3-42)
 #   COLORVISION=path/to/colorvision            the binary (default target/release/colorvision)
 set -euo pipefail
 ROOT=$(cd "$(dirname "$0")/.." && pwd)
@@ -32,6 +34,13 @@ for run in ${RUNS:-B1 B2-41 B2-42}; do
             restore "LMS-1to1to1-seed$S"
             "$P" "$R/LMS-1to1to1-seed$S" "$S" 12000 "12000" "0 1 2" \
                 --preset main --cones iid,L=1,M=1,S=1 ;;
+        B3-41 | B3-42)
+            S=${run#B3-}
+            restore "LMS-1to1to1-deadleaves-seed$S"
+            "$P" "$R/LMS-1to1to1-deadleaves-seed$S" "$S" 12000 "12000" "0 1 2" \
+                --config "$ROOT/results/LMS-1to1to1-main-12k/config.toml" \
+                --set retina.scenes.generator=dead_leaves \
+                --set cortex.p.log_scale_bound=2.0 ;;
         *) echo "border-rows.sh: unknown run $run" >&2; exit 2 ;;
     esac
 done
