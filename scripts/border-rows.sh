@@ -40,7 +40,8 @@ for run in ${RUNS:-B1 B2-41 B2-42}; do
             "$P" "$R/LMS-1to1to1-deadleaves-seed$S" "$S" 12000 "12000" "0 1 2" \
                 --config "$ROOT/results/LMS-1to1to1-main-12k/config.toml" \
                 --set retina.scenes.generator=dead_leaves \
-                --set cortex.p.log_scale_bound=2.0 ;;
+                --set cortex.p.log_scale_bound=2.0 \
+                --set cortex.train.alignment_every_steps=100 ;;
         *) echo "border-rows.sh: unknown run $run" >&2; exit 2 ;;
     esac
 done

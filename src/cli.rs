@@ -137,7 +137,9 @@ pub struct CommonOptions {
     /// Output folder (default: runs/<command>-<preset>-<cones>-seed<seed>).
     #[arg(long)]
     pub out: Option<PathBuf>,
-    /// A TOML file of settings; command-line options override it.
+    /// A TOML file of settings, laid over the preset; command-line options override it. A
+    /// whole run `config.toml` that leaves unnamed a setting it reads differently alone (a
+    /// record made before the setting existed) is refused, naming the setting.
     #[arg(long)]
     pub config: Option<PathBuf>,
     /// Scenes from a file, folder or pattern instead of the built-in ones: a hyperspectral cube

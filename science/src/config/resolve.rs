@@ -67,15 +67,17 @@ impl RunConfig {
             Some((path, value)) => {
                 let mut merged =
                     toml::Value::try_from(&base).expect("a RunConfig serialises to TOML");
-                merge(&mut merged, value);
-                merged.try_into::<RunConfig>().map_err(|e| {
+                merge(&mut merged, value.clone());
+                let laid = merged.try_into::<RunConfig>().map_err(|e| {
                     options
                         .setting_to_blame(&base, file_alone.as_ref())
                         .unwrap_or_else(|| ConfigError::Parse {
-                            path,
+                            path: path.clone(),
                             message: one_line(&e.to_string()),
                         })
-                })?
+                })?;
+                super::unnamed::check(&(path, value), &laid)?;
+                laid
             }
             None => base,
         };

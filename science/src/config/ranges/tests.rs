@@ -103,8 +103,17 @@ fn every_recorded_run_config_still_validates() {
             super::super::set_dotted(&mut value, "steps", toml::Value::Integer(1));
             super::super::set_dotted(&mut value, "cortex.train.steps", toml::Value::Integer(1));
         }
-        let file = Some((path.display().to_string(), value));
-        if let Err(e) = RunConfig::resolve_value(&Overrides::default(), file, "quick") {
+        // A whole config is validated as its run reads it (alone: laid over today's preset, a
+        // record that predates a setting is refused, `super::super::unnamed`); a subset is
+        // resolved over the preset.
+        let checked_alone = match value.clone().try_into::<RunConfig>() {
+            Ok(alone) => alone.validate().map_err(ConfigError::from),
+            Err(_) => {
+                let file = Some((path.display().to_string(), value));
+                RunConfig::resolve_value(&Overrides::default(), file, "quick").map(|_| ())
+            }
+        };
+        if let Err(e) = checked_alone {
             panic!("{}: {e}", path.display());
         }
         checked += 1;
