@@ -17,6 +17,7 @@ mod overrides;
 mod presets;
 mod ranges;
 mod resolve;
+mod unnamed;
 mod validate;
 
 pub use overrides::{parse_setting, set_dotted, Overrides, MEASUREMENT_SECTIONS};

@@ -107,7 +107,7 @@ fn every_recorded_run_config_still_validates() {
         // record that predates a setting is refused, `super::super::unnamed`); a subset is
         // resolved over the preset.
         let checked_alone = match value.clone().try_into::<RunConfig>() {
-            Ok(alone) => alone.validate().map_err(ConfigError::from),
+            Ok(alone) => alone.validate(),
             Err(_) => {
                 let file = Some((path.display().to_string(), value));
                 RunConfig::resolve_value(&Overrides::default(), file, "quick").map(|_| ())
