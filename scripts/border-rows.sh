@@ -4,12 +4,13 @@
 # B1, the no-demosaicker cell trained again from its record's settings and read at location
 # seeds 0, 1, 2; B2, L:M:S 1:1:1 on seeds 41 and 42, each read at location seeds 0, 1, 2; B3,
 # the same eye on the same seeds in the scenes of the earlier 1:1:1 record (dead leaves with
-# hue-sphere tiles), the A/B of the scenes.
+# hue-sphere tiles), the A/B of the scenes; B4, the same eye on the same seeds in surface scenes
+# with a tenth of hue-sphere tiles (which part of B3's scenes).
 # Running it again continues (a stopped run resumes from its newest checkpoint, a measured
 # location seed is skipped; a run kept in runs-kept/border/ is restored first).
 #
 # Usage: nice -n 10 scripts/border-rows.sh
-#   RUNS="B1" scripts/border-rows.sh           only those (B1, B2-41, B2-42, B3-41, B3-42)
+#   RUNS="B1" scripts/border-rows.sh           only those (B1, B2-41, B2-42, B3-41, B3-42, B4-41, B4-42)
 #   COLORVISION=path/to/colorvision            the binary (default target/release/colorvision)
 set -euo pipefail
 ROOT=$(cd "$(dirname "$0")/.." && pwd)
@@ -42,6 +43,13 @@ for run in ${RUNS:-B1 B2-41 B2-42}; do
                 --set retina.scenes.generator=dead_leaves \
                 --set cortex.p.log_scale_bound=2.0 \
                 --set cortex.train.alignment_every_steps=100 ;;
+        B4-41 | B4-42)
+            S=${run#B4-}
+            restore "LMS-1to1to1-surfaces-hue-seed$S"
+            "$P" "$R/LMS-1to1to1-surfaces-hue-seed$S" "$S" 12000 "12000" "0 1 2" \
+                --preset main --cones iid,L=1,M=1,S=1 \
+                --set retina.scenes.tetra.environment=HueSphere \
+                --set retina.scenes.tetra.fraction=0.1 ;;
         *) echo "border-rows.sh: unknown run $run" >&2; exit 2 ;;
     esac
 done
