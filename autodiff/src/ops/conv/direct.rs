@@ -165,8 +165,8 @@ pub(crate) fn keeps_padded(g: &Geometry, co: usize, batch: usize) -> bool {
     !by_image(batch) || backward_strips(g, co, co.next_multiple_of(16)).len() == 1
 }
 
-/// Repacks `w (Co, C, 3, 3)` into `⌈Co/MR⌉` blocks `[c][t][m]` (zero past `Co`): the forward
-/// weights. With `flip`, the `∂x` weights instead: blocks of `MR` input channels,
+/// Repacks `w (Co, C, 3, 3)` into `⌈Co/mr⌉` blocks `[c][t][m]` (zero past `Co`): the forward
+/// weights. With `flip`, the `∂x` weights instead: blocks of `mr` input channels,
 /// `[o][t][m] = w[o, c, 8 − t]` (zero past `C`).
 fn pack<T: Float>(co: usize, c: usize, w: &[T], mr: usize, flip: bool, out: &mut [T]) {
     let (rows, inner) = if flip { (c, co) } else { (co, c) };

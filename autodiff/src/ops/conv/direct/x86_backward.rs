@@ -3,7 +3,7 @@
 //! border ring by [`ring`]) and `∂w` ([`grad_w`]).
 
 use super::super::kernels::{channels_last, dw_block, Rows, Simd, Store};
-use super::x86::{avx512, Corr, MR};
+use super::x86::{avx512, block_rows, Corr};
 use super::*;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -121,7 +121,8 @@ fn grad_x<V: Simd>(
     let (c, hw) = (g.c, g.h * g.w);
     let batch = gx.len() / (c * hw);
     let packed = GradX::new(g, co, w);
-    let per_group = c.div_ceil(MR).div_ceil(groups(batch, c.div_ceil(MR))) * MR;
+    let mr = packed.mr;
+    let per_group = c.div_ceil(mr).div_ceil(groups(batch, c.div_ceil(mr))) * mr;
     gx.par_chunks_mut(c * hw)
         .zip(dyz.par_chunks(zstride))
         .for_each(|(gx, z)| {
@@ -137,8 +138,10 @@ fn grad_x<V: Simd>(
 pub(super) struct GradX<S: Float> {
     g: Geometry,
     co: usize,
-    /// Flipped weights in blocks of `MR` input channels (see `pack`).
+    /// Flipped weights in blocks of `mr` input channels (see `pack`).
     wb: Scratch<S>,
+    /// Input channels per block: [`block_rows`] of `C`.
+    mr: usize,
     /// Ring weights (see [`pack_ring`]), empty under zero padding.
     wr: Scratch<S>,
     /// Row length of `wr`.
@@ -148,8 +151,9 @@ pub(super) struct GradX<S: Float> {
 impl<S: Float> GradX<S> {
     pub(super) fn new(g: Geometry, co: usize, w: &[S]) -> Self {
         let c = g.c;
-        let mut wb = Scratch::<S>::take(c.div_ceil(MR) * co * 9 * MR);
-        pack(co, c, w, MR, true, &mut wb);
+        let mr = block_rows(c);
+        let mut wb = Scratch::<S>::take(c.div_ceil(mr) * co * 9 * mr);
+        pack(co, c, w, mr, true, &mut wb);
         let reflect = g.mode == super::super::Padding::Reflect;
         // Room for one full vector past the last channel (16 lanes, the widest): `ring` reads it.
         let cl = c + 16;
@@ -157,10 +161,17 @@ impl<S: Float> GradX<S> {
         if reflect {
             pack_ring(co, c, w, cl, &mut wr);
         }
-        GradX { g, co, wb, wr, cl }
+        GradX {
+            g,
+            co,
+            wb,
+            mr,
+            wr,
+            cl,
+        }
     }
 
-    /// `∂x` of input channels `c0 ..` (as many as `gx` holds; `c0` a multiple of `MR`) of
+    /// `∂x` of input channels `c0 ..` (as many as `gx` holds; `c0` a multiple of the block height) of
     /// the image whose padded `dy` is `z`: added into `gx` when `add`, else overwriting it.
     pub(super) fn channels<V: Simd<S = S>>(&self, z: &[S], c0: usize, gx: &mut [S], add: bool) {
         let z = ZRows {
@@ -180,7 +191,7 @@ impl<S: Float> GradX<S> {
         let (wd, wz, p) = (g.w, g.wz(), g.p());
         let hw = g.h * wd;
         let (r0, r1) = z.rows;
-        debug_assert!(c0.is_multiple_of(MR) && V::L <= 16);
+        debug_assert!(c0.is_multiple_of(self.mr) && V::L <= 16);
         assert!(
             r0 < r1 && r1 <= g.h && (r1 - r0 >= 2 || r0 > 0 || g.h == 1),
             "conv2d direct: ∂x rows {r0}..{r1} of {}",
@@ -199,6 +210,7 @@ impl<S: Float> GradX<S> {
             cin: self.co,
             rw: wz,
             w: &self.wb[c0 * self.co * 9..],
+            mr: self.mr,
             out_ch: hw,
             // The ring (below) adds onto border pixels after this pass.
             store: if add { Store::Add } else { Store::Set },

@@ -34,7 +34,9 @@ fn direct_kernels_match_direct_loops_f64_and_f32() {
     // without the fused ReLU, on shapes whose widths are not multiples of the 16- or 8-lane
     // vectors (tails), whose channel counts are not multiples of the 8-channel output blocks
     // or 16-lane channel vectors, single images (split into channel groups), one-pixel rows
-    // and images wide enough for several vectors and for the 8-position border-ring blocks.
+    // and images wide enough for several vectors and for the 8-position border-ring blocks;
+    // channel counts that are multiples of 16 take the 16-channel blocks (forward over output
+    // channels, ∂x over input channels), the others the 8-channel ones.
     assert!(!direct_conv_available::<f32>(5) && !direct_conv_available::<f64>(1));
     if !direct_conv_available::<f32>(3) || !direct_conv_available::<f64>(3) {
         eprintln!("no AVX-512F on this CPU: the direct kernels fall back to GEMM");
@@ -49,6 +51,9 @@ fn direct_kernels_match_direct_loops_f64_and_f32() {
         (1, 3, 11, 1, 2),
         (2, 1, 1, 40, 1),
         (5, 3, 9, 21, 18),
+        (2, 16, 5, 18, 32),
+        (1, 32, 6, 20, 16),
+        (3, 48, 4, 17, 7),
     ];
     for (i, &(b, ci, h, wd, co)) in shapes.iter().enumerate() {
         let seed = 100 + 10 * i as u64;
