@@ -5,8 +5,8 @@
 # at 12 000 steps continued 84 000 steps, its checkpoints numbered on from 12 000), then CMF-SIM
 # at step 96 000 with location seeds 0, 1, 2. Cells run in the protocol's order, one after
 # another; running it again continues (a stopped cell resumes from its newest checkpoint, a
-# finished cell and a measured location seed are skipped; a cell kept in runs-kept/fourth-table/
-# is restored first). Two copies may run at once on
+# finished cell, a cell recorded in results/ and a measured location seed are skipped; a cell
+# kept in runs-kept/fourth-table/ is restored first). Two copies may run at once on
 # disjoint CELLS lists; a boost cell waits for the LMS cortex (LMS-seed31-12k) to finish.
 #
 # Usage: nice -n 10 scripts/fourth-table.sh
@@ -81,6 +81,11 @@ restore() {
 
 cell() {
     echo "== fourth-table: $1 ($(date -u +%FT%TZ))"
+    # A recorded cell is done: its kept folder is removed when it is recorded.
+    if [ -f "$ROOT/results/$1/record.json" ]; then
+        echo "fourth-table.sh: $1 is recorded in results/$1: skipped"
+        return
+    fi
     restore "$1"
     case "$1" in
         LMS-seed31-12k)
