@@ -108,14 +108,18 @@ fn zero<T: Float>() -> T {
     T::zero()
 }
 
-/// How many channel groups to split each image into so that all threads have work.
-fn groups(batch: usize, blocks: usize) -> usize {
+/// Channels per group when each image's `channels` (in blocks of `mr`) are split into groups
+/// so that all threads have work: all of them when there are at least as many images as
+/// threads, else whole blocks spread over `⌈threads / batch⌉` groups.
+fn channels_per_group(channels: usize, batch: usize, mr: usize) -> usize {
     let threads = rayon::current_num_threads();
-    if batch >= threads {
+    let blocks = channels.div_ceil(mr);
+    let groups = if batch >= threads {
         1
     } else {
         threads.div_ceil(batch.max(1)).min(blocks).max(1)
-    }
+    };
+    blocks.div_ceil(groups) * mr
 }
 
 /// Target working set of one row strip of an image, in elements (a tuning knob: 1 MiB in

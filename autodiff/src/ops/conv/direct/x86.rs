@@ -201,7 +201,7 @@ fn forward<V: Simd>(a: FwdArgs<'_, V::S>) {
     };
     let stride = xp_stride(&g);
     assert_eq!(xp.len(), batch * stride, "conv2d direct: xp length");
-    let per_group = co.div_ceil(mr).div_ceil(groups(batch, co.div_ceil(mr))) * mr;
+    let per_group = channels_per_group(co, batch, mr);
     let pos = |p: usize| {
         let (i, j) = (p / nb, p % nb * V::L);
         (i * rw + j, i * w + j, (w - j).min(V::L))

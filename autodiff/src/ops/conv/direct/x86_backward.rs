@@ -121,8 +121,7 @@ fn grad_x<V: Simd>(
     let (c, hw) = (g.c, g.h * g.w);
     let batch = gx.len() / (c * hw);
     let packed = GradX::new(g, co, w);
-    let mr = packed.mr;
-    let per_group = c.div_ceil(mr).div_ceil(groups(batch, c.div_ceil(mr))) * mr;
+    let per_group = channels_per_group(c, batch, packed.mr);
     gx.par_chunks_mut(c * hw)
         .zip(dyz.par_chunks(zstride))
         .for_each(|(gx, z)| {
@@ -171,8 +170,9 @@ impl<S: Float> GradX<S> {
         }
     }
 
-    /// `∂x` of input channels `c0 ..` (as many as `gx` holds; `c0` a multiple of the block height) of
-    /// the image whose padded `dy` is `z`: added into `gx` when `add`, else overwriting it.
+    /// `∂x` of input channels `c0 ..` (as many as `gx` holds; `c0` a multiple of the block
+    /// height) of the image whose padded `dy` is `z`: added into `gx` when `add`, else
+    /// overwriting it.
     pub(super) fn channels<V: Simd<S = S>>(&self, z: &[S], c0: usize, gx: &mut [S], add: bool) {
         let z = ZRows {
             z,
