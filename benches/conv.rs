@@ -14,9 +14,9 @@
 //! of fused multiply-adds on 16-lane vectors (AVX-512F, else 8-lane AVX2 + FMA), nothing read
 //! or written, on one thread and on two; its throughput reads as GFLOP/s. The conv groups run
 //! on `RAYON_NUM_THREADS` threads: compare them with the ceiling row of the same count. `conv3x3_phases`
-//! times each 3×3 layer shape of the quick U-Net (and the paper's first) forward and forward +
-//! backward, with its throughput in GFLOP/s too (`2·B·Cin·Cout·9·H·W` a pass, three passes
-//! with backward), so `cargo bench --bench conv -- "ceiling|phases"` gives each layer's share
+//! times each 3×3 layer shape of the quick U-Net (and the paper's first) forward, forward +
+//! `∂x`, forward + `∂w` and forward + both, with its throughput in GFLOP/s too
+//! (`2·B·Cin·Cout·9·H·W` a pass, one more pass for each gradient), so `cargo bench --bench conv -- "ceiling|phases"` gives each layer's share
 //! of the ceiling from one run.
 //!
 //! Each workload runs with both conv2d implementations in the same process, `gemm` (the faer
@@ -74,8 +74,8 @@ fn conv(c: &mut Criterion) {
 }
 
 /// Each 3×3 layer shape of the quick U-Net (16/32/64 on 64², input 8 channels) and the paper
-/// eye's first one, forward only and forward + backward (∂x and ∂w), direct kernels, with its
-/// throughput in GFLOP/s. Filter with `-- phases`.
+/// eye's first one, forward only, forward + `∂x`, forward + `∂w` and forward + both, direct
+/// kernels, with its throughput in GFLOP/s. Filter with `-- phases`.
 fn conv_phases(c: &mut Criterion) {
     let mut group = c.benchmark_group("conv3x3_phases");
     group
@@ -99,7 +99,7 @@ fn conv_phases(c: &mut Criterion) {
         let r = noise(&[b, co, h, h], 3);
         let mut tape = Tape::<f32>::new();
         let pass_flop = 2 * b * ci * co * 9 * h * h;
-        for (phase, passes) in [("fwd", 1), ("all", 3)] {
+        for (phase, passes) in [("fwd", 1), ("fwd+dx", 2), ("fwd+dw", 2), ("all", 3)] {
             group.throughput(Throughput::Elements((pass_flop * passes) as u64));
             let op = || Conv2d::new(Padding::Reflect, false).with_kernel(ConvKernel::Direct);
             group.bench_function(format!("({b},{ci},{h},{h})->{co}/{phase}"), |bench| {
