@@ -9,13 +9,19 @@
 
 use crate::cli::{Cli, Command, RunOptions};
 use crate::commands;
-use clap::Parser;
+use clap::parser::ValueSource;
+use clap::{ArgMatches, CommandFactory, FromArgMatches};
 
 /// Parses the command line and runs the command; on an error, prints it and exits with its
 /// status.
 pub fn main() {
     crate::interrupt::default_sigpipe();
-    let cli = Cli::parse();
+    let matches = Cli::command().get_matches();
+    if let Some(message) = options_before_subcommand(&matches) {
+        eprintln!("colorvision: error: {message}");
+        std::process::exit(2);
+    }
+    let cli = Cli::from_arg_matches(&matches).unwrap_or_else(|e| e.exit());
     if let Err(e) = crate::interrupt::install_fault_injection() {
         eprintln!("colorvision: error: {e}");
         std::process::exit(2);
@@ -49,5 +55,69 @@ pub fn main() {
         let said = science::config::shortened(&e.to_string());
         eprintln!("colorvision: error: {said}");
         std::process::exit(e.exit_code());
+    }
+}
+
+/// The error for options given before a subcommand (`colorvision --steps 4 train`): they belong
+/// to the default `run` and the subcommand would not see them, so the line is refused, naming
+/// them. `None` when there is no subcommand or nothing precedes it.
+pub fn options_before_subcommand(matches: &ArgMatches) -> Option<String> {
+    let sub = matches.subcommand_name()?;
+    let cli = Cli::command();
+    let given: Vec<String> = matches
+        .ids()
+        .filter(|id| matches.value_source(id.as_str()) == Some(ValueSource::CommandLine))
+        .filter_map(|id| cli.get_arguments().find(|a| a.get_id() == id))
+        .filter_map(|a| a.get_long().map(|l| format!("--{l}")))
+        .collect();
+    (!given.is_empty()).then(|| {
+        format!(
+            "{} given before the subcommand `{sub}`, which would not see {}: give {} after it \
+             (`colorvision {sub} {} …`)",
+            given.join(", "),
+            if given.len() == 1 { "it" } else { "them" },
+            if given.len() == 1 { "it" } else { "them" },
+            given[0]
+        )
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn parse(line: &[&str]) -> ArgMatches {
+        Cli::command()
+            .try_get_matches_from(line)
+            .expect("a line clap accepts")
+    }
+
+    #[test]
+    fn options_before_a_subcommand_are_refused_and_named() {
+        let said = options_before_subcommand(&parse(&[
+            "colorvision",
+            "--preset",
+            "tiny",
+            "--steps",
+            "4",
+            "train",
+        ]))
+        .expect("options before `train` are refused");
+        assert!(
+            said.contains("--preset") && said.contains("--steps") && said.contains("`train`"),
+            "{said}"
+        );
+    }
+
+    #[test]
+    fn options_after_the_subcommand_or_without_one_are_accepted() {
+        for line in [
+            &["colorvision", "train", "--preset", "tiny", "--steps", "4"][..],
+            &["colorvision", "--preset", "tiny", "--steps", "4"],
+            &["colorvision", "resume", "runs/x", "--steps", "8"],
+            &["colorvision"],
+        ] {
+            assert_eq!(options_before_subcommand(&parse(line)), None, "{line:?}");
+        }
     }
 }

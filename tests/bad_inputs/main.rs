@@ -163,6 +163,30 @@ fn every_bad_input_gets_a_one_line_error_naming_file_and_field_and_writes_nothin
             totals.wrote.push(name);
         }
     }
+    // Options before the subcommand belong to the default `run`: refused, not dropped.
+    for (line, names) in [
+        (
+            &["--preset", "tiny", "--steps", "2", "--out", "out", "train"][..],
+            "--steps",
+        ),
+        (
+            &["--cones", "LM", "run", "--preset", "tiny", "--out", "out"],
+            "--cones",
+        ),
+    ] {
+        let args: Vec<String> = line.iter().map(|s| s.to_string()).collect();
+        let name = format!("{} (options before the subcommand)", line.join(" "));
+        try_input(
+            &dir,
+            &name,
+            &args,
+            &[names, "before the subcommand"],
+            &mut totals,
+        );
+        if dir.join("out").exists() || dir.join("runs").exists() {
+            totals.wrote.push(name);
+        }
+    }
     println!(
         "bad inputs: {} tried, {} clear errors, {} unclear, {} panics, {} aborts, {} silent \
          (exit 0), {} wrote files",
