@@ -13,11 +13,12 @@
 //! The `ceiling` group measures the machine's f32 ceiling in the same run: independent chains
 //! of fused multiply-adds on 16-lane vectors (AVX-512F, else 8-lane AVX2 + FMA), nothing read
 //! or written, on one thread and on two; its throughput reads as GFLOP/s. The conv groups run
-//! on `RAYON_NUM_THREADS` threads: compare them with the ceiling row of the same count. `conv3x3_phases`
-//! times each 3×3 layer shape of the quick U-Net (and the paper's first) forward, forward +
-//! `∂x`, forward + `∂w` and forward + both, with its throughput in GFLOP/s too
-//! (`2·B·Cin·Cout·9·H·W` a pass, one more pass for each gradient), so `cargo bench --bench conv -- "ceiling|phases"` gives each layer's share
-//! of the ceiling from one run.
+//! on `RAYON_NUM_THREADS` threads: compare them with the ceiling row of the same count.
+//! `conv3x3_phases` times each 3×3 layer shape of the quick U-Net (and the paper's first)
+//! forward, forward + `∂x`, forward + `∂w` and forward + both, with its throughput in GFLOP/s
+//! too (`2·B·Cin·Cout·9·H·W` a pass, one more pass for each gradient), so
+//! `cargo bench --bench conv -- "ceiling|phases"` gives each layer's share of the ceiling from
+//! one run.
 //!
 //! Each workload runs with both conv2d implementations in the same process, `gemm` (the faer
 //! lowering) and `direct` (the AVX-512 micro-kernels, the default where available), so their
