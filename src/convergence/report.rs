@@ -38,15 +38,15 @@ fn fmt_list(v: &[f64]) -> String {
 /// [`VerdictOverCheckpoints::with_final`](super::VerdictOverCheckpoints::with_final)).
 pub fn table(config: &RunConfig, rows: &[StudyRow], last: Option<CheckpointCmf>) -> String {
     let mut md = format!(
-        "Convergence of `{}` {} (seed {}), every checkpoint. Gain: held-out prediction error of \
-         \"next = current\" over the model's. CMF-SIM: dimension, and per K the converged worst \
-         error/threshold of the best set (pass < 1). C recall per class (k-means matched / \
-         nearest class centre). W: surround r against the DoG and DC gain (true {}). P: position \
-         error after the affine gauge, cone spacings RMS. Hidden: per class, the held-out R² of \
-         its own signal (what the other classes do not tell) read from the percept at the other \
-         classes' cones (1: demosaicked; 0: not carried). Directions: per principal direction of the \
-         cone excitations, strongest (luminance-like) first, the held-out R² of its projection \
-         read from the percept (1: carried; 0: not). Both {}.\n\n",
+        "Convergence of `{}` {} (seed {}), one row per checkpoint measured. Gain: held-out \
+         prediction error of \"next = current\" over the model's. CMF-SIM: dimension, and per K \
+         the converged worst error/threshold of the best set (pass < 1). C recall per class \
+         (k-means matched / nearest class centre). W: surround r against the DoG and DC gain \
+         (true {}). P: position error after the affine gauge, cone spacings RMS. Hidden: per \
+         class, the held-out R² of its own signal (what the other classes do not tell) read from \
+         the percept at the other classes' cones (1: demosaicked; 0: not carried). Directions: \
+         per principal direction of the cone excitations, strongest (luminance-like) first, the \
+         held-out R² of its projection read from the percept (1: carried; 0: not). Both {}.\n\n",
         config.preset,
         config.cones,
         config.seed,
