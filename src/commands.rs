@@ -239,6 +239,39 @@ pub fn cmf_sim(options: &CmfSimOptions) -> Result<(), RunError> {
 /// With `--run` the eye and the cortex are the run's: an option that would change them is an
 /// error naming it (only `--set cmf_sim.*`/`observer.*` and `--out` apply).
 fn refuse_eye_options_with_run(common: &crate::cli::CommonOptions) -> Result<(), RunError> {
+    match eye_option_given(common) {
+        Some(option) => Err(RunError::invalid(
+            option,
+            "a measurement of --run DIR uses the run's own eye and cortex (its config.toml); \
+             use --location-seed for other draws, --set cmf_sim.KEY=VALUE or \
+             --set observer.KEY=VALUE for the measurement's settings",
+        )),
+        None => Ok(()),
+    }
+}
+
+/// `scope` and `stiles-burch` read a run folder with the settings it was trained with: any
+/// setting given (`--set` too) is an error naming it, not dropped; `--out` and
+/// `--checkpoint-step` apply.
+pub(crate) fn refuse_settings_with_run(
+    common: &crate::cli::CommonOptions,
+    command: &str,
+) -> Result<(), RunError> {
+    let given = eye_option_given(common).or((!common.set.is_empty()).then_some("--set"));
+    match given {
+        Some(option) => Err(RunError::invalid(
+            option,
+            format!(
+                "`{command} --run DIR` uses the run's own settings (its config.toml); only \
+                 --out and --checkpoint-step apply"
+            ),
+        )),
+        None => Ok(()),
+    }
+}
+
+/// The first option of `common` that would change a run's eye or cortex, if any is given.
+fn eye_option_given(common: &crate::cli::CommonOptions) -> Option<&'static str> {
     let given = [
         ("--preset", common.preset.is_some()),
         ("--cones", common.cones.is_some()),
@@ -249,15 +282,7 @@ fn refuse_eye_options_with_run(common: &crate::cli::CommonOptions) -> Result<(),
         ("--resume", common.resume),
         ("--force", common.force),
     ];
-    match given.iter().find(|(_, on)| *on) {
-        Some((option, _)) => Err(RunError::invalid(
-            *option,
-            "a measurement of --run DIR uses the run's own eye and cortex (its config.toml); \
-             use --location-seed for other draws, --set cmf_sim.KEY=VALUE or \
-             --set observer.KEY=VALUE for the measurement's settings",
-        )),
-        None => Ok(()),
-    }
+    given.iter().find(|(_, on)| *on).map(|(option, _)| *option)
 }
 
 /// The verdict, the base error against the energy, and each K's converged margin, in words.
@@ -294,6 +319,7 @@ pub fn cmf_sim_lines(r: &CmfSimResult) -> Vec<String> {
 /// hue-angle error, the hue axes, what the eye hides; `scope.json`), written to `--out` or
 /// `DIR/scope/` (never over the run's own `pictures/`).
 pub fn scope(options: &RunDirOptions) -> Result<(), RunError> {
+    refuse_settings_with_run(&options.common, "scope")?;
     let dir = measurement_dir(&options.run, options.common.out.as_ref(), "scope")?;
     let (config, trainer, _) =
         crate::run::folder::load_run_step(&options.run, options.checkpoint_step)?;

@@ -114,6 +114,7 @@ pub fn markdown(rows: &[Row]) -> String {
 /// `colorvision stiles-burch --run DIR`: [`compare`] on the run's last checkpoint, into `--out`
 /// or `DIR/stiles-burch/` ([`crate::run::measurement_dir`]).
 pub fn command(options: &RunDirOptions) -> Result<Vec<Row>, RunError> {
+    crate::commands::refuse_settings_with_run(&options.common, "stiles-burch")?;
     let out = measurement_dir(&options.run, options.common.out.as_ref(), "stiles-burch")?;
     let lock = crate::run::lock::RunLock::acquire(&options.run)?;
     let (config, trainer, _) =

@@ -163,6 +163,22 @@ fn every_bad_input_gets_a_one_line_error_naming_file_and_field_and_writes_nothin
             totals.wrote.push(name);
         }
     }
+    // Settings a measurement of a run folder would not use: refused, not dropped.
+    for (line, names) in [
+        (&["scope", "--run", "out", "--cones", "LM"][..], "--cones"),
+        (
+            &["scope", "--run", "out", "--set", "cortex.d.widths=[8]"],
+            "--set",
+        ),
+        (&["stiles-burch", "--run", "out", "--seed", "3"], "--seed"),
+    ] {
+        let args: Vec<String> = line.iter().map(|s| s.to_string()).collect();
+        let name = line.join(" ");
+        try_input(&dir, &name, &args, &[names, "own settings"], &mut totals);
+        if dir.join("out").exists() {
+            totals.wrote.push(name);
+        }
+    }
     // Options before the subcommand belong to the default `run`: refused, not dropped.
     for (line, names) in [
         (
