@@ -17,6 +17,18 @@ pub use training::{resolve_run, resume, run, train};
 
 /// `colorvision simulate`: pictures of every stage of the eye.
 pub fn simulate(options: &CommonOptions) -> Result<(), RunError> {
+    let training = [
+        ("--steps", options.steps.is_some()),
+        ("--resume", options.resume),
+        ("--force", options.force),
+    ];
+    if let Some((option, _)) = training.iter().find(|(_, on)| *on) {
+        return Err(RunError::invalid(
+            *option,
+            "`simulate` trains nothing: it draws the eye's stages once (its pictures replace \
+             those of an earlier `simulate` in the folder)",
+        ));
+    }
     let config = options.resolve("quick")?;
     let out = run::out_dir(&config, options.out.as_ref(), "simulate");
     crate::run::folder::refuse_file(&out)?;

@@ -179,6 +179,26 @@ fn every_bad_input_gets_a_one_line_error_naming_file_and_field_and_writes_nothin
             totals.wrote.push(name);
         }
     }
+    // Training options `simulate` would not use.
+    for (line, names) in [
+        (
+            &[
+                "simulate", "--preset", "tiny", "--out", "out", "--steps", "5",
+            ][..],
+            "--steps",
+        ),
+        (
+            &["simulate", "--preset", "tiny", "--out", "out", "--resume"],
+            "--resume",
+        ),
+    ] {
+        let args: Vec<String> = line.iter().map(|s| s.to_string()).collect();
+        let name = line.join(" ");
+        try_input(&dir, &name, &args, &[names, "trains nothing"], &mut totals);
+        if dir.join("out").exists() {
+            totals.wrote.push(name);
+        }
+    }
     // Options before the subcommand belong to the default `run`: refused, not dropped.
     for (line, names) in [
         (
