@@ -17,18 +17,7 @@ pub use training::{resolve_run, resume, run, train};
 
 /// `colorvision simulate`: pictures of every stage of the eye.
 pub fn simulate(options: &CommonOptions) -> Result<(), RunError> {
-    let training = [
-        ("--steps", options.steps.is_some()),
-        ("--resume", options.resume),
-        ("--force", options.force),
-    ];
-    if let Some((option, _)) = training.iter().find(|(_, on)| *on) {
-        return Err(RunError::invalid(
-            *option,
-            "`simulate` trains nothing: it draws the eye's stages once (its pictures replace \
-             those of an earlier `simulate` in the folder)",
-        ));
-    }
+    refuse_training_options(options, "simulate", true)?;
     let config = options.resolve("quick")?;
     let out = run::out_dir(&config, options.out.as_ref(), "simulate");
     crate::run::folder::refuse_file(&out)?;
@@ -53,9 +42,34 @@ pub fn simulate(options: &CommonOptions) -> Result<(), RunError> {
     Ok(())
 }
 
+/// `simulate` and `gamut` train nothing: `--resume` and `--force` (and for `simulate`, which
+/// draws no batches, `--steps`) are errors naming them, not dropped.
+fn refuse_training_options(
+    options: &CommonOptions,
+    command: &str,
+    refuse_steps: bool,
+) -> Result<(), RunError> {
+    let given = [
+        ("--steps", refuse_steps && options.steps.is_some()),
+        ("--resume", options.resume),
+        ("--force", options.force),
+    ];
+    match given.iter().find(|(_, on)| *on) {
+        Some((option, _)) => Err(RunError::invalid(
+            *option,
+            format!(
+                "`{command}` trains nothing (its files replace those of an earlier `{command}` \
+                 in the folder)"
+            ),
+        )),
+        None => Ok(()),
+    }
+}
+
 /// `colorvision gamut`: the CMF-SIM test lights against the colours of the eye's training
 /// scenes, sampled over the batches a training with these settings (its `steps`) draws.
 pub fn gamut(options: &CommonOptions) -> Result<(), RunError> {
+    refuse_training_options(options, "gamut", false)?;
     let config = options.resolve("quick")?;
     let out = run::out_dir(&config, options.out.as_ref(), "gamut");
     crate::run::folder::refuse_file(&out)?;

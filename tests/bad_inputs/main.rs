@@ -179,7 +179,7 @@ fn every_bad_input_gets_a_one_line_error_naming_file_and_field_and_writes_nothin
             totals.wrote.push(name);
         }
     }
-    // Training options `simulate` would not use.
+    // Training options `simulate` and `gamut` would not use.
     for (line, names) in [
         (
             &[
@@ -190,6 +190,10 @@ fn every_bad_input_gets_a_one_line_error_naming_file_and_field_and_writes_nothin
         (
             &["simulate", "--preset", "tiny", "--out", "out", "--resume"],
             "--resume",
+        ),
+        (
+            &["gamut", "--preset", "tiny", "--out", "out", "--force"],
+            "--force",
         ),
     ] {
         let args: Vec<String> = line.iter().map(|s| s.to_string()).collect();
