@@ -29,12 +29,18 @@ longer() { # cell
             echo "fourth-longer.sh: $from has no 96 000-step checkpoint and metrics.csv" >&2
             exit 1
         }
+        rm -rf "$dir.tmp"
         mkdir -p "$dir.tmp/checkpoints"
         for f in config.toml run.json metrics.csv summary.json; do cp "$from/$f" "$dir.tmp/"; done
         cp -r "$from/checkpoints/step_00096000" "$dir.tmp/checkpoints/"
-        # A boost's run.json names the LMS cortex it continued relative to its folder.
-        case "$1" in LMS-boost-*) ln -sfn "../fourth-table/LMS-seed31-12k" "$R/LMS-seed31-12k" ;; esac
         mv "$dir.tmp" "$dir"
+    fi
+    # A boost's run.json names the cortex it continued from its own folder
+    # (`../LMS-seed31-12k/checkpoints/…`): that folder is linked beside it.
+    local origin
+    origin=$(sed -n 's/.*"continued_from": *"\.\.\/\([^/"]*\)\/.*/\1/p' "$dir/run.json")
+    if [ -n "$origin" ] && [ ! -e "$R/$origin" ]; then
+        ln -sfn "../fourth-table/$origin" "$R/$origin"
     fi
     # A boost counts its own steps, after the LMS cortex's 12 000.
     local own=$TOTAL

@@ -58,8 +58,13 @@ fn refuse_training_options(
         Some((option, _)) => Err(RunError::invalid(
             *option,
             format!(
-                "`{command}` trains nothing (its files replace those of an earlier `{command}` \
-                 in the folder)"
+                "`{command}` trains nothing{} (its files replace those of an earlier \
+                 `{command}` in the folder)",
+                if *option == "--steps" {
+                    " and draws no batches"
+                } else {
+                    ""
+                }
             ),
         )),
         None => Ok(()),

@@ -60,26 +60,41 @@ pub fn main() {
 
 /// The error for options given before a subcommand (`colorvision --steps 4 train`): they belong
 /// to the default `run` and the subcommand would not see them, so the line is refused, naming
-/// them. `None` when there is no subcommand or nothing precedes it.
+/// them, and saying which the subcommand does not take at all. `None` when there is no
+/// subcommand or nothing precedes it.
 pub fn options_before_subcommand(matches: &ArgMatches) -> Option<String> {
     let sub = matches.subcommand_name()?;
     let cli = Cli::command();
-    let given: Vec<String> = matches
+    let given: Vec<&str> = matches
         .ids()
         .filter(|id| matches.value_source(id.as_str()) == Some(ValueSource::CommandLine))
         .filter_map(|id| cli.get_arguments().find(|a| a.get_id() == id))
-        .filter_map(|a| a.get_long().map(|l| format!("--{l}")))
+        .filter_map(|a| a.get_long())
         .collect();
-    (!given.is_empty()).then(|| {
-        format!(
-            "{} given before the subcommand `{sub}`, which would not see {}: give {} after it \
-             (`colorvision {sub} {} …`)",
-            given.join(", "),
-            if given.len() == 1 { "it" } else { "them" },
-            if given.len() == 1 { "it" } else { "them" },
-            given[0]
-        )
-    })
+    if given.is_empty() {
+        return None;
+    }
+    let takes = |long: &str| {
+        cli.find_subcommand(sub)
+            .is_some_and(|s| s.get_arguments().any(|a| a.get_long() == Some(long)))
+    };
+    let flags = |names: &[&str]| {
+        names
+            .iter()
+            .map(|l| format!("--{l}"))
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    let lacks: Vec<&str> = given.iter().copied().filter(|l| !takes(l)).collect();
+    let advice = if lacks.is_empty() {
+        format!("give them after it (`colorvision {sub} --{} …`)", given[0])
+    } else {
+        format!("`{sub}` takes no {}", flags(&lacks))
+    };
+    Some(format!(
+        "{} given before the subcommand `{sub}`, which would not see them: {advice}",
+        flags(&given)
+    ))
 }
 
 #[cfg(test)]
@@ -107,6 +122,11 @@ mod tests {
             said.contains("--preset") && said.contains("--steps") && said.contains("`train`"),
             "{said}"
         );
+        assert!(said.contains("give them after it"), "{said}");
+        let said =
+            options_before_subcommand(&parse(&["colorvision", "--cones", "LM", "gather", "runs"]))
+                .expect("an option before `gather` is refused");
+        assert!(said.contains("`gather` takes no --cones"), "{said}");
     }
 
     #[test]

@@ -10,6 +10,7 @@ use std::process::Command;
 const BIN: &str = env!("CARGO_BIN_EXE_colorvision");
 
 mod cases;
+mod lines;
 mod scene_files;
 mod settings;
 
@@ -71,6 +72,77 @@ fn try_input(dir: &Path, name: &str, args: &[String], expect: &[&str], totals: &
     }
 }
 
+/// An output folder that is a file, or another run's folder: refused, and left as it was.
+fn try_out_cases(dir: &Path, totals: &mut Totals) {
+    for (name, expect) in OUT_CASES {
+        let out = dir.join("out");
+        let mut args: Vec<String> = ["train", "--preset", "tiny", "--steps", "2", "--out", "out"]
+            .iter()
+            .map(|s| s.to_string())
+            .collect();
+        if name.contains("file") {
+            std::fs::write(&out, "mine").unwrap();
+        } else {
+            std::fs::create_dir_all(&out).unwrap();
+            std::fs::write(out.join("notes.txt"), "mine").unwrap();
+        }
+        if name.contains("force") {
+            args.push("--force".into());
+        }
+        try_input(dir, name, &args, expect, totals);
+        let intact = if out.is_file() {
+            std::fs::read(&out).unwrap() == b"mine"
+        } else {
+            std::fs::read_dir(&out).unwrap().count() == 1
+        };
+        if !intact {
+            totals.wrote.push(name.to_string());
+        }
+        let _ = std::fs::remove_file(&out);
+        let _ = std::fs::remove_dir_all(&out);
+    }
+}
+
+/// A 100 000-character value is named, not echoed whole (`try_input` bounds the line).
+fn try_long_values(dir: &Path, totals: &mut Totals) {
+    let long = format!("{}Z", "C0:400,".repeat(14_285));
+    for (flag, value, names) in [
+        ("--cones", long.clone(), "--cones"),
+        ("--set", format!("cones={long}"), "--set"),
+        ("--preset", long.clone(), "preset"),
+    ] {
+        let mut args: Vec<String> = ["train", "--steps", "2", "--out", "out"]
+            .iter()
+            .map(|s| s.to_string())
+            .collect();
+        args.extend([flag.to_string(), value]);
+        let name = format!("{flag} of 100 000 characters");
+        try_input(dir, &name, &args, &[names], totals);
+        if dir.join("out").exists() {
+            totals.wrote.push(name);
+            std::fs::remove_dir_all(dir.join("out")).unwrap();
+        }
+    }
+}
+
+/// A whole command line ([`lines::LINE_CASES`]): its error must name `expect`, and neither
+/// `out` nor `runs` may be written (removed again if they were, so the next case starts clean).
+fn try_line(dir: &Path, line: &[&str], expect: &[&str], totals: &mut Totals) {
+    let args: Vec<String> = line.iter().map(|s| s.to_string()).collect();
+    let name = line.join(" ");
+    try_input(dir, &name, &args, expect, totals);
+    let mut wrote = false;
+    for folder in ["out", "runs"] {
+        if dir.join(folder).exists() {
+            wrote = true;
+            std::fs::remove_dir_all(dir.join(folder)).unwrap();
+        }
+    }
+    if wrote {
+        totals.wrote.push(name);
+    }
+}
+
 #[test]
 fn every_bad_input_gets_a_one_line_error_naming_file_and_field_and_writes_nothing() {
     let dir = scratch("bad_inputs");
@@ -99,133 +171,10 @@ fn every_bad_input_gets_a_one_line_error_naming_file_and_field_and_writes_nothin
             std::fs::remove_dir_all(dir.join("out")).unwrap();
         }
     }
-    for (name, expect) in OUT_CASES {
-        let out = dir.join("out");
-        let mut args: Vec<String> = ["train", "--preset", "tiny", "--steps", "2", "--out", "out"]
-            .iter()
-            .map(|s| s.to_string())
-            .collect();
-        if name.contains("file") {
-            std::fs::write(&out, "mine").unwrap();
-        } else {
-            std::fs::create_dir_all(&out).unwrap();
-            std::fs::write(out.join("notes.txt"), "mine").unwrap();
-        }
-        if name.contains("force") {
-            args.push("--force".into());
-        }
-        try_input(&dir, name, &args, expect, &mut totals);
-        let intact = if out.is_file() {
-            std::fs::read(&out).unwrap() == b"mine"
-        } else {
-            std::fs::read_dir(&out).unwrap().count() == 1
-        };
-        if !intact {
-            totals.wrote.push(name.to_string());
-        }
-        let _ = std::fs::remove_file(&out);
-        let _ = std::fs::remove_dir_all(&out);
-    }
-    // A 100 000-character value is named, not echoed whole (`try_input` bounds the line).
-    let long = format!("{}Z", "C0:400,".repeat(14_285));
-    for (flag, value, names) in [
-        ("--cones", long.clone(), "--cones"),
-        ("--set", format!("cones={long}"), "--set"),
-        ("--preset", long.clone(), "preset"),
-    ] {
-        let mut args: Vec<String> = ["train", "--steps", "2", "--out", "out"]
-            .iter()
-            .map(|s| s.to_string())
-            .collect();
-        args.extend([flag.to_string(), value]);
-        let name = format!("{flag} of 100 000 characters");
-        try_input(&dir, &name, &args, &[names], &mut totals);
-        if dir.join("out").exists() {
-            totals.wrote.push(name);
-            std::fs::remove_dir_all(dir.join("out")).unwrap();
-        }
-    }
-    // A held-out scene count that does not split into whole batches, halves of them.
-    for scenes in ["4", "10"] {
-        let args: Vec<String> = ["convergence", "--run", "out", "--held-out-scenes", scenes]
-            .iter()
-            .map(|s| s.to_string())
-            .collect();
-        let name = format!("convergence --held-out-scenes {scenes}");
-        try_input(
-            &dir,
-            &name,
-            &args,
-            &["--held-out-scenes", scenes],
-            &mut totals,
-        );
-        if dir.join("out").exists() {
-            totals.wrote.push(name);
-        }
-    }
-    // Settings a measurement of a run folder would not use: refused, not dropped.
-    for (line, names) in [
-        (&["scope", "--run", "out", "--cones", "LM"][..], "--cones"),
-        (
-            &["scope", "--run", "out", "--set", "cortex.d.widths=[8]"],
-            "--set",
-        ),
-        (&["stiles-burch", "--run", "out", "--seed", "3"], "--seed"),
-    ] {
-        let args: Vec<String> = line.iter().map(|s| s.to_string()).collect();
-        let name = line.join(" ");
-        try_input(&dir, &name, &args, &[names, "own settings"], &mut totals);
-        if dir.join("out").exists() {
-            totals.wrote.push(name);
-        }
-    }
-    // Training options `simulate` and `gamut` would not use.
-    for (line, names) in [
-        (
-            &[
-                "simulate", "--preset", "tiny", "--out", "out", "--steps", "5",
-            ][..],
-            "--steps",
-        ),
-        (
-            &["simulate", "--preset", "tiny", "--out", "out", "--resume"],
-            "--resume",
-        ),
-        (
-            &["gamut", "--preset", "tiny", "--out", "out", "--force"],
-            "--force",
-        ),
-    ] {
-        let args: Vec<String> = line.iter().map(|s| s.to_string()).collect();
-        let name = line.join(" ");
-        try_input(&dir, &name, &args, &[names, "trains nothing"], &mut totals);
-        if dir.join("out").exists() {
-            totals.wrote.push(name);
-        }
-    }
-    // Options before the subcommand belong to the default `run`: refused, not dropped.
-    for (line, names) in [
-        (
-            &["--preset", "tiny", "--steps", "2", "--out", "out", "train"][..],
-            "--steps",
-        ),
-        (
-            &["--cones", "LM", "run", "--preset", "tiny", "--out", "out"],
-            "--cones",
-        ),
-    ] {
-        let args: Vec<String> = line.iter().map(|s| s.to_string()).collect();
-        let name = format!("{} (options before the subcommand)", line.join(" "));
-        try_input(
-            &dir,
-            &name,
-            &args,
-            &[names, "before the subcommand"],
-            &mut totals,
-        );
-        if dir.join("out").exists() || dir.join("runs").exists() {
-            totals.wrote.push(name);
-        }
+    try_out_cases(&dir, &mut totals);
+    try_long_values(&dir, &mut totals);
+    for (line, expect) in lines::LINE_CASES {
+        try_line(&dir, line, expect, &mut totals);
     }
     println!(
         "bad inputs: {} tried, {} clear errors, {} unclear, {} panics, {} aborts, {} silent \
