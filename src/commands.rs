@@ -49,18 +49,18 @@ fn refuse_training_options(
     command: &str,
     refuse_steps: bool,
 ) -> Result<(), RunError> {
-    let given = [
+    let given = first_given(&[
         ("--steps", refuse_steps && options.steps.is_some()),
         ("--resume", options.resume),
         ("--force", options.force),
-    ];
-    match given.iter().find(|(_, on)| *on) {
-        Some((option, _)) => Err(RunError::invalid(
-            *option,
+    ]);
+    match given {
+        Some(option) => Err(RunError::invalid(
+            option,
             format!(
                 "`{command}` trains nothing{} (its files replace those of an earlier \
                  `{command}` in the folder)",
-                if *option == "--steps" {
+                if option == "--steps" {
                     " and draws no batches"
                 } else {
                     ""
@@ -303,7 +303,7 @@ pub(crate) fn refuse_settings_with_run(
 
 /// The first option of `common` that would change a run's eye or cortex, if any is given.
 fn eye_option_given(common: &crate::cli::CommonOptions) -> Option<&'static str> {
-    let given = [
+    first_given(&[
         ("--preset", common.preset.is_some()),
         ("--cones", common.cones.is_some()),
         ("--seed", common.seed.is_some()),
@@ -312,8 +312,15 @@ fn eye_option_given(common: &crate::cli::CommonOptions) -> Option<&'static str> 
         ("--scene", common.scene.is_some()),
         ("--resume", common.resume),
         ("--force", common.force),
-    ];
-    given.iter().find(|(_, on)| *on).map(|(option, _)| *option)
+    ])
+}
+
+/// The name of the first `(option, given)` pair that is given.
+fn first_given(options: &[(&'static str, bool)]) -> Option<&'static str> {
+    options
+        .iter()
+        .find(|(_, on)| *on)
+        .map(|(option, _)| *option)
 }
 
 /// The verdict, the base error against the energy, and each K's converged margin, in words.
