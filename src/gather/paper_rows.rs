@@ -123,13 +123,13 @@ impl JudgedRow<'_> {
         figures.join(", ")
     }
 
-    /// `yes`, `no (2 of 3)` (runs that differ of those compared), or `—`.
+    /// `yes`, `no (2 of 3 differ)` (runs that differ of those compared), or `—`.
     pub fn agrees_cell(&self) -> String {
         let (compared, agreeing) = self.compared_and_agreeing();
         match (compared, compared - agreeing) {
             (0, _) => "—".into(),
             (_, 0) => "yes".into(),
-            (n, differ) => format!("no ({differ} of {n})"),
+            (n, differ) => format!("no ({differ} of {n} differ)"),
         }
     }
 }

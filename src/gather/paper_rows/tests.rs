@@ -57,7 +57,7 @@ fn each_run_stands_beside_the_paper_and_disagreements_are_counted() {
             row.measured_figures(),
             row.agrees_cell()
         ),
-        ("1, 3".into(), "1, 2".into(), "no (1 of 2)".into())
+        ("1, 3".into(), "1, 2".into(), "no (1 of 2 differ)".into())
     );
     assert!(!row.reproduced() && !row.beyond_paper());
     assert!(judged[1].beyond_paper());
@@ -80,7 +80,7 @@ fn the_readme_table_is_the_tally_then_one_short_row_per_experiment() {
         "**0 of the paper's 1 experiments reproduce in every run; 1 of their 2 runs agree with \
          the paper's figure.**\n\n\
          | experiment | paper | measured | agrees |\n|---|---|---|---|\n\
-         | One and three classes | 1, 3 | 1, 2 | no (1 of 2) |\n\n\
+         | One and three classes | 1, 3 | 1, 2 | no (1 of 2 differ) |\n\n\
          | beyond the paper | measured |\n|---|---|\n| Beyond | 2 |\n"
     );
 }
