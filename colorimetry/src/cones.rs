@@ -35,9 +35,9 @@ pub use fundamentals::{sensitivities, ConeFundamentals};
 
 /// λmax of the L pigment, nm (authors' code, docs/references.md#cone-templates, paper S-02).
 pub const L_PEAK_NM: f64 = 560.0;
-/// λmax of the M pigment, nm.
+/// λmax of the M pigment, nm (authors' code, docs/references.md#cone-templates, paper S-02).
 pub const M_PEAK_NM: f64 = 530.0;
-/// λmax of the S pigment, nm.
+/// λmax of the S pigment, nm (authors' code, docs/references.md#cone-templates, paper S-02).
 pub const S_PEAK_NM: f64 = 419.0;
 /// λmax of the human tetrachromat's fourth pigment Q, nm (paper S-07).
 pub const HUMAN_Q_PEAK_NM: f64 = 545.0;

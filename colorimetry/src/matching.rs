@@ -64,8 +64,9 @@ pub struct SolverSettings {
     pub max_iterations: usize,
     /// Finite-difference step, in units of the test intensity.
     pub fd_step: f64,
-    /// Stop when an accepted step improves E by less than this fraction (docs/references.md#cmf-sim-defaults stops
-    /// Adam at a relative improvement of 1e-3 over 20 iterations; one LM step does more).
+    /// Stop when an accepted step improves E by less than this fraction (chosen here: a
+    /// Levenberg–Marquardt step in place of Adam with a relative-improvement stop,
+    /// docs/references.md#cmf-sim-defaults).
     pub rel_tolerance: f64,
     /// Stop when E falls below this fraction of E(0) (an exact match).
     pub exact_match_rel: f64,

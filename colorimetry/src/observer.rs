@@ -113,7 +113,8 @@ pub struct Show {
 /// Default patch placement (docs/references.md#cmf-sim-defaults), in field units (`[−1, 1]²`, so 1 unit = 256 px of
 /// the 512-px field): patch centres stay ≥ 24 px from the border.
 pub const DEFAULT_BORDER_MARGIN: f64 = 24.0 / 256.0;
-/// Minimum distance between the two patches of a pair (64 px of 512), field units.
+/// Minimum distance between the two patches of a pair (64 px of 512), field units
+/// (docs/references.md#cmf-sim-defaults, chosen here).
 pub const DEFAULT_MIN_PAIR_DISTANCE: f64 = 64.0 / 256.0;
 
 /// A black-box colour observer (paper S-04).

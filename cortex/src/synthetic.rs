@@ -49,7 +49,7 @@ pub struct SyntheticConfig {
 }
 
 impl SyntheticConfig {
-    /// LMS-like mosaic (.62/.32/.06), shifts in [−15, 14], σ 3 px, DoG on, identity-P units.
+    /// LMS-like mosaic (.62/.32/.06), shifts in [−15, 14], σ 2 px, DoG on, identity-P units.
     pub fn lms(n: usize, seed: u64) -> Self {
         SyntheticConfig {
             n,

@@ -12,7 +12,8 @@ pub struct CmfSimSettings {
     pub n_test_wavelengths: usize,
     /// Test range, nm (paper: 400–700).
     pub test_range_nm: (f64, f64),
-    /// Primary range split into K bands, nm.
+    /// Primary range split into K bands, nm (paper §5: monochromatic primaries in 400–700 nm;
+    /// the K equal bands are chosen here, docs/references.md#cmf-sim-defaults).
     pub primary_range_nm: (f64, f64),
     /// Largest K tried.
     pub max_primaries: usize,

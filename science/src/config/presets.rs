@@ -101,9 +101,9 @@ fn measurement_plan(name: &str, eye: &str) -> (u64, CmfSimSettings, Schedule) {
         // the cones, trained and measured the same way.
         "long" | "large" => (LONG_STEPS, 8000, 100, 100, 8),
         "main" => (MAIN_STEPS, 0, 100, 100, 8),
-        // quick: CMF-SIM at the end with a paper-like budget (100 wavelengths, 8 location
-        // pairs as the authors' code, docs/references.md#cmf-sim-defaults; 100 sets per K,
-        // the paper used 500): 1.5–4 min on a trained quick cortex. During training a
+        // quick: CMF-SIM at the end with a paper-like budget (100 wavelengths as the paper;
+        // 8 location pairs, chosen here: docs/references.md#cmf-sim-defaults, the authors'
+        // CMF-SIM is not public; 100 sets per K, the paper used 500): 1.5–4 min on a trained quick cortex. During training a
         // smaller budget (below) draws the dimension over steps (Fig. 3.3).
         _ => (6000, 1500, 100, 100, 8),
     };

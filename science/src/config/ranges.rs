@@ -68,7 +68,7 @@ pub const RANGES: &[Range] = &[
     r("retina.layout_seed", 0.0, SEED_MAX, "a seed"),
     r("retina.scene_seed", 0.0, SEED_MAX, "a seed"),
     pos("retina.layout.Foveated.edge_eccentricity_deg", 60.0, "eccentricity of the field's edge, deg"),
-    r("retina.layout.Foveated.density.peak_density_per_deg2", 1.0, 1e6, "foveal cone density, cones/deg² (human ≈ 14 800, Curcio et al. 1990)"),
+    r("retina.layout.Foveated.density.peak_density_per_deg2", 1.0, 1e6, "foveal cone density, cones/deg² (human ≈ 14 800, Watson 2014 from the data of Curcio et al. 1990)"),
     pos("retina.layout.Foveated.density.scale_eccentricity_deg", 90.0, "eccentricity scale of the density fall-off, deg"),
     r("retina.layout.Foveated.jitter.octaves", 1.0, 16.0, "octaves of the jitter noise"),
     r("retina.layout.Foveated.jitter.persistence", 0.0, 4.0, "amplitude ratio of successive jitter octaves"),

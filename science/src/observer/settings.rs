@@ -7,9 +7,10 @@ use crate::config::ConfigError;
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ObserverSettings {
-    /// Patch radius as a fraction of the field side (the proposal for the paper eye is 16 px
-    /// of 512 = 1/32 at 256 cones; a 64-cone eye needs a relatively larger patch to hold enough
-    /// cones: 1/8 is 16 px of 128, about 8 cones across).
+    /// Patch radius as a fraction of the field side, chosen here (docs/references.md#cmf-sim-defaults
+    /// proposes 16 px of 512 = 1/32 for the paper eye; a 64-cone eye needs a relatively larger
+    /// patch to hold enough cones: 1/8 is 16 px of 128, about 8 cones in radius). Every preset
+    /// but `tiny` uses 1/8, the `paper` eye too (64 px of 512, about 32 cones in radius).
     pub patch_radius_fraction: f64,
     /// Mean cone spacings removed from the patch edge before reading (the lateral-inhibition
     /// fringe: the 7×7 DoG reaches 3 cones, the bulk of its surround ≈ 1.5).
@@ -17,7 +18,8 @@ pub struct ObserverSettings {
     /// Largest single-class response to an equal-energy monochromatic test light (training
     /// white ≈ 1 after white balance; 0.5–0.8 keeps the test inside the trained range).
     pub peak_response: f64,
-    /// Photon/LI noise ratio r of the renders (0: noise-free; training draws r per batch).
+    /// Photon/LI noise ratio r of the renders (0: noise-free, chosen here, so that the base error
+    /// compares the cortex's percepts without a noise draw; training draws r per batch).
     pub noise_ratio: f32,
     /// Largest number of shows decoded per cortex call (calls are split evenly over threads).
     pub decode_batch: usize,
