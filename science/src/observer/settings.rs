@@ -7,10 +7,11 @@ use crate::config::ConfigError;
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ObserverSettings {
-    /// Patch radius as a fraction of the field side, chosen here (docs/references.md#cmf-sim-defaults
-    /// proposes 16 px of 512 = 1/32 for the paper eye; a 64-cone eye needs a relatively larger
-    /// patch to hold enough cones: 1/8 is 16 px of 128, about 8 cones in radius). Every preset
-    /// but `tiny` uses 1/8, the `paper` eye too (64 px of 512, about 32 cones in radius).
+    /// Patch radius as a fraction of the field side, chosen here
+    /// (docs/references.md#cmf-sim-defaults proposes 16 px of 512 = 1/32 for the paper eye; a
+    /// 64-cone eye needs a relatively larger patch to hold enough cones: 1/8 is 16 px of 128,
+    /// about 8 cones in radius). Every preset but `tiny` uses 1/8, the `paper` eye too (64 px of
+    /// 512, about 32 cones in radius).
     pub patch_radius_fraction: f64,
     /// Mean cone spacings removed from the patch edge before reading (the lateral-inhibition
     /// fringe: the 7×7 DoG reaches 3 cones, the bulk of its surround ≈ 1.5).
