@@ -40,31 +40,42 @@ pub struct SurfacesConfig {
     /// Shapes, sizes, brightness and light of the surfaces, as dead leaves
     /// (`radius_max_fraction` is replaced by `radius_max_px` over the tile side).
     pub leaves: DeadLeavesConfig,
-    /// Largest surface radius, px.
+    /// Largest surface radius, px. Default 400: chosen here (larger than any tile, so the largest
+    /// surfaces cover a whole tile, as walls and sky do in photographs); not searched.
     pub radius_max_px: f64,
     /// Largest standard deviation of a surface's log-brightness texture (natural-log units).
+    /// Default 0.3: grid-searched over 0.2–0.5 against photographs' autocorrelation curves
+    /// (`docs/notebook/2026-11-28-scene-statistics.md`).
     pub texture_log_sigma: f64,
-    /// Period of the texture's coarsest octave, px.
+    /// Period of the texture's coarsest octave, px. Default 64: chosen here; not searched.
     pub texture_period_px: f64,
-    /// Octaves of the texture (each half the period of the one before).
+    /// Octaves of the texture (each half the period of the one before). Default 5 (64 px down
+    /// to 4 px, two cone spacings): chosen here; not searched.
     pub texture_octaves: usize,
-    /// Amplitude ratio of successive texture octaves (0.5: about 1/f² power).
+    /// Amplitude ratio of successive texture octaves (0.5: about 1/f² power). Default 0.6:
+    /// chosen here; not searched.
     pub texture_persistence: f64,
-    /// Largest weight of a surface's second pigment.
+    /// Largest weight of a surface's second pigment. Default 1: grid-searched over 0.5–1
+    /// (`docs/notebook/2026-11-28-scene-statistics.md`).
     pub pigment_mix_max: f64,
-    /// Period of the pigment-weight field's coarsest octave, px.
+    /// Period of the pigment-weight field's coarsest octave, px. Default 16: grid-searched over
+    /// 16 and 32 (`docs/notebook/2026-11-28-scene-statistics.md`).
     pub pigment_period_px: f64,
-    /// Octaves of the pigment-weight field.
+    /// Octaves of the pigment-weight field. Default 4: grid-searched over 4 and 6
+    /// (`docs/notebook/2026-11-28-scene-statistics.md`).
     pub pigment_octaves: usize,
-    /// Amplitude ratio of successive pigment octaves.
+    /// Amplitude ratio of successive pigment octaves. Default 0.5: chosen here; not searched.
     pub pigment_persistence: f64,
     /// Independent texture (and pigment) fields per scene; each surface draws one of them.
+    /// Default 4: chosen here (a cost bound: each field is one Perlin sum over the tile).
     pub texture_fields: usize,
 }
 
 impl Default for SurfacesConfig {
     fn default() -> Self {
         SurfacesConfig {
+            // Smallest radius 24 px and size exponent 2.8: grid-searched (16–32 px, 2.8–3.2)
+            // against photographs (`docs/notebook/2026-11-28-scene-statistics.md`).
             leaves: DeadLeavesConfig {
                 radius_min_px: 24.0,
                 size_exponent: 2.8,
