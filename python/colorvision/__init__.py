@@ -7,6 +7,7 @@ model, and measure that model's colour dimensionality with the calibrated CMF-SI
         ...                                   # train a model on (N, n, n) float32 frames
     result = cv.cmf_sim(eye, my_decoder)      # my_decoder: (N, n, n) -> (N, C, n, n)
     print(result.dimension, result.margins)
+    print(cv.hidden(eye, my_decoder)["unique_r2"])   # each class's own signal it carries
 
 Conventions (docs/python.md):
 
@@ -34,6 +35,7 @@ from ._native import (
     Run,
     __version__,
     cmf_sim,
+    hidden,
     load_run,
 )
 
@@ -47,6 +49,7 @@ __all__ = [
     "Run",
     "__version__",
     "cmf_sim",
+    "hidden",
     "identity",
     "cone_activations",
     "oracle",

@@ -138,3 +138,10 @@ def cmf_sim(
     """CMF-SIM of the eye followed by `decoder`: a callable (N, n, n) float32 -> (N, C, n, n),
     a KnownDecoder, or a Run (then eye must be run.eye). budget: "full" (as colorvision
     cmf-sim) or "quick" (the budget during training)."""
+
+def hidden(eye: Eye, decoder: Decoder, scenes: int = 32) -> Dict[str, Any]:
+    """What the decoder's percept carries of each cone class's own signal at the other
+    classes' cones (held-out R² per class: "unique_r2", with "unique_share", "sites",
+    "classes"), and which colour directions it carries ("directions"), on `scenes` held-out
+    scenes of the eye: the figures of a run's summary.json (invariants.recovery.hidden,
+    .directions). decoder: as for cmf_sim."""

@@ -1,7 +1,8 @@
 //! `colorvision._native`: the Rust side of the `colorvision` Python package (see
 //! `docs/python.md`). The eye ([`eye::Eye`]) hands its optic nerve signal (ONS) to Python as
 //! NumPy arrays; CMF-SIM ([`measure::cmf_sim`]) measures any decoder — a Python callable, a
-//! known-answer decoder or a trained run's cortex.
+//! known-answer decoder or a trained run's cortex — and [`hidden::hidden`] which cone classes'
+//! own signals its percept carries.
 //!
 //! Conventions (the same as the Rust crates'):
 //! - An ONS frame is `(n, n)` float32 on the cone lattice: row = lattice row (top to bottom),
@@ -22,6 +23,7 @@ pub mod beside;
 pub mod decoders;
 pub mod errors;
 pub mod eye;
+pub mod hidden;
 pub mod measure;
 pub mod result;
 pub mod settings;
@@ -37,5 +39,6 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<result::CmfSimResult>()?;
     m.add_function(wrap_pyfunction!(decoders::load_run, m)?)?;
     m.add_function(wrap_pyfunction!(measure::cmf_sim, m)?)?;
+    m.add_function(wrap_pyfunction!(hidden::hidden, m)?)?;
     Ok(())
 }

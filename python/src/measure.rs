@@ -61,7 +61,11 @@ fn progress_sender(tx: &Sender<Request>) -> impl FnMut(&CmfSimProgress) + '_ {
 }
 
 /// The channel count C of a Python decoder, from its answer to one black frame.
-fn probe_channels(py: Python<'_>, callable: &Bound<'_, PyAny>, n: usize) -> PyResult<usize> {
+pub(crate) fn probe_channels(
+    py: Python<'_>,
+    callable: &Bound<'_, PyAny>,
+    n: usize,
+) -> PyResult<usize> {
     let frames = crate::arrays::f32_array(py, vec![0f32; n * n], &[1, n, n])?;
     let out = callable.call1((frames,))?;
     let percepts = read_f32(py, &out, "the decoder's output")?;

@@ -225,11 +225,9 @@ pub fn measure_held_out(
     scenes: usize,
 ) -> (HiddenRecovery, DirectionRecovery) {
     assert!(scenes > 0, "measure_held_out: needs at least one scene");
-    let batches: Vec<_> = (0..scenes.div_ceil(HIDDEN_BATCH_SIZE))
-        .map(|_| source.next_eye_batch(HIDDEN_BATCH_SIZE).clone())
-        .collect();
+    let batches = held_out_batches(source, scenes);
     let border = cortex.config.loss.border_px;
-    held_out_of(
+    measure_held_out_of(
         &source.retina,
         &batches,
         cortex.percept_dim(),
@@ -238,9 +236,18 @@ pub fn measure_held_out(
     )
 }
 
-/// [`HiddenSamples`] of the percepts (`dim` channels) `decode(frames, count)` gives for frame 0
-/// of `batches` of `retina`, inside `border`, measured both ways.
-fn held_out_of(
+/// The next `scenes` scenes of `source` as batches of [`HIDDEN_BATCH_SIZE`] (the count rounded
+/// up to whole batches): the scenes [`measure_held_out`] reads.
+pub fn held_out_batches(source: &mut RetinaSource, scenes: usize) -> Vec<retina::EyeBatch> {
+    (0..scenes.div_ceil(HIDDEN_BATCH_SIZE))
+        .map(|_| source.next_eye_batch(HIDDEN_BATCH_SIZE).clone())
+        .collect()
+}
+
+/// [`measure_held_out`] for any decoder: `decode(frames, count)` gives the `dim`-channel
+/// percepts `(count, dim, n, n)` of `count` ONS frames `(count, n, n)` (frame 0 of each of
+/// `batches` of `retina`); the figures are read at the cones inside `border`.
+pub fn measure_held_out_of(
     retina: &Retina,
     batches: &[retina::EyeBatch],
     dim: usize,

@@ -1,0 +1,66 @@
+"""What a percept carries of each cone class's own signal, from Python: known answers (the
+oracle that interpolates each kind carries it, the oracle that keeps each cell's own kind and
+the ONS itself do not), a run's figures equal to its summary.json, and a Python decoder equal
+to the same decoder known to Rust."""
+
+import json
+
+import numpy as np
+import pytest
+
+import colorvision as cv
+
+
+@pytest.fixture(scope="module")
+def quick():
+    return cv.Eye("quick", cones="LMS")
+
+
+def test_the_interpolating_oracle_carries_every_class_and_the_mosaic_oracle_none(quick):
+    # At a cone of another class, only interpolation from a class's own cones can tell what
+    # that class caught beyond the others: the oracle without interpolation, and the ONS,
+    # leave nothing of it (R² at or below 0), the interpolating oracle a clear share.
+    interpolating = cv.hidden(quick, cv.oracle())
+    assert interpolating["classes"] == ["L", "M", "S"]
+    assert all(r2 > 0.25 for r2 in interpolating["unique_r2"]), interpolating
+    for decoder in (cv.oracle(interpolate=False), cv.identity()):
+        none = cv.hidden(quick, decoder)
+        assert all(r2 < 0.05 for r2 in none["unique_r2"]), (decoder, none)
+        # the scenes and sites are the same whatever the decoder
+        assert none["unique_share"] == interpolating["unique_share"]
+        assert none["sites"] == interpolating["sites"]
+
+
+def test_a_python_decoder_equals_the_same_decoder_known_to_rust(quick):
+    known = cv.hidden(quick, cv.identity(), scenes=8)
+    python = cv.hidden(quick, lambda ons: ons[:, None], scenes=8)
+    assert python == known
+    # and a decoder that reads more gives other figures
+    doubled = cv.hidden(quick, lambda ons: np.stack([ons, ons**2], axis=1), scenes=8)
+    assert doubled["unique_r2"] != known["unique_r2"]
+
+
+def test_a_run_measured_from_python_equals_its_summary(tiny_run):
+    run = cv.load_run(tiny_run)
+    got = cv.hidden(run.eye, run)
+    summary = json.loads((tiny_run / "summary.json").read_text())
+    recovery = summary["invariants"]["recovery"]
+    want = dict(recovery["hidden"], directions=recovery["directions"])
+    assert got == want
+
+
+def test_bad_decoders_and_counts_are_refused(quick):
+    with pytest.raises(TypeError, match="not callable"):
+        cv.hidden(quick, 3)
+    with pytest.raises(ValueError, match="scenes must be"):
+        cv.hidden(quick, cv.identity(), scenes=1)
+    with pytest.raises(ValueError, match="shape"):
+        cv.hidden(quick, lambda ons: ons)
+
+    def fails(ons):
+        if ons.shape[0] > 1:
+            raise RuntimeError("the model broke")
+        return ons[:, None]
+
+    with pytest.raises(RuntimeError, match="the model broke"):
+        cv.hidden(quick, fails)
