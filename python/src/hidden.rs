@@ -22,7 +22,9 @@ use crate::measure::probe_channels;
 use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use science::config::RunConfig;
-use science::invariants::{held_out_batches, measure_held_out_of, HELD_OUT_SCENES};
+use science::invariants::{
+    held_out_batches, measure_held_out_of, HELD_OUT_SCENES, HIDDEN_BATCH_SIZE,
+};
 use science::observer::oracle::ORACLE_PERCEPT_DIM;
 use science::observer::{ObserverKind, OracleDecoder};
 use science::source::RetinaSource;
@@ -32,14 +34,26 @@ use std::sync::atomic::AtomicBool;
 /// The percepts of `count` frames `(count, n, n)` into `(count, dim, n, n)`.
 type Decode<'a> = Box<dyn FnMut(&[f32], usize) -> Result<Vec<f32>, String> + 'a>;
 
-/// The run's held-out eye and its next `scenes` scenes (module docs).
+/// Most held-out scenes one call measures (each batch of four is kept until the end).
+pub const MAX_SCENES: usize = 4096;
+
+/// The run's held-out eye and its next `scenes` scenes (module docs), batch by batch until
+/// `stop` is set.
 fn held_out(
     config: &RunConfig,
     scenes: usize,
     stop: &AtomicBool,
 ) -> Result<(RetinaSource, Vec<retina::EyeBatch>), Error> {
     let mut source = science::heldout::heldout_source_until(config, true, stop)?;
-    let batches = held_out_batches(&mut source, scenes);
+    let mut batches = Vec::new();
+    for _ in 0..scenes.div_ceil(HIDDEN_BATCH_SIZE) {
+        if stop.load(std::sync::atomic::Ordering::Relaxed) {
+            return Err(Error::Stopped {
+                stage: "the held-out scenes",
+            });
+        }
+        batches.extend(held_out_batches(&mut source, HIDDEN_BATCH_SIZE));
+    }
     Ok((source, batches))
 }
 
@@ -73,37 +87,43 @@ fn measure(
     Ok(value)
 }
 
-/// A known-answer decoder on ONS frames: `identity` the frame itself, `cones` its cone
-/// activations (the lateral inhibition inverted), `oracle` / `oracle-mosaic` the oracle of
-/// the eye's true mosaic on those activations (CMF-SIM's seed draws its embedding).
+/// A known-answer decoder on ONS frames, with its channel count: `identity` the frame itself,
+/// `cones` its cone activations (the lateral inhibition inverted on the noisy frame, where
+/// CMF-SIM's `cones` reads the noise-free activations), `oracle` / `oracle-mosaic` the oracle
+/// of the eye's true mosaic on those activations (CMF-SIM's seed draws its embedding).
 fn known<'r>(
     kind: ObserverKind,
     config: &RunConfig,
-    retina: &'r retina::Retina,
-) -> Result<Decode<'r>, Error> {
-    let nn = retina.n() * retina.n();
-    let li = retina;
+    eye: &'r retina::Retina,
+) -> Result<(usize, Decode<'r>), Error> {
+    let nn = eye.n() * eye.n();
     match kind {
-        ObserverKind::Identity => Ok(Box::new(|frames: &[f32], _| Ok(frames.to_vec()))),
-        ObserverKind::Cones => Ok(Box::new(move |frames: &[f32], _| {
-            Ok(frames
-                .chunks_exact(nn)
-                .flat_map(|f| OracleDecoder::activations(li, f, None))
-                .collect())
-        })),
+        ObserverKind::Identity => Ok((1, Box::new(|frames: &[f32], _| Ok(frames.to_vec())))),
+        ObserverKind::Cones => Ok((
+            1,
+            Box::new(move |frames: &[f32], _| {
+                Ok(frames
+                    .chunks_exact(nn)
+                    .flat_map(|f| OracleDecoder::activations(eye, f, None))
+                    .collect())
+            }),
+        )),
         ObserverKind::Oracle | ObserverKind::OracleMosaic => {
             let interpolate = kind == ObserverKind::Oracle;
-            let oracle = science::measure::oracle_decoder(retina, config, interpolate)?;
-            Ok(Box::new(move |frames: &[f32], _| {
-                let mut out = vec![0f32; frames.len() / nn * ORACLE_PERCEPT_DIM * nn];
-                for (f, o) in frames
-                    .chunks_exact(nn)
-                    .zip(out.chunks_exact_mut(ORACLE_PERCEPT_DIM * nn))
-                {
-                    oracle.decode(&OracleDecoder::activations(li, f, None), o);
-                }
-                Ok(out)
-            }))
+            let oracle = science::measure::oracle_decoder(eye, config, interpolate)?;
+            Ok((
+                ORACLE_PERCEPT_DIM,
+                Box::new(move |frames: &[f32], _| {
+                    let mut out = vec![0f32; frames.len() / nn * ORACLE_PERCEPT_DIM * nn];
+                    for (f, o) in frames
+                        .chunks_exact(nn)
+                        .zip(out.chunks_exact_mut(ORACLE_PERCEPT_DIM * nn))
+                    {
+                        oracle.decode(&OracleDecoder::activations(eye, f, None), o);
+                    }
+                    Ok(out)
+                }),
+            ))
         }
         other => Err(Error::invalid(
             "decoder",
@@ -113,7 +133,8 @@ fn known<'r>(
 }
 
 /// What `decoder`'s percept carries of each cone class's own signal, and which colour
-/// directions it carries (module docs), on `scenes` held-out scenes of `eye`. `decoder`: a
+/// directions it carries (module docs), on `scenes` held-out scenes of `eye` (2 to
+/// [`MAX_SCENES`], rounded up to whole batches of four). `decoder`: a
 /// Python callable `(N, n, n)` → `(N, C, n, n)`, a known-answer decoder (`identity`, `cones`,
 /// `oracle`, `oracle-mosaic`) or a trained run (`eye` must then be its eye).
 #[pyfunction]
@@ -125,21 +146,17 @@ pub fn hidden(
     scenes: usize,
 ) -> PyResult<PyObject> {
     let eye = eye.get();
-    if scenes < 2 {
-        return Err(PyValueError::new_err(
-            "scenes must be ≥ 2 (half of them fit, half score)",
-        ));
+    if !(2..=MAX_SCENES).contains(&scenes) {
+        return Err(PyValueError::new_err(format!(
+            "scenes must be 2 to {MAX_SCENES} (half of them fit, half score), not {scenes}"
+        )));
     }
     let config = &eye.config;
     let value = if let Ok(known_decoder) = decoder.downcast::<KnownDecoder>() {
         let kind = known_decoder.get().kind;
-        let dim = match kind {
-            ObserverKind::Oracle | ObserverKind::OracleMosaic => ORACLE_PERCEPT_DIM,
-            _ => 1,
-        };
         run_beside_python(py, None, None, |_, stop| {
             let (source, batches) = held_out(config, scenes, stop)?;
-            let decode = known(kind, config, &source.retina)?;
+            let (dim, decode) = known(kind, config, &source.retina)?;
             measure(config, (&source.retina, &batches), dim, decode)
         })?
     } else if let Ok(run) = decoder.downcast::<Run>() {

@@ -18,12 +18,13 @@ def quick():
 
 def test_the_interpolating_oracle_carries_every_class_and_the_mosaic_oracle_none(quick):
     # At a cone of another class, only interpolation from a class's own cones can tell what
-    # that class caught beyond the others: the oracle without interpolation, and the ONS,
-    # leave nothing of it (R² at or below 0), the interpolating oracle a clear share.
+    # that class caught beyond the others: the oracle without interpolation, the ONS and the
+    # cone activations leave nothing of it (R² at or below 0), the interpolating oracle a
+    # clear share.
     interpolating = cv.hidden(quick, cv.oracle())
     assert interpolating["classes"] == ["L", "M", "S"]
     assert all(r2 > 0.25 for r2 in interpolating["unique_r2"]), interpolating
-    for decoder in (cv.oracle(interpolate=False), cv.identity()):
+    for decoder in (cv.oracle(interpolate=False), cv.identity(), cv.cone_activations()):
         none = cv.hidden(quick, decoder)
         assert all(r2 < 0.05 for r2 in none["unique_r2"]), (decoder, none)
         # the scenes and sites are the same whatever the decoder
@@ -47,20 +48,29 @@ def test_a_run_measured_from_python_equals_its_summary(tiny_run):
     recovery = summary["invariants"]["recovery"]
     want = dict(recovery["hidden"], directions=recovery["directions"])
     assert got == want
+    # the same cortex as a Python decoder (8 channels, through NumPy) gives the same figures
+    assert cv.hidden(run.eye, lambda ons: run(ons)) == got
 
 
 def test_bad_decoders_and_counts_are_refused(quick):
     with pytest.raises(TypeError, match="not callable"):
         cv.hidden(quick, 3)
-    with pytest.raises(ValueError, match="scenes must be"):
-        cv.hidden(quick, cv.identity(), scenes=1)
+    for scenes in (1, 10**12):
+        with pytest.raises(ValueError, match="scenes must be"):
+            cv.hidden(quick, cv.identity(), scenes=scenes)
     with pytest.raises(ValueError, match="shape"):
         cv.hidden(quick, lambda ons: ons)
 
+    class ModelBroke(Exception):
+        pass
+
+    raised = ModelBroke("the model broke")
+
     def fails(ons):
         if ons.shape[0] > 1:
-            raise RuntimeError("the model broke")
+            raise raised
         return ons[:, None]
 
-    with pytest.raises(RuntimeError, match="the model broke"):
+    with pytest.raises(ModelBroke) as excinfo:
         cv.hidden(quick, fails)
+    assert excinfo.value is raised

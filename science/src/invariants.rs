@@ -247,6 +247,9 @@ pub fn held_out_batches(source: &mut RetinaSource, scenes: usize) -> Vec<retina:
 /// [`measure_held_out`] for any decoder: `decode(frames, count)` gives the `dim`-channel
 /// percepts `(count, dim, n, n)` of `count` ONS frames `(count, n, n)` (frame 0 of each of
 /// `batches` of `retina`); the figures are read at the cones inside `border`.
+///
+/// # Panics
+/// If `decode` answers with fewer than `count·dim·n²` values.
 pub fn measure_held_out_of(
     retina: &Retina,
     batches: &[retina::EyeBatch],

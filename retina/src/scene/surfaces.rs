@@ -4,8 +4,9 @@
 //! Stage `surface_scene(config, library, size_px, rng)` → a [`LeafScene`] rendered like dead
 //! leaves (`render_spectral`, `render_projected`).
 //!
-//! Model (units: px at the eyes' 2 px per cone; every number a modelling choice of ours, fitted
-//! to photographs as `docs/notebook/2026-11-28-scene-statistics.md` describes):
+//! Model (units: px at the eyes' 2 px per cone; every number a modelling choice of ours, some
+//! fitted to photographs as `docs/notebook/2026-11-28-scene-statistics.md` describes: each
+//! field of [`SurfacesConfig`] says which):
 //! - **Surfaces**: dead leaves (occlusion, random ellipses and rectangles; [`super::dead_leaves`])
 //!   whose radius density ∝ r^(−α) runs from `leaves.radius_min_px` to an absolute
 //!   `radius_max_px` (not a fraction of the tile), so every eye, whatever its tile, sees
@@ -40,11 +41,12 @@ pub struct SurfacesConfig {
     /// Shapes, sizes, brightness and light of the surfaces, as dead leaves
     /// (`radius_max_fraction` is replaced by `radius_max_px` over the tile side).
     pub leaves: DeadLeavesConfig,
-    /// Largest surface radius, px. Default 400: chosen here (larger than any tile, so the largest
-    /// surfaces cover a whole tile, as walls and sky do in photographs); not searched.
+    /// Largest surface radius, px. Default 400: chosen here (its diameter, 800 px, exceeds every
+    /// preset's tile, 96–576 px, so the largest surfaces cover a whole tile, as walls and sky
+    /// do in photographs); not searched.
     pub radius_max_px: f64,
     /// Largest standard deviation of a surface's log-brightness texture (natural-log units).
-    /// Default 0.3: grid-searched over 0.2–0.5 against photographs' autocorrelation curves
+    /// Default 0.3: grid-searched over 0.2–0.5 against the fit photographs' median curves
     /// (`docs/notebook/2026-11-28-scene-statistics.md`).
     pub texture_log_sigma: f64,
     /// Period of the texture's coarsest octave, px. Default 64: chosen here; not searched.
@@ -74,8 +76,9 @@ pub struct SurfacesConfig {
 impl Default for SurfacesConfig {
     fn default() -> Self {
         SurfacesConfig {
-            // Smallest radius 24 px and size exponent 2.8: grid-searched (16–32 px, 2.8–3.2)
-            // against photographs (`docs/notebook/2026-11-28-scene-statistics.md`).
+            // Smallest radius 24 px and size exponent 2.8: grid-searched against photographs
+            // (16–32 px × 2.8–3.2 first, then 2.8/3.0 with the pigment settings;
+            // `docs/notebook/2026-11-28-scene-statistics.md`).
             leaves: DeadLeavesConfig {
                 radius_min_px: 24.0,
                 size_exponent: 2.8,

@@ -20,8 +20,8 @@
 //!
 //! Layout: `percept` row-major `(sites, dim)`, `excitation` row-major `(sites, classes)`.
 
+use super::held_out_samples;
 use super::hidden::{affine_residuals, held_out_r2};
-use super::{held_out_samples, HIDDEN_BATCH_SIZE};
 use crate::source::RetinaSource;
 use cortex::Cortex;
 
@@ -102,7 +102,7 @@ pub struct OwnImagePicture {
 }
 
 /// [`own_image`] of the eye's last class on the next `scenes` held-out scenes of `source`
-/// (frame 0, batches of [`HIDDEN_BATCH_SIZE`], the count rounded up to whole batches), at every
+/// (frame 0, batches of [`super::HIDDEN_BATCH_SIZE`], the count rounded up to whole batches), at every
 /// cone inside the loss border: the first half of the scenes fits the reading, the second half
 /// scores it, and the picture is the last scene's. `None` for a one-class eye or fewer than two
 /// scenes.
@@ -113,9 +113,7 @@ pub fn held_out(
 ) -> Option<OwnImagePicture> {
     let (n, classes) = (source.retina.n(), source.retina.mosaic.n_classes());
     let (dim, border) = (cortex.percept_dim(), cortex.config.loss.border_px);
-    let batches: Vec<_> = (0..scenes.div_ceil(HIDDEN_BATCH_SIZE))
-        .map(|_| source.next_eye_batch(HIDDEN_BATCH_SIZE).clone())
-        .collect();
+    let batches = super::held_out_batches(source, scenes);
     let retina = &source.retina;
     let samples = held_out_samples(retina, &batches, dim, border, |frames, count| {
         cortex.decode_frames(frames, count)
