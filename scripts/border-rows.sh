@@ -5,12 +5,14 @@
 # seeds 0, 1, 2; B2, L:M:S 1:1:1 on seeds 41 and 42, each read at location seeds 0, 1, 2; B3,
 # the same eye on the same seeds in the scenes of the earlier 1:1:1 record (dead leaves with
 # hue-sphere tiles), the A/B of the scenes; B4, the same eye on the same seeds in surface scenes
-# with a tenth of hue-sphere tiles (which part of B3's scenes).
+# with a tenth of hue-sphere tiles (which part of B3's scenes); B5, the no-demosaicker cell's
+# settings on seeds 41 and 42 in surface scenes (S) and in dead leaves (D), the A/B of its scenes.
 # Running it again continues (a stopped run resumes from its newest checkpoint, a measured
 # location seed is skipped; a run kept in runs-kept/border/ is restored first).
 #
 # Usage: nice -n 10 scripts/border-rows.sh
-#   RUNS="B1" scripts/border-rows.sh           only those (B1, B2-41, B2-42, B3-41, B3-42, B4-41, B4-42)
+#   RUNS="B1" scripts/border-rows.sh           only those (B1, B2-41, B2-42, B3-41, B3-42, B4-41,
+#                                              B4-42, B5-S-41, B5-S-42, B5-D-41, B5-D-42)
 #   COLORVISION=path/to/colorvision            the binary (default target/release/colorvision)
 set -euo pipefail
 ROOT=$(cd "$(dirname "$0")/.." && pwd)
@@ -50,6 +52,16 @@ for run in ${RUNS:-B1 B2-41 B2-42}; do
                 --preset main --cones iid,L=1,M=1,S=1 \
                 --set retina.scenes.tetra.environment=HueSphere \
                 --set retina.scenes.tetra.fraction=0.1 ;;
+        B5-S-41 | B5-S-42 | B5-D-41 | B5-D-42)
+            S=${run##*-}
+            case "$run" in
+                B5-S-*) name="no-demosaicker-surfaces-seed$S" scenes=surfaces ;;
+                *) name="no-demosaicker-deadleaves-seed$S" scenes=dead_leaves ;;
+            esac
+            restore "$name"
+            "$P" "$R/$name" "$S" 8000 "8000" "0 1 2" \
+                --config "$ROOT/results/LMS-baseline-no-demosaicker-surfaces-8k/config.toml" \
+                --set retina.scenes.generator=$scenes ;;
         *) echo "border-rows.sh: unknown run $run" >&2; exit 2 ;;
     esac
 done
