@@ -9,7 +9,7 @@
 //! held-out evaluation, CMF-SIM) still running [`STAGE_GRACE`] later is stopped unfinished
 //! through [`stop_flag`], which it checks in its loop, and the run ends within seconds from its
 //! last checkpoint. A stage that does not return in time is left: [`STOP_DEADLINE`] after the
-//! signal the process ends on its own as a stop does ([`deadline`]).
+//! signal the process ends on its own as a stop does (`deadline`).
 //!
 //! Fault injection for tests (`COLORVISION_FAULT`, read by [`install_fault_injection`]): a
 //! comma-separated list of `ACTION@POINT:STEP` (STEP counts the cortex's updates, so in a

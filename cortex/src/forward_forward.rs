@@ -149,7 +149,7 @@ fn layers(
 /// whose (positive) motion is `motion`, and the re-encoder's, on the tape that recorded
 /// `prediction` ([`Cortex::record_prediction`]; its decode of `O_t` is reused): the goodness
 /// of right against wrong motion (module docs) or, for [`LocalObjective::Prediction`], each
-/// layer's own prediction of `O_{t+1}` ([`prediction`]).
+/// layer's own prediction of `O_{t+1}` (`prediction`).
 pub fn record_local_losses(
     cortex: &Cortex,
     tape: &mut Tape<f32>,

@@ -89,7 +89,7 @@ const DECODE_F32_PER_PIXEL: f64 = 131.0;
 
 /// One thread's decode of `decode_batch` shows by the cortex, each over `pixels` ONS pixels
 /// (its decode window: [`cmf_sim::decode_pixels`]; at most the whole field), bytes
-/// ([`DECODE_F32_PER_PIXEL`] per pixel a show). The observer keeps at most this much of the
+/// (`DECODE_F32_PER_PIXEL` per pixel a show). The observer keeps at most this much of the
 /// whole field's idle in each thread's decoding tape between decodes.
 pub fn decode_tape_bytes(decode_batch: usize, pixels: f64) -> f64 {
     decode_batch as f64 * pixels * 4.0 * DECODE_F32_PER_PIXEL
@@ -220,7 +220,7 @@ pub fn without_pictures(estimate: Estimate) -> Estimate {
 }
 
 /// The estimate for a command that builds the eye alone (`simulate`, `gamut`): the eye's fixed
-/// part ([`eye_fixed_bytes`]) and one scene pool (no held-out pool, no cortex, no CMF-SIM).
+/// part (`eye_fixed_bytes`) and one scene pool (no held-out pool, no cortex, no CMF-SIM).
 pub fn estimate_eye(config: &RunConfig) -> Estimate {
     let e = estimate(config, false, 1);
     Estimate {

@@ -13,7 +13,7 @@
 //!   against the within- and across-tile residual variances;
 //! - **ONS own / noise**: in the optic nerve signal at the Q cones, the variance that Q's own
 //!   part (its across-tile residual, at the Q cones only, through the lateral inhibition) adds,
-//!   over the variance of the photon and LI noise there (measured at r = 1, times E[r²]);
+//!   over the variance of the photon and LI noise there (measured at r = 1, times E\[r²\]);
 //! - **demosaicking error**: at each Q cone, the across-tile fit of Q applied to L, M, S taken
 //!   as the mean of the nearest pure cones of each class (the smallest square window, radius
 //!   1–[`DEMOSAIC_MAX_RADIUS_CELLS`] cells, holding one), minus the same fit applied to the true
