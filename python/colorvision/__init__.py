@@ -37,6 +37,7 @@ from ._native import (
     cmf_sim,
     hidden,
     load_run,
+    own_image,
 )
 
 logging.getLogger("colorvision").addHandler(logging.NullHandler())
@@ -50,6 +51,7 @@ __all__ = [
     "__version__",
     "cmf_sim",
     "hidden",
+    "own_image",
     "identity",
     "cone_activations",
     "oracle",

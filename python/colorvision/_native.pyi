@@ -145,3 +145,10 @@ def hidden(eye: Eye, decoder: Decoder, scenes: int = 32) -> Dict[str, Any]:
     "classes"), and which colour directions it carries ("directions"), on `scenes` held-out
     scenes of the eye: the figures of a run's summary.json (invariants.recovery.hidden,
     .directions). decoder: as for cmf_sim."""
+
+def own_image(eye: Eye, decoder: Decoder, scenes: int = 32) -> Optional[Dict[str, Any]]:
+    """The eye's last class's own signal (S for LMS, Q for LMSQ) on the last held-out scene
+    beside the decoder's reading of it: "truth" and "reading" (side, side) float64 inside the
+    loss border, "held_out_r2" over the scoring half of the scenes, "scene_srgb" (3, n, n),
+    "class", "class_range", "n", "border"; None for an eye of one class. decoder: as for
+    cmf_sim."""

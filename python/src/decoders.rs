@@ -57,6 +57,15 @@ impl KnownDecoder {
     }
 }
 
+/// The error for a `decoder` argument that is none of the decoders a measure takes.
+pub fn not_a_decoder(decoder: &Bound<'_, PyAny>) -> PyErr {
+    pyo3::exceptions::PyTypeError::new_err(format!(
+        "decoder: a {} is not callable; give a function (N, n, n) → (N, C, n, n), a \
+         KnownDecoder or a Run",
+        crate::arrays::type_name(decoder)
+    ))
+}
+
 /// A trained run folder: its settings, its eye and its learned cortex as a decoder.
 #[pyclass(module = "colorvision._native", frozen)]
 pub struct Run {

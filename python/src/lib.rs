@@ -1,8 +1,8 @@
 //! `colorvision._native`: the Rust side of the `colorvision` Python package (see
 //! `docs/python.md`). The eye ([`eye::Eye`]) hands its optic nerve signal (ONS) to Python as
 //! NumPy arrays; CMF-SIM ([`measure::cmf_sim`]) measures any decoder — a Python callable, a
-//! known-answer decoder or a trained run's cortex — and [`hidden::hidden`] which cone classes'
-//! own signals its percept carries.
+//! known-answer decoder or a trained run's cortex — and [`held_out::hidden`] which cone classes'
+//! own signals its percept carries ([`held_out::own_image`]: as a picture).
 //!
 //! Conventions (the same as the Rust crates'):
 //! - An ONS frame is `(n, n)` float32 on the cone lattice: row = lattice row (top to bottom),
@@ -23,7 +23,7 @@ pub mod beside;
 pub mod decoders;
 pub mod errors;
 pub mod eye;
-pub mod hidden;
+pub mod held_out;
 pub mod measure;
 pub mod result;
 pub mod settings;
@@ -39,6 +39,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<result::CmfSimResult>()?;
     m.add_function(wrap_pyfunction!(decoders::load_run, m)?)?;
     m.add_function(wrap_pyfunction!(measure::cmf_sim, m)?)?;
-    m.add_function(wrap_pyfunction!(hidden::hidden, m)?)?;
+    m.add_function(wrap_pyfunction!(held_out::hidden, m)?)?;
+    m.add_function(wrap_pyfunction!(held_out::own_image, m)?)?;
     Ok(())
 }

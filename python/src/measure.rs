@@ -13,7 +13,7 @@ use crate::errors::{science_error, value_error};
 use crate::eye::Eye;
 use crate::result::CmfSimResult;
 use colorimetry::cmf_sim::CmfSimProgress;
-use pyo3::exceptions::{PyTypeError, PyValueError};
+use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use science::config::RunConfig;
 use science::observer::{Decoder, ExternalDecoder, ObserverKind};
@@ -179,11 +179,7 @@ pub fn cmf_sim(
             )
         })?
     } else {
-        return Err(PyTypeError::new_err(format!(
-            "decoder: a {} is not callable; give a function (N, n, n) → (N, C, n, n), a \
-             KnownDecoder or a Run",
-            crate::arrays::type_name(decoder)
-        )));
+        return Err(crate::decoders::not_a_decoder(decoder));
     };
     result
         .map(|inner| CmfSimResult { inner })

@@ -102,26 +102,38 @@ pub struct OwnImagePicture {
 }
 
 /// [`own_image`] of the eye's last class on the next `scenes` held-out scenes of `source`
-/// (frame 0, batches of [`super::HIDDEN_BATCH_SIZE`], the count rounded up to whole batches), at every
-/// cone inside the loss border: the first half of the scenes fits the reading, the second half
-/// scores it, and the picture is the last scene's. `None` for a one-class eye or fewer than two
-/// scenes.
+/// (frame 0, batches of [`super::HIDDEN_BATCH_SIZE`], the count rounded up to whole batches), at
+/// every cone inside the loss border: the first half of the scenes fits the reading, the second
+/// half scores it, and the picture is the last scene's. `None` for a one-class eye or fewer
+/// than two scenes.
 pub fn held_out(
     cortex: &Cortex,
     source: &mut RetinaSource,
     scenes: usize,
 ) -> Option<OwnImagePicture> {
-    let (n, classes) = (source.retina.n(), source.retina.mosaic.n_classes());
-    let (dim, border) = (cortex.percept_dim(), cortex.config.loss.border_px);
     let batches = super::held_out_batches(source, scenes);
-    let retina = &source.retina;
-    let samples = held_out_samples(retina, &batches, dim, border, |frames, count| {
+    let (dim, border) = (cortex.percept_dim(), cortex.config.loss.border_px);
+    held_out_of(&source.retina, &batches, dim, border, |frames, count| {
         cortex.decode_frames(frames, count)
-    });
+    })
+}
+
+/// [`held_out`] for any decoder: `decode(frames, count)` gives the `dim`-channel percepts
+/// `(count, dim, n, n)` of `count` ONS frames `(count, n, n)` (frame 0 of each of `batches` of
+/// `retina`), read at the cones inside `border`. `None` for a one-class eye or fewer than two
+/// samples.
+pub fn held_out_of(
+    retina: &retina::Retina,
+    batches: &[retina::EyeBatch],
+    dim: usize,
+    border: usize,
+    decode: impl FnMut(&[f32], usize) -> Vec<f32>,
+) -> Option<OwnImagePicture> {
+    let (n, classes) = (retina.n(), retina.mosaic.n_classes());
+    let samples = held_out_samples(retina, batches, dim, border, decode);
     let last = batches.last()?;
     let srgb = retina.srgb_at_cones(&last.truth, 0);
     let scene_srgb = srgb[(last.signal.batch - 1) * 3 * n * n..].to_vec();
-    drop(batches);
     if classes < 2 || samples.len() < 2 {
         return None;
     }

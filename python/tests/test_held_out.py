@@ -1,7 +1,8 @@
-"""What a percept carries of each cone class's own signal, from Python: known answers (the
-oracle that interpolates each kind carries it, the oracle that keeps each cell's own kind and
-the ONS itself do not), a run's figures equal to its summary.json, and a Python decoder equal
-to the same decoder known to Rust."""
+"""What a percept carries of each cone class's own signal, from Python (`hidden`, and the last
+class's as a picture, `own_image`): known answers (the oracle that interpolates each kind
+carries it, the oracle that keeps each cell's own kind and the ONS itself do not), a run's
+figures equal to its summary.json, and a Python decoder equal to the same decoder known to
+Rust."""
 
 import json
 
@@ -74,3 +75,32 @@ def test_bad_decoders_and_counts_are_refused(quick):
     with pytest.raises(ModelBroke) as excinfo:
         cv.hidden(quick, fails)
     assert excinfo.value is raised
+
+
+def test_the_own_image_of_the_last_class_and_its_known_answers(quick):
+    oracle = cv.own_image(quick, cv.oracle())
+    assert oracle["class"] == "S"
+    n, border = oracle["n"], oracle["border"]
+    side = n - 2 * border
+    assert oracle["truth"].shape == oracle["reading"].shape == (side, side)
+    assert oracle["scene_srgb"].shape == (3, n, n)
+    assert np.isfinite(oracle["truth"]).all() and oracle["truth"].std() > 0
+    assert oracle["held_out_r2"] > 0.4, oracle["held_out_r2"]
+    for decoder in (cv.oracle(interpolate=False), cv.identity()):
+        none = cv.own_image(quick, decoder)
+        assert none["held_out_r2"] < 0.05, (decoder, none["held_out_r2"])
+        # the same scene and truth whatever the decoder
+        assert np.array_equal(none["truth"], oracle["truth"])
+    # an eye of one class has no own signal to show
+    assert cv.own_image(cv.Eye("tiny", cones="L"), cv.identity()) is None
+
+
+def test_a_runs_own_image_from_python_equals_its_summary(tiny_run):
+    run = cv.load_run(tiny_run)
+    got = cv.own_image(run.eye, run)
+    summary = json.loads((tiny_run / "summary.json").read_text())
+    want = summary["invariants"]["own_image"]
+    assert (got["class"], got["held_out_r2"]) == (want["class"], want["held_out_r2"])
+    python = cv.own_image(run.eye, lambda ons: run(ons))
+    assert python["held_out_r2"] == got["held_out_r2"]
+    assert np.array_equal(python["reading"], got["reading"])
