@@ -4,7 +4,7 @@
 //! holds under `invariants.recovery.hidden` and `.directions` (`science::invariants::hidden`,
 //! `::directions`) — and `own_image(eye, decoder, scenes=32)`, the eye's last class's own
 //! signal as a picture beside the percept's reading of it (`science::invariants::own_image`,
-//! the run's `pictures/own_image.png`), for any decoder.
+//! the run's `pictures/own_<class>.png`), for any decoder.
 //!
 //! The scenes are the run's held-out stream (`science::heldout::heldout_source`: its own scene
 //! seed and batch seed, the same scenes on every call, never a training batch), frame 0 of
@@ -40,12 +40,14 @@ use std::sync::atomic::AtomicBool;
 /// The percepts of `count` frames `(count, n, n)` into `(count, dim, n, n)`.
 type Decode<'a> = Box<dyn FnMut(&[f32], usize) -> Result<Vec<f32>, String> + 'a>;
 
-/// Most held-out scenes one call measures (each batch of four is kept until the end).
+/// Most held-out scenes one call measures (each batch of four is kept until the end; an own
+/// image also draws, and drops, the [`HELD_OUT_SCENES`] before them).
 pub const MAX_SCENES: usize = 4096;
 
 /// The run's held-out eye and the `scenes` scenes `what` reads (module docs), batch by batch
-/// until `stop` is set: the stream's first for [`Measure::Hidden`], the next ones for
-/// [`Measure::OwnImage`] (as a run's pictures draw them).
+/// until `stop` is set: the stream's first for [`Measure::Hidden`]; for [`Measure::OwnImage`]
+/// those after the first [`HELD_OUT_SCENES`], the scenes a run's hidden measure reads (as a
+/// run's pictures draw them: its own image then reads the next [`HELD_OUT_SCENES`]).
 fn held_out(
     config: &RunConfig,
     scenes: usize,
@@ -56,7 +58,7 @@ fn held_out(
     let per = scenes.div_ceil(HIDDEN_BATCH_SIZE);
     let skip = match what {
         Measure::Hidden => 0,
-        Measure::OwnImage => per,
+        Measure::OwnImage => HELD_OUT_SCENES.div_ceil(HIDDEN_BATCH_SIZE),
     };
     let mut batches = Vec::new();
     for b in 0..skip + per {
@@ -191,6 +193,9 @@ fn measured(
         )));
     }
     let config = &eye.config;
+    if matches!(what, Measure::OwnImage) && eye.discs.mosaic.n_classes() < 2 {
+        return Ok(Answer::OwnImage(None));
+    }
     let answer = if let Ok(known_decoder) = decoder.downcast::<KnownDecoder>() {
         let kind = known_decoder.get().kind;
         run_beside_python(py, None, None, |_, stop| {
@@ -257,10 +262,13 @@ pub fn hidden(
 
 /// The eye's last class's own signal (what it catches beyond the other classes) on the last
 /// held-out scene, beside `decoder`'s reading of it (module docs), on the `scenes` held-out
-/// scenes after the `scenes` that [`hidden`] reads (as a run's pictures draw them), as a dict:
-/// `class`, `held_out_r2` (over the scoring half of the `scenes`), `truth` and `reading` `(side, side)`
+/// scenes (2 to [`MAX_SCENES`], rounded up to whole batches of four) after the
+/// [`HELD_OUT_SCENES`] that [`hidden`] reads by default, as a run's pictures draw them (so at
+/// the default count a run's `held_out_r2` is its `summary.json`'s). A dict: `class`,
+/// `held_out_r2` (over the scoring half of the scenes), `truth` and `reading` `(side, side)`
 /// float64 over the cones inside the loss border, `scene_srgb` `(3, n, n)` float32 (linear
-/// sRGB at each cone), `class_range`, `n`, `border`; `None` for an eye of one class.
+/// sRGB at each cone), `class_range` (the class's excitation range over the last scene: the
+/// scale its own signal is small against), `n`, `border`; `None` for an eye of one class.
 #[pyfunction]
 #[pyo3(signature = (eye, decoder, scenes=HELD_OUT_SCENES))]
 pub fn own_image(

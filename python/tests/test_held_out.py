@@ -91,8 +91,16 @@ def test_the_own_image_of_the_last_class_and_its_known_answers(quick):
         assert none["held_out_r2"] < 0.05, (decoder, none["held_out_r2"])
         # the same scene and truth whatever the decoder
         assert np.array_equal(none["truth"], oracle["truth"])
-    # an eye of one class has no own signal to show
+    # the same decoder given as a Python function reads the same
+    python = cv.own_image(quick, lambda ons: ons[:, None])
+    assert python["held_out_r2"] == cv.own_image(quick, cv.identity())["held_out_r2"]
+    # an eye of one class has no own signal to show; a tetrachromat's newest is Q
     assert cv.own_image(cv.Eye("tiny", cones="L"), cv.identity()) is None
+    assert cv.own_image(cv.Eye("tiny", cones="LMSQ"), cv.identity())["class"] == "Q"
+    with pytest.raises(ValueError, match="scenes must be"):
+        cv.own_image(quick, cv.identity(), scenes=1)
+    with pytest.raises(TypeError, match="not callable"):
+        cv.own_image(quick, "oracle")
 
 
 def test_a_runs_own_image_from_python_equals_its_summary(tiny_run):
