@@ -67,9 +67,11 @@ fn held_out(
                 stage: "the held-out scenes",
             });
         }
-        let batch = held_out_batches(&mut source, HIDDEN_BATCH_SIZE);
-        if b >= skip {
-            batches.extend(batch);
+        if b < skip {
+            // drawn to advance the stream, not kept (no copy)
+            source.next_eye_batch(HIDDEN_BATCH_SIZE);
+        } else {
+            batches.extend(held_out_batches(&mut source, HIDDEN_BATCH_SIZE));
         }
     }
     Ok((source, batches))
