@@ -5,29 +5,36 @@
 //! where PHOTO_DIR holds the 16-bit PNGs and `photos.json` of
 //! `scripts/scene-statistics/prepare_photos.py`. Writes `OUT_DIR/photo_statistics.json` (the
 //! photographs' statistics with their provenance: the file `retina/data/` keeps for the
-//! generator test), `OUT_DIR/generators.json` (the classic dead leaves and the surfaces, 32
-//! tiles each) and one SVG per statistic, and prints the curves.
+//! generator test), `OUT_DIR/generators.json` (the classic dead leaves, the surfaces and the
+//! hue-sphere tiles alone, 32 tiles each) and one SVG per statistic, and prints the curves and
+//! the contrasts (the photographs' median and range beside each generator).
 use colorimetry::plot::{LinePlot, Series};
 use colorimetry::{ConeClass, ConeTemplate, WavelengthGrid};
 use rand::rngs::StdRng;
 use rand::SeedableRng;
 use retina::config::RetinaConfig;
-use retina::scene::pool::{SceneGenerator, ScenePool, ScenePoolConfig};
+use retina::scene::pool::{SceneGenerator, ScenePool, ScenePoolConfig, TetraMix};
 use retina::scene::projection::SceneProjection;
 use retina::scene::rgb::{class_planes_by_matrix, RgbImage};
 use retina::scene::statistics::{measure_image, SpatialStatistics, CROP_PX, DISTANCES_PX};
+use retina::scene::tetra::TetraEnvironment;
 use serde_json::{json, Value};
 use std::path::Path;
 
 /// Tiles per generator.
 const TILES: usize = 32;
 
-fn generator_statistics(proj: &SceneProjection, generator: SceneGenerator) -> SpatialStatistics {
+/// The mean statistics of [`TILES`] tiles of `generator`, every tile from `tetra` if given.
+fn generator_statistics(
+    proj: &SceneProjection,
+    generator: SceneGenerator,
+    tetra: Option<TetraMix>,
+) -> SpatialStatistics {
     let cfg = ScenePoolConfig {
         tiles: 1,
         tile_px: CROP_PX,
         generator,
-        tetra: None,
+        tetra,
         refresh_every_batches: 0,
         ..RetinaConfig::quick().scenes
     };
@@ -75,11 +82,23 @@ fn main() {
     let gens = [
         (
             "dead leaves (classic)",
-            generator_statistics(&proj, SceneGenerator::DeadLeaves),
+            generator_statistics(&proj, SceneGenerator::DeadLeaves, None),
         ),
         (
             "surfaces",
-            generator_statistics(&proj, SceneGenerator::Surfaces),
+            generator_statistics(&proj, SceneGenerator::Surfaces, None),
+        ),
+        (
+            "hue-sphere tiles",
+            generator_statistics(
+                &proj,
+                SceneGenerator::Surfaces,
+                Some(TetraMix {
+                    environment: TetraEnvironment::HueSphere,
+                    fraction: 1.0,
+                    hue_rule: Default::default(),
+                }),
+            ),
         ),
     ];
     let gdoc: Value = gens
@@ -98,6 +117,41 @@ fn main() {
             "{g:>24}: spectral slopes (luminance, red-green, blue-yellow) {:.2?}",
             s.spectral_slopes
         );
+    }
+    print_contrasts(&measured, &gens);
+}
+
+/// One figure of a crop's statistics.
+type Figure = dyn Fn(&SpatialStatistics) -> f64;
+
+/// The contrasts' amplitudes: the photographs' median and range, then each generator.
+fn print_contrasts(measured: &[Value], gens: &[(&str, SpatialStatistics)]) {
+    let photos: Vec<SpatialStatistics> = measured
+        .iter()
+        .map(|e| serde_json::from_value(e["statistics"].clone()).unwrap())
+        .collect();
+    let spread = |f: &Figure| {
+        let mut v: Vec<f64> = photos.iter().map(f).collect();
+        v.sort_by(f64::total_cmp);
+        format!("{:.4} ({:.4}–{:.4})", v[v.len() / 2], v[0], v[v.len() - 1])
+    };
+    let rows: [(&str, &Figure); 5] = [
+        ("sd log luminance", &|s| s.contrast_sd[0]),
+        ("sd red-green", &|s| s.contrast_sd[1]),
+        ("sd blue-yellow", &|s| s.contrast_sd[2]),
+        ("rms red-green difference at 2 px", &|s| {
+            s.red_green_difference_rms[1]
+        }),
+        ("rms red-green difference at 8 px", &|s| {
+            s.red_green_difference_rms[5]
+        }),
+    ];
+    for (name, f) in rows {
+        let g: Vec<String> = gens
+            .iter()
+            .map(|(n, s)| format!("{n} {:.4}", f(s)))
+            .collect();
+        println!("== {name}: photographs {}; {}", spread(f), g.join("; "));
     }
 }
 
@@ -135,7 +189,7 @@ fn plot_curves(out: &Path, measured: &[Value], gens: &[(&str, SpatialStatistics)
         }
         for (i, (g, s)) in gens.iter().enumerate() {
             let series = Series::new(*g, xs.clone(), s.curves()[c].1.to_vec())
-                .color(["#D55E00", "#000000"][i])
+                .color(["#D55E00", "#000000", "#009E73"][i])
                 .markers();
             plot.push(if i == 0 { series.dashed() } else { series });
         }

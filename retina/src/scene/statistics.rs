@@ -15,6 +15,11 @@
 //! - **same colour**: the share of those pairs whose chromatic distance,
 //!   `√((Δrg/σ_rg)² + (Δby/σ_by)²)` with σ each ratio's standard deviation over the crop, is
 //!   below `SAME_COLOUR_TOLERANCE` (fixed before any generator was fitted);
+//! - **contrast**: the standard deviation over the crop of log luminance and of the two
+//!   ratios (`contrast_sd`), and the root-mean-square difference of the red–green ratio
+//!   between the two points of a pair (`red_green_difference_rms`, per distance): how far the
+//!   `L − M` balance moves between two cones `d` apart, the signal an eye with few cones of
+//!   each class has to read colour from (the autocorrelations are normalised and do not say);
 //! - **spectral slopes**: the least-squares slope of log power on log frequency, 4 cycles per
 //!   crop to a quarter of the sampling rate ([`crate::analysis::power_spectrum_slope`]), of the
 //!   opponent contrasts `(L+M)/⟨L+M⟩ − 1`, `L/⟨L⟩ − M/⟨M⟩` and `S/⟨S⟩ − (L+M)/⟨L+M⟩`.
@@ -45,6 +50,10 @@ pub struct SpatialStatistics {
     /// Power-spectrum slopes of the luminance, red–green and blue–yellow contrasts (NaN for a
     /// contrast that is the same everywhere: it has no spectrum).
     pub spectral_slopes: [f64; 3],
+    /// Standard deviation over the crop of log luminance, `(L − M)/(L + M)` and `S/(L + M)`.
+    pub contrast_sd: [f64; 3],
+    /// Root-mean-square of `rg(p) − rg(p + d)`, `rg = (L − M)/(L + M)`, over the pairs.
+    pub red_green_difference_rms: Vec<f64>,
 }
 
 impl SpatialStatistics {
@@ -75,6 +84,10 @@ impl SpatialStatistics {
             spectral_slopes: std::array::from_fn(|c| {
                 all.iter().map(|s| s.spectral_slopes[c]).sum::<f64>() / n
             }),
+            contrast_sd: std::array::from_fn(|c| {
+                all.iter().map(|s| s.contrast_sd[c]).sum::<f64>() / n
+            }),
+            red_green_difference_rms: avg(|s| &s.red_green_difference_rms),
         }
     }
 }
@@ -110,6 +123,16 @@ fn for_pairs(size: usize, d: usize, mut f: impl FnMut(usize, usize)) {
             }
         }
     }
+}
+
+/// Root-mean-square of `x[p] − x[p + d]` over the horizontal and vertical pairs.
+fn difference_rms(x: &[f64], size: usize, d: usize) -> f64 {
+    let (mut n, mut sum) = (0.0, 0.0);
+    for_pairs(size, d, |p, q| {
+        n += 1.0;
+        sum += (x[p] - x[q]).powi(2);
+    });
+    (sum / f64::max(n, 1.0)).sqrt()
 }
 
 fn std_dev(x: &[f64]) -> f64 {
@@ -176,6 +199,11 @@ pub fn measure_crop(l: &[f32], m: &[f32], s: &[f32], size: usize) -> SpatialStat
             .collect(),
         same_colour: DISTANCES_PX.iter().map(|&d| same(d)).collect(),
         spectral_slopes: [slope(&lum_c), slope(&rg_c), slope(&by_c)],
+        contrast_sd: [std_dev(&log_lum), std_dev(&rg), std_dev(&by)],
+        red_green_difference_rms: DISTANCES_PX
+            .iter()
+            .map(|&d| difference_rms(&rg, size, d))
+            .collect(),
     }
 }
 

@@ -31,6 +31,17 @@ fn two_halves_differ_only_across_their_boundary() {
     // L + M is the same on both sides, so the luminance contrast has no spectrum.
     assert!(s.red_green[0] > 0.9 && s.blue_yellow[0] > 0.9);
     assert!(s.spectral_slopes[0].is_nan() && s.spectral_slopes[1].is_finite());
+    // The red–green ratio is ±a on the two halves (a = 0.5 / (L + M + ε), ε = 1e-3·⟨L + M⟩),
+    // so its standard deviation is a, and only the crossing pairs differ, by 2a.
+    let a = 0.5 / (1.5 + 1.5e-3);
+    assert!(s.contrast_sd[0].abs() < 1e-12, "{:?}", s.contrast_sd);
+    assert!((s.contrast_sd[1] - a).abs() < 1e-9, "{:?}", s.contrast_sd);
+    for (i, &d) in DISTANCES_PX.iter().enumerate() {
+        let crossing = (d * n) as f64 / (2 * n * (n - d)) as f64;
+        let want = 2.0 * a * crossing.sqrt();
+        let got = s.red_green_difference_rms[i];
+        assert!((got - want).abs() < 1e-9, "d = {d}: {got} vs {want}");
+    }
 }
 
 /// Independent random colours at every pixel: no correlation at any distance, and hardly
@@ -50,6 +61,11 @@ fn white_noise_is_uncorrelated() {
         "{:?}",
         st.same_colour
     );
+    // Independent points differ by √2 standard deviations at every distance.
+    for &v in &st.red_green_difference_rms {
+        let ratio = v / (st.contrast_sd[1] * 2f64.sqrt());
+        assert!((ratio - 1.0).abs() < 0.03, "{ratio}");
+    }
     // White noise has a flat spectrum.
     assert!(
         st.spectral_slopes.iter().all(|s| s.abs() < 0.3),
@@ -166,5 +182,29 @@ fn surfaces_match_held_out_photographs_and_classic_dead_leaves_do_not() {
     assert!(
         e > 2.0 * ENVELOPE_MARGIN,
         "classic dead leaves only {e:.3} outside: {at}"
+    );
+    // Not fitted: how far the L − M balance moves between two points. The surfaces' lies in
+    // the held-out photographs' range at every distance; the classic dead leaves' at one cone
+    // (2 px) is well above every held-out photograph's.
+    let range = |i: usize| {
+        let v = held.iter().map(|h| h.red_green_difference_rms[i]);
+        (
+            v.clone().fold(f64::INFINITY, f64::min),
+            v.fold(f64::NEG_INFINITY, f64::max),
+        )
+    };
+    for (i, d) in DISTANCES_PX.iter().enumerate() {
+        let (lo, hi) = range(i);
+        let v = surfaces.red_green_difference_rms[i];
+        assert!(
+            v >= lo && v <= hi,
+            "surfaces' red-green difference at {d} px: {v:.4} outside [{lo:.4}, {hi:.4}]"
+        );
+    }
+    let (_, hi) = range(1);
+    let v = classic.red_green_difference_rms[1];
+    assert!(
+        v > 1.5 * hi,
+        "classic dead leaves' red-green difference at 2 px {v:.4}, held-out photographs ≤ {hi:.4}"
     );
 }
