@@ -6,13 +6,15 @@
 # the same eye on the same seeds in the scenes of the earlier 1:1:1 record (dead leaves with
 # hue-sphere tiles), the A/B of the scenes; B4, the same eye on the same seeds in surface scenes
 # with a tenth of hue-sphere tiles (which part of B3's scenes); B5, the no-demosaicker cell's
-# settings on seeds 41 and 42 in surface scenes (S) and in dead leaves (D), the A/B of its scenes.
+# settings on seeds 41 and 42 in surface scenes (S) and in dead leaves (D), the A/B of its scenes;
+# B6, B2's eye and scenes trained 48 000 steps, the A/B of the count.
 # Running it again continues (a stopped run resumes from its newest checkpoint, a measured
 # location seed is skipped; a run kept in runs-kept/border/ is restored first).
 #
 # Usage: nice -n 10 scripts/border-rows.sh
 #   RUNS="B1" scripts/border-rows.sh           only those (B1, B2-41, B2-42, B3-41, B3-42, B4-41,
-#                                              B4-42, B5-S-41, B5-S-42, B5-D-41, B5-D-42)
+#                                              B4-42, B5-S-41, B5-S-42, B5-D-41, B5-D-42,
+#                                              B6-41, B6-42)
 #   COLORVISION=path/to/colorvision            the binary (default target/release/colorvision)
 set -euo pipefail
 ROOT=$(cd "$(dirname "$0")/.." && pwd)
@@ -62,6 +64,11 @@ for run in ${RUNS:-B1 B2-41 B2-42}; do
             "$P" "$R/$name" "$S" 8000 "8000" "0 1 2" \
                 --config "$ROOT/results/LMS-baseline-no-demosaicker-surfaces-8k/config.toml" \
                 --set retina.scenes.generator=$scenes ;;
+        B6-41 | B6-42)
+            S=${run#B6-}
+            restore "LMS-1to1to1-48k-seed$S"
+            "$P" "$R/LMS-1to1to1-48k-seed$S" "$S" 48000 "48000" "0 1 2" \
+                --preset main --cones iid,L=1,M=1,S=1 ;;
         *) echo "border-rows.sh: unknown run $run" >&2; exit 2 ;;
     esac
 done
