@@ -57,13 +57,50 @@ impl KnownDecoder {
     }
 }
 
-/// The error for a `decoder` argument that is none of the decoders a measure takes.
-pub fn not_a_decoder(decoder: &Bound<'_, PyAny>) -> PyErr {
-    pyo3::exceptions::PyTypeError::new_err(format!(
-        "decoder: a {} is not callable; give a function (N, n, n) → (N, C, n, n), a \
-         KnownDecoder or a Run",
-        crate::arrays::type_name(decoder)
-    ))
+/// A measure's `decoder` argument, resolved and checked against the eye before any work.
+pub enum Chosen<'a, 'py> {
+    /// A known-answer decoder.
+    Known(ObserverKind),
+    /// A trained run, whose eye is the measured one.
+    Run(&'a Run),
+    /// A Python callable `(N, n, n)` → `(N, channels, n, n)`, its channel count probed.
+    Python {
+        callable: &'a Bound<'py, PyAny>,
+        channels: usize,
+    },
+}
+
+/// `decoder` as one of the decoders a measure of `eye` takes: a `KnownDecoder`, a `Run` of
+/// this eye (its retina settings equal), or a callable (probed once on a black frame). A clear
+/// error for anything else.
+pub fn choose<'a, 'py>(
+    py: Python<'py>,
+    eye: &Eye,
+    decoder: &'a Bound<'py, PyAny>,
+) -> PyResult<Chosen<'a, 'py>> {
+    if let Ok(known) = decoder.downcast::<KnownDecoder>() {
+        Ok(Chosen::Known(known.get().kind))
+    } else if let Ok(run) = decoder.downcast::<Run>() {
+        let run = run.get();
+        if run.config.retina != eye.config.retina {
+            return Err(PyValueError::new_err(
+                "the eye is not the run's (its retina settings differ): pass `run.eye`",
+            ));
+        }
+        Ok(Chosen::Run(run))
+    } else if decoder.is_callable() {
+        let channels = crate::measure::probe_channels(py, decoder, eye.discs.n())?;
+        Ok(Chosen::Python {
+            callable: decoder,
+            channels,
+        })
+    } else {
+        Err(pyo3::exceptions::PyTypeError::new_err(format!(
+            "decoder: a {} is not callable; give a function (N, n, n) → (N, C, n, n), a \
+             KnownDecoder or a Run",
+            crate::arrays::type_name(decoder)
+        )))
+    }
 }
 
 /// A trained run folder: its settings, its eye and its learned cortex as a decoder.

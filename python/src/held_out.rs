@@ -19,10 +19,9 @@
 
 use crate::arrays::{f32_array, f64_array};
 use crate::beside::{decode_via, run_beside_python, PyDecoder};
-use crate::decoders::{KnownDecoder, Run};
+use crate::decoders::{choose, Chosen};
 use crate::errors::science_error;
 use crate::eye::Eye;
-use crate::measure::probe_channels;
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -195,48 +194,42 @@ fn measured(
         )));
     }
     let config = &eye.config;
+    let chosen = choose(py, eye, decoder)?;
     if matches!(what, Measure::OwnImage) && eye.discs.mosaic.n_classes() < 2 {
         return Ok(Answer::OwnImage(None));
     }
-    let answer = if let Ok(known_decoder) = decoder.downcast::<KnownDecoder>() {
-        let kind = known_decoder.get().kind;
-        run_beside_python(py, None, None, |_, stop| {
+    let answer = match chosen {
+        Chosen::Known(kind) => run_beside_python(py, None, None, |_, stop| {
             let (source, batches) = held_out(config, scenes, what, stop)?;
             let decode = known(kind, config, &source.retina)?;
             measure(config, (&source.retina, &batches), decode, what)
-        })?
-    } else if let Ok(run) = decoder.downcast::<Run>() {
-        let run = run.get();
-        if run.config.retina != config.retina {
-            return Err(PyValueError::new_err(
-                "the eye is not the run's (its retina settings differ): pass `run.eye`",
-            ));
+        })?,
+        Chosen::Run(run) => {
+            let cortex = &run.cortex;
+            run_beside_python(py, None, None, |_, stop| {
+                let (source, batches) = held_out(&run.config, scenes, what, stop)?;
+                let decode: Decode =
+                    Box::new(|frames, count| Ok(cortex.decode_frames(frames, count)));
+                let given = (cortex.percept_dim(), decode);
+                measure(&run.config, (&source.retina, &batches), given, what)
+            })?
         }
-        let cortex = &run.cortex;
-        run_beside_python(py, None, None, |_, stop| {
-            let (source, batches) = held_out(&run.config, scenes, what, stop)?;
-            let decode: Decode = Box::new(|frames, count| Ok(cortex.decode_frames(frames, count)));
-            let given = (cortex.percept_dim(), decode);
-            measure(&run.config, (&source.retina, &batches), given, what)
-        })?
-    } else if decoder.is_callable() {
-        let n = eye.discs.n();
-        let channels = probe_channels(py, decoder, n)?;
-        let py_decoder = PyDecoder {
-            callable: decoder,
-            channels,
-            n,
-        };
-        run_beside_python(py, Some(&py_decoder), None, |tx, stop| {
-            let (source, batches) = held_out(config, scenes, what, stop)?;
-            let decode: Decode = Box::new(move |frames, count| {
-                let mut out = vec![0f32; count * channels * n * n];
-                decode_via(&tx, frames, count, &mut out).map(|()| out)
-            });
-            measure(config, (&source.retina, &batches), (channels, decode), what)
-        })?
-    } else {
-        return Err(crate::decoders::not_a_decoder(decoder));
+        Chosen::Python { callable, channels } => {
+            let n = eye.discs.n();
+            let py_decoder = PyDecoder {
+                callable,
+                channels,
+                n,
+            };
+            run_beside_python(py, Some(&py_decoder), None, |tx, stop| {
+                let (source, batches) = held_out(config, scenes, what, stop)?;
+                let decode: Decode = Box::new(move |frames, count| {
+                    let mut out = vec![0f32; count * channels * n * n];
+                    decode_via(&tx, frames, count, &mut out).map(|()| out)
+                });
+                measure(config, (&source.retina, &batches), (channels, decode), what)
+            })?
+        }
     };
     answer.map_err(science_error)
 }

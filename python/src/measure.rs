@@ -8,7 +8,7 @@
 
 use crate::arrays::{read_f32, shape_text};
 use crate::beside::{decode_via, run_beside_python, PyDecoder, Request};
-use crate::decoders::{KnownDecoder, Run};
+use crate::decoders::{choose, Chosen};
 use crate::errors::{science_error, value_error};
 use crate::eye::Eye;
 use crate::result::CmfSimResult;
@@ -119,67 +119,59 @@ pub fn cmf_sim(
     if batch_size == 0 {
         return Err(PyValueError::new_err("batch_size must be ≥ 1"));
     }
-    let result = if let Ok(known) = decoder.downcast::<KnownDecoder>() {
-        let config = measurement_config(eye.config.clone(), budget, location_seed)?;
-        let kind = known.get().kind;
-        run_beside_python(py, None, progress, |tx, stop| {
+    // The eye's settings, checked (the budget's name among them) before the decoder is probed.
+    let eye_config = measurement_config(eye.config.clone(), budget, location_seed)?;
+    let result = match choose(py, eye, decoder)? {
+        Chosen::Known(kind) => run_beside_python(py, None, progress, |tx, stop| {
             science::measure::measure_observer_with(
-                &config,
+                &eye_config,
                 kind,
                 None,
                 &mut progress_sender(&tx),
                 stop,
             )
-        })?
-    } else if let Ok(run) = decoder.downcast::<Run>() {
-        let run = run.get();
-        if run.config.retina != eye.config.retina {
-            return Err(PyValueError::new_err(
-                "the eye is not the run's (its retina settings differ): pass `run.eye`",
-            ));
+        })?,
+        Chosen::Run(run) => {
+            let mut config = run.config.clone();
+            config.observer = eye.config.observer.clone();
+            config.cmf_sim = eye.config.cmf_sim.clone();
+            config.schedule = eye.config.schedule.clone();
+            let config = measurement_config(config, budget, location_seed)?;
+            let cortex = &run.cortex;
+            run_beside_python(py, None, progress, |tx, stop| {
+                science::measure::measure_observer_with(
+                    &config,
+                    ObserverKind::Cortex,
+                    Some(cortex),
+                    &mut progress_sender(&tx),
+                    stop,
+                )
+            })?
         }
-        let mut config = run.config.clone();
-        config.observer = eye.config.observer.clone();
-        config.cmf_sim = eye.config.cmf_sim.clone();
-        config.schedule = eye.config.schedule.clone();
-        let config = measurement_config(config, budget, location_seed)?;
-        let cortex = &run.cortex;
-        run_beside_python(py, None, progress, |tx, stop| {
-            science::measure::measure_observer_with(
-                &config,
-                ObserverKind::Cortex,
-                Some(cortex),
-                &mut progress_sender(&tx),
-                stop,
-            )
-        })?
-    } else if decoder.is_callable() {
-        let config = measurement_config(eye.config.clone(), budget, location_seed)?;
-        let n = eye.discs.n();
-        let channels = probe_channels(py, decoder, n)?;
-        let name = python_name(decoder);
-        let retina = &*eye.discs;
-        let py_decoder = PyDecoder {
-            callable: decoder,
-            channels,
-            n,
-        };
-        run_beside_python(py, Some(&py_decoder), progress, |tx, stop| {
-            let sender = tx.clone();
-            let batch = move |ons: &[f32], shows: usize, out: &mut [f32]| {
-                decode_via(&sender, ons, shows, out)
+        Chosen::Python { callable, channels } => {
+            let name = python_name(callable);
+            let retina = &*eye.discs;
+            let py_decoder = PyDecoder {
+                callable,
+                channels,
+                n: eye.discs.n(),
             };
-            let external = ExternalDecoder::new(name, channels, batch_size, stop, Box::new(batch));
-            science::measure::measure_decoder_until(
-                retina,
-                Decoder::External(external),
-                &config,
-                &mut progress_sender(&tx),
-                stop,
-            )
-        })?
-    } else {
-        return Err(crate::decoders::not_a_decoder(decoder));
+            run_beside_python(py, Some(&py_decoder), progress, |tx, stop| {
+                let sender = tx.clone();
+                let batch = move |ons: &[f32], shows: usize, out: &mut [f32]| {
+                    decode_via(&sender, ons, shows, out)
+                };
+                let external =
+                    ExternalDecoder::new(name, channels, batch_size, stop, Box::new(batch));
+                science::measure::measure_decoder_until(
+                    retina,
+                    Decoder::External(external),
+                    &eye_config,
+                    &mut progress_sender(&tx),
+                    stop,
+                )
+            })?
+        }
     };
     result
         .map(|inner| CmfSimResult { inner })

@@ -96,6 +96,8 @@ def test_the_own_image_of_the_last_class_and_its_known_answers(quick):
     assert python["held_out_r2"] == cv.own_image(quick, cv.identity())["held_out_r2"]
     # an eye of one class has no own signal to show; a tetrachromat's newest is Q
     assert cv.own_image(cv.Eye("tiny", cones="L"), cv.identity()) is None
+    with pytest.raises(TypeError, match="not callable"):  # checked before the eye's classes
+        cv.own_image(cv.Eye("tiny", cones="L"), 3)
     assert cv.own_image(cv.Eye("tiny", cones="LMSQ"), cv.identity())["class"] == "Q"
     with pytest.raises(ValueError, match="scenes must be"):
         cv.own_image(quick, cv.identity(), scenes=1)

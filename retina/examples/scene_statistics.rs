@@ -16,7 +16,9 @@ use retina::config::RetinaConfig;
 use retina::scene::pool::{SceneGenerator, ScenePool, ScenePoolConfig, TetraMix};
 use retina::scene::projection::SceneProjection;
 use retina::scene::rgb::{class_planes_by_matrix, RgbImage};
-use retina::scene::statistics::{measure_image, SpatialStatistics, CROP_PX, DISTANCES_PX};
+use retina::scene::statistics::{
+    distance_index, measure_image, SpatialStatistics, CROP_PX, DISTANCES_PX, NEIGHBOUR_CONES_PX,
+};
 use retina::scene::tetra::TetraEnvironment;
 use serde_json::{json, Value};
 use std::path::Path;
@@ -140,10 +142,10 @@ fn print_contrasts(measured: &[Value], gens: &[(&str, SpatialStatistics)]) {
         ("sd red-green", &|s| s.contrast_sd[1]),
         ("sd blue-yellow", &|s| s.contrast_sd[2]),
         ("rms red-green difference at 2 px", &|s| {
-            s.red_green_difference_rms[1]
+            s.red_green_difference_rms[distance_index(NEIGHBOUR_CONES_PX)]
         }),
         ("rms red-green difference at 8 px", &|s| {
-            s.red_green_difference_rms[5]
+            s.red_green_difference_rms[distance_index(8)]
         }),
     ];
     for (name, f) in rows {

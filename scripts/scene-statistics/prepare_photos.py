@@ -24,7 +24,10 @@ import skimage, sklearn
 SHORT_SIDE_PX = 542
 SK = os.path.join(os.path.dirname(skimage.__file__), "data")
 SL = os.path.join(os.path.dirname(sklearn.__file__), "datasets", "images")
-MATE = os.environ.get("MATE_DIR", "/tmp/debimg/mate") + "/usr/share/backgrounds/mate/nature"
+if "MATE_DIR" not in os.environ:
+    sys.exit("prepare_photos.py: set MATE_DIR to the unpacked mate-backgrounds 1.26.0 package "
+             "(apt-get download mate-backgrounds && dpkg-deb -x mate-backgrounds_*.deb DIR)")
+MATE = os.environ["MATE_DIR"] + "/usr/share/backgrounds/mate/nature"
 SOURCES = [
     (SK, ["astronaut.png"], "scikit-image 0.26.0: NASA, public domain"),
     (SK, ["chelsea.png", "coffee.png"], "scikit-image 0.26.0: CC0"),

@@ -1,5 +1,6 @@
 //! Tests of the decode windows: a window gives the whole field's percept at the cells asked for,
-//! the longest window bounds every box, and summed frames decode as summed activations.
+//! the longest window bounds every box, summed frames decode as summed activations, and a boxed
+//! decode gives the window's percept in its box.
 
 use super::*;
 use crate::CortexConfig;

@@ -30,6 +30,17 @@ use crate::analysis::power_spectrum_slope;
 
 /// Pair distances, px.
 pub const DISTANCES_PX: [usize; 10] = [1, 2, 3, 4, 6, 8, 12, 16, 24, 32];
+/// Distance between neighbouring cones at the eyes' scale (2 px per cone), px.
+pub const NEIGHBOUR_CONES_PX: usize = 2;
+
+/// The index of `d_px` in [`DISTANCES_PX`]. Panics if it is not one of them.
+#[track_caller]
+pub fn distance_index(d_px: usize) -> usize {
+    DISTANCES_PX
+        .iter()
+        .position(|&d| d == d_px)
+        .unwrap_or_else(|| panic!("{d_px} px is not one of DISTANCES_PX {DISTANCES_PX:?}"))
+}
 /// Chromatic distance, in units of the crop's own chromatic standard deviation, below which
 /// two points count as the same colour.
 pub const SAME_COLOUR_TOLERANCE: f64 = 0.25;
@@ -50,9 +61,11 @@ pub struct SpatialStatistics {
     /// Power-spectrum slopes of the luminance, red–green and blue–yellow contrasts (NaN for a
     /// contrast that is the same everywhere: it has no spectrum).
     pub spectral_slopes: [f64; 3],
-    /// Standard deviation over the crop of log luminance, `(L − M)/(L + M)` and `S/(L + M)`.
+    /// Standard deviation over the crop of log luminance (natural log: a unit is a factor of
+    /// e), `(L − M)/(L + M)` and `S/(L + M)` (the ratios have no unit).
     pub contrast_sd: [f64; 3],
-    /// Root-mean-square of `rg(p) − rg(p + d)`, `rg = (L − M)/(L + M)`, over the pairs.
+    /// Root-mean-square of `rg(p) − rg(p + d)`, `rg = (L − M)/(L + M)`, over the pairs; one
+    /// value per distance of [`DISTANCES_PX`].
     pub red_green_difference_rms: Vec<f64>,
 }
 

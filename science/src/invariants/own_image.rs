@@ -130,11 +130,14 @@ pub fn held_out_of(
     decode: impl FnMut(&[f32], usize) -> Vec<f32>,
 ) -> Option<OwnImagePicture> {
     let (n, classes) = (retina.n(), retina.mosaic.n_classes());
+    if classes < 2 {
+        return None;
+    }
     let samples = held_out_samples(retina, batches, dim, border, decode);
     let last = batches.last()?;
     let srgb = retina.srgb_at_cones(&last.truth, 0);
     let scene_srgb = srgb[(last.signal.batch - 1) * 3 * n * n..].to_vec();
-    if classes < 2 || samples.len() < 2 {
+    if samples.len() < 2 {
         return None;
     }
     let per_sample = (n - 2 * border).pow(2);

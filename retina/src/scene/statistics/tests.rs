@@ -201,8 +201,9 @@ fn surfaces_match_held_out_photographs_and_classic_dead_leaves_do_not() {
             "surfaces' red-green difference at {d} px: {v:.4} outside [{lo:.4}, {hi:.4}]"
         );
     }
-    let (_, hi) = range(1);
-    let v = classic.red_green_difference_rms[1];
+    let one_cone = distance_index(NEIGHBOUR_CONES_PX);
+    let (_, hi) = range(one_cone);
+    let v = classic.red_green_difference_rms[one_cone];
     assert!(
         v > 1.5 * hi,
         "classic dead leaves' red-green difference at 2 px {v:.4}, held-out photographs ≤ {hi:.4}"
