@@ -63,21 +63,15 @@ pub enum Chosen<'a, 'py> {
     Known(ObserverKind),
     /// A trained run, whose eye is the measured one.
     Run(&'a Run),
-    /// A Python callable `(N, n, n)` → `(N, channels, n, n)`, its channel count probed.
-    Python {
-        callable: &'a Bound<'py, PyAny>,
-        channels: usize,
-    },
+    /// A Python callable `(N, n, n)` → `(N, C, n, n)`, not called yet (the measure probes its
+    /// channel count C with [`crate::measure::probe_channels`] once its own checks pass).
+    Python(&'a Bound<'py, PyAny>),
 }
 
 /// `decoder` as one of the decoders a measure of `eye` takes: a `KnownDecoder`, a `Run` of
-/// this eye (its retina settings equal), or a callable (probed once on a black frame). A clear
-/// error for anything else.
-pub fn choose<'a, 'py>(
-    py: Python<'py>,
-    eye: &Eye,
-    decoder: &'a Bound<'py, PyAny>,
-) -> PyResult<Chosen<'a, 'py>> {
+/// this eye (its retina settings equal), or a callable (not called here). A clear error for
+/// anything else.
+pub fn choose<'a, 'py>(eye: &Eye, decoder: &'a Bound<'py, PyAny>) -> PyResult<Chosen<'a, 'py>> {
     if let Ok(known) = decoder.downcast::<KnownDecoder>() {
         Ok(Chosen::Known(known.get().kind))
     } else if let Ok(run) = decoder.downcast::<Run>() {
@@ -89,11 +83,7 @@ pub fn choose<'a, 'py>(
         }
         Ok(Chosen::Run(run))
     } else if decoder.is_callable() {
-        let channels = crate::measure::probe_channels(py, decoder, eye.discs.n())?;
-        Ok(Chosen::Python {
-            callable: decoder,
-            channels,
-        })
+        Ok(Chosen::Python(decoder))
     } else {
         Err(pyo3::exceptions::PyTypeError::new_err(format!(
             "decoder: a {} is not callable; give a function (N, n, n) → (N, C, n, n), a \

@@ -22,6 +22,7 @@ use crate::beside::{decode_via, run_beside_python, PyDecoder};
 use crate::decoders::{choose, Chosen};
 use crate::errors::science_error;
 use crate::eye::Eye;
+use crate::measure::probe_channels;
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -194,7 +195,7 @@ fn measured(
         )));
     }
     let config = &eye.config;
-    let chosen = choose(py, eye, decoder)?;
+    let chosen = choose(eye, decoder)?;
     if matches!(what, Measure::OwnImage) && eye.discs.mosaic.n_classes() < 2 {
         return Ok(Answer::OwnImage(None));
     }
@@ -214,8 +215,9 @@ fn measured(
                 measure(&run.config, (&source.retina, &batches), given, what)
             })?
         }
-        Chosen::Python { callable, channels } => {
+        Chosen::Python(callable) => {
             let n = eye.discs.n();
+            let channels = probe_channels(py, callable, n)?;
             let py_decoder = PyDecoder {
                 callable,
                 channels,

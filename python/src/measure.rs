@@ -119,9 +119,11 @@ pub fn cmf_sim(
     if batch_size == 0 {
         return Err(PyValueError::new_err("batch_size must be ≥ 1"));
     }
-    // The eye's settings, checked (the budget's name among them) before the decoder is probed.
+    // The decoder's kind and eye first, then the settings (the budget's name among them), then
+    // a Python decoder's probe.
+    let chosen = choose(eye, decoder)?;
     let eye_config = measurement_config(eye.config.clone(), budget, location_seed)?;
-    let result = match choose(py, eye, decoder)? {
+    let result = match chosen {
         Chosen::Known(kind) => run_beside_python(py, None, progress, |tx, stop| {
             science::measure::measure_observer_with(
                 &eye_config,
@@ -148,7 +150,8 @@ pub fn cmf_sim(
                 )
             })?
         }
-        Chosen::Python { callable, channels } => {
+        Chosen::Python(callable) => {
+            let channels = probe_channels(py, callable, eye.discs.n())?;
             let name = python_name(callable);
             let retina = &*eye.discs;
             let py_decoder = PyDecoder {

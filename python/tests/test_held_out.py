@@ -98,6 +98,11 @@ def test_the_own_image_of_the_last_class_and_its_known_answers(quick):
     assert cv.own_image(cv.Eye("tiny", cones="L"), cv.identity()) is None
     with pytest.raises(TypeError, match="not callable"):  # checked before the eye's classes
         cv.own_image(cv.Eye("tiny", cones="L"), 3)
+
+    def never(ons):
+        raise AssertionError("a one-class eye's decoder must not be called")
+
+    assert cv.own_image(cv.Eye("tiny", cones="L"), never) is None
     assert cv.own_image(cv.Eye("tiny", cones="LMSQ"), cv.identity())["class"] == "Q"
     with pytest.raises(ValueError, match="scenes must be"):
         cv.own_image(quick, cv.identity(), scenes=1)

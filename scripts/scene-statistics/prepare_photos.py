@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Photographs at the eyes' scale for `retina/examples/photo_statistics.rs`.
+"""Photographs at the eyes' scale for `retina/examples/scene_statistics.rs`.
 
 Each photograph is decoded, linearised (sRGB transfer function, IEC 61966-2-1), resized in
 linear light so that its short side is 542 px (the authors' preprocessing of ARAD_1K: the
@@ -24,6 +24,8 @@ import skimage, sklearn
 SHORT_SIDE_PX = 542
 SK = os.path.join(os.path.dirname(skimage.__file__), "data")
 SL = os.path.join(os.path.dirname(sklearn.__file__), "datasets", "images")
+if len(sys.argv) != 2:
+    sys.exit("usage: MATE_DIR=DIR prepare_photos.py OUT_DIR")
 if "MATE_DIR" not in os.environ:
     sys.exit("prepare_photos.py: set MATE_DIR to the unpacked mate-backgrounds 1.26.0 package "
              "(apt-get download mate-backgrounds && dpkg-deb -x mate-backgrounds_*.deb DIR)")

@@ -62,9 +62,10 @@ pub struct SpatialStatistics {
     /// contrast that is the same everywhere: it has no spectrum).
     pub spectral_slopes: [f64; 3],
     /// Standard deviation over the crop of log luminance (natural log: a unit is a factor of
-    /// e), `(L − M)/(L + M)` and `S/(L + M)` (the ratios have no unit).
+    /// e), `(L − M)/(L + M)` and `S/(L + M)` (the ratios have no unit; like the other
+    /// statistics, `L + M` here carries the crop's `ε = 1e-3·⟨L + M⟩`).
     pub contrast_sd: [f64; 3],
-    /// Root-mean-square of `rg(p) − rg(p + d)`, `rg = (L − M)/(L + M)`, over the pairs; one
+    /// Root-mean-square of `rg(p) − rg(p + d)`, `rg = (L − M)/(L + M + ε)`, over the pairs; one
     /// value per distance of [`DISTANCES_PX`].
     pub red_green_difference_rms: Vec<f64>,
 }

@@ -246,4 +246,17 @@ mod tests {
             size(&s.truth)
         );
     }
+
+    /// An eye of one class has no own signal to show: `None`, without a single decode.
+    #[test]
+    fn a_one_class_eye_answers_none_before_decoding() {
+        let config = crate::config::RunConfig::preset("tiny", "L").unwrap();
+        let mut source = crate::heldout::heldout_source(&config, true).unwrap();
+        let batches = crate::invariants::held_out_batches(&mut source, 8);
+        assert!(!batches.is_empty());
+        let picture = held_out_of(&source.retina, &batches, 1, 0, |_, _| {
+            panic!("a one-class eye must not be decoded")
+        });
+        assert!(picture.is_none());
+    }
 }
