@@ -121,18 +121,19 @@ pub fn cmf_sim(
     }
     // The decoder's kind and eye first, then the settings (the budget's name among them), then
     // a Python decoder's probe.
-    let chosen = choose(eye, decoder)?;
-    let eye_config = measurement_config(eye.config.clone(), budget, location_seed)?;
-    let result = match chosen {
-        Chosen::Known(kind) => run_beside_python(py, None, progress, |tx, stop| {
-            science::measure::measure_observer_with(
-                &eye_config,
-                kind,
-                None,
-                &mut progress_sender(&tx),
-                stop,
-            )
-        })?,
+    let result = match choose(eye, decoder)? {
+        Chosen::Known(kind) => {
+            let config = measurement_config(eye.config.clone(), budget, location_seed)?;
+            run_beside_python(py, None, progress, |tx, stop| {
+                science::measure::measure_observer_with(
+                    &config,
+                    kind,
+                    None,
+                    &mut progress_sender(&tx),
+                    stop,
+                )
+            })?
+        }
         Chosen::Run(run) => {
             let mut config = run.config.clone();
             config.observer = eye.config.observer.clone();
@@ -151,13 +152,15 @@ pub fn cmf_sim(
             })?
         }
         Chosen::Python(callable) => {
-            let channels = probe_channels(py, callable, eye.discs.n())?;
+            let config = measurement_config(eye.config.clone(), budget, location_seed)?;
+            let n = eye.discs.n();
+            let channels = probe_channels(py, callable, n)?;
             let name = python_name(callable);
             let retina = &*eye.discs;
             let py_decoder = PyDecoder {
                 callable,
                 channels,
-                n: eye.discs.n(),
+                n,
             };
             run_beside_python(py, Some(&py_decoder), progress, |tx, stop| {
                 let sender = tx.clone();
@@ -169,7 +172,7 @@ pub fn cmf_sim(
                 science::measure::measure_decoder_until(
                     retina,
                     Decoder::External(external),
-                    &eye_config,
+                    &config,
                     &mut progress_sender(&tx),
                     stop,
                 )

@@ -41,6 +41,7 @@ pub fn distance_index(d_px: usize) -> usize {
         .position(|&d| d == d_px)
         .unwrap_or_else(|| panic!("{d_px} px is not one of DISTANCES_PX {DISTANCES_PX:?}"))
 }
+
 /// Chromatic distance, in units of the crop's own chromatic standard deviation, below which
 /// two points count as the same colour.
 pub const SAME_COLOUR_TOLERANCE: f64 = 0.25;
@@ -90,17 +91,16 @@ impl SpatialStatistics {
                 .map(|i| all.iter().map(|s| f(s)[i]).sum::<f64>() / n)
                 .collect()
         };
+        let avg3 = |f: fn(&SpatialStatistics) -> &[f64; 3]| -> [f64; 3] {
+            std::array::from_fn(|c| all.iter().map(|s| f(s)[c]).sum::<f64>() / n)
+        };
         SpatialStatistics {
             log_luminance: avg(|s| &s.log_luminance),
             red_green: avg(|s| &s.red_green),
             blue_yellow: avg(|s| &s.blue_yellow),
             same_colour: avg(|s| &s.same_colour),
-            spectral_slopes: std::array::from_fn(|c| {
-                all.iter().map(|s| s.spectral_slopes[c]).sum::<f64>() / n
-            }),
-            contrast_sd: std::array::from_fn(|c| {
-                all.iter().map(|s| s.contrast_sd[c]).sum::<f64>() / n
-            }),
+            spectral_slopes: avg3(|s| &s.spectral_slopes),
+            contrast_sd: avg3(|s| &s.contrast_sd),
             red_green_difference_rms: avg(|s| &s.red_green_difference_rms),
         }
     }
@@ -174,7 +174,8 @@ pub fn measure_crop(l: &[f32], m: &[f32], s: &[f32], size: usize) -> SpatialStat
         .map(|p| (l[p] as f64 - m[p] as f64) / lum[p])
         .collect();
     let by: Vec<f64> = (0..nn).map(|p| s[p] as f64 / lum[p]).collect();
-    let (srg, sby) = (std_dev(&rg).max(1e-12), std_dev(&by).max(1e-12));
+    let sd = [std_dev(&log_lum), std_dev(&rg), std_dev(&by)];
+    let (srg, sby) = (sd[1].max(1e-12), sd[2].max(1e-12));
     let same = |d: usize| {
         let (mut n, mut hit) = (0usize, 0usize);
         for_pairs(size, d, |p, q| {
@@ -213,7 +214,7 @@ pub fn measure_crop(l: &[f32], m: &[f32], s: &[f32], size: usize) -> SpatialStat
             .collect(),
         same_colour: DISTANCES_PX.iter().map(|&d| same(d)).collect(),
         spectral_slopes: [slope(&lum_c), slope(&rg_c), slope(&by_c)],
-        contrast_sd: [std_dev(&log_lum), std_dev(&rg), std_dev(&by)],
+        contrast_sd: sd,
         red_green_difference_rms: DISTANCES_PX
             .iter()
             .map(|&d| difference_rms(&rg, size, d))

@@ -135,11 +135,11 @@ pub fn held_out_of(
     }
     let samples = held_out_samples(retina, batches, dim, border, decode);
     let last = batches.last()?;
-    let srgb = retina.srgb_at_cones(&last.truth, 0);
-    let scene_srgb = srgb[(last.signal.batch - 1) * 3 * n * n..].to_vec();
     if samples.len() < 2 {
         return None;
     }
+    let srgb = retina.srgb_at_cones(&last.truth, 0);
+    let scene_srgb = srgb[(last.signal.batch - 1) * 3 * n * n..].to_vec();
     let per_sample = (n - 2 * border).pow(2);
     let count = samples.len();
     let (percept, excitation) = samples.all_sites(0..count);
