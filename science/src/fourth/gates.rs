@@ -61,11 +61,13 @@ pub enum GateScenes {
     HueSphereMaxChroma,
     /// Natural scenes with a tenth of the tiles from the hue sphere by [`HueRule::MaxChroma`].
     NaturalHueSphereMaxChromaTenth,
+    /// Natural scenes with half of the tiles idealised.
+    NaturalIdealisedHalf,
 }
 
 impl GateScenes {
     /// Every source, in table order.
-    pub const ALL: [GateScenes; 8] = [
+    pub const ALL: [GateScenes; 9] = [
         GateScenes::Natural,
         GateScenes::HueSphere,
         GateScenes::Idealised,
@@ -74,6 +76,7 @@ impl GateScenes {
         GateScenes::NaturalHueSphereHalf,
         GateScenes::HueSphereMaxChroma,
         GateScenes::NaturalHueSphereMaxChromaTenth,
+        GateScenes::NaturalIdealisedHalf,
     ];
 
     /// A short name.
@@ -87,6 +90,7 @@ impl GateScenes {
             GateScenes::NaturalHueSphereHalf => "natural + 50 % hue-sphere",
             GateScenes::HueSphereMaxChroma => "hue-sphere tiles (max chroma)",
             GateScenes::NaturalHueSphereMaxChromaTenth => "natural + 10 % hue-sphere (max chroma)",
+            GateScenes::NaturalIdealisedHalf => "natural + 50 % idealised",
         }
     }
 
@@ -115,6 +119,7 @@ impl GateScenes {
             GateScenes::NaturalHueSphereHalf => mix(TetraEnvironment::HueSphere, 0.5),
             GateScenes::HueSphereMaxChroma => max_chroma(1.0),
             GateScenes::NaturalHueSphereMaxChromaTenth => max_chroma(0.1),
+            GateScenes::NaturalIdealisedHalf => mix(TetraEnvironment::Idealised, 0.5),
         }
     }
 

@@ -77,7 +77,7 @@ fn the_noise_ratios_mean_square_is_the_eyes() {
 fn the_table_has_every_cone_set_scene_and_balance_and_the_controls() {
     let cases = gate_cases();
     assert_eq!(cases.len(), 3 * GateScenes::ALL.len() * 2 + 6);
-    assert_eq!(GateScenes::ALL.len(), 8);
+    assert_eq!(GateScenes::ALL.len(), 9);
     // The max-chroma sources draw their tiles by that rule, and only they.
     for scenes in GateScenes::ALL {
         let rule = scenes.tetra().map(|t| t.hue_rule).unwrap_or_default();
