@@ -5,9 +5,9 @@
 # quick-eye run). `colorvision train --resume --out DIR …` (or `colorvision resume DIR`) on a copy
 # of that folder continues the run from the kept checkpoint, bit for bit as if it had never
 # stopped (same thread count); scripts/fourth-screen.sh, scripts/fourth-table.sh,
-# scripts/fourth-longer.sh, scripts/border-rows.sh, scripts/rules-screen.sh and
-# scripts/rules-confirm.sh restore their runs from runs-kept/GROUP/ (fourth, fourth-table,
-# fourth-longer, border, rules-screen, rules-confirm).
+# scripts/fourth-longer.sh, scripts/border-rows.sh, scripts/humanq-screen.sh,
+# scripts/rules-screen.sh and scripts/rules-confirm.sh restore their runs from runs-kept/GROUP/
+# (fourth, fourth-table, fourth-longer, border, humanq, rules-screen, rules-confirm).
 # Usage: scripts/keep-run.sh RUN_DIR GROUP        e.g. scripts/keep-run.sh runs/fourth/A0-seed21 fourth
 set -euo pipefail
 RUN=${1:?usage: scripts/keep-run.sh RUN_DIR GROUP}
