@@ -19,18 +19,18 @@ P="$ROOT/scripts/protocol-arm.sh"
 R="$ROOT/runs/humanq"
 B=${COLORVISION:-$ROOT/target/release/colorvision}
 export COLORVISION=$B RAYON_NUM_THREADS=1
-IDEAL=(--cones LMSQ --set retina.scenes.tetra.environment=Idealised)
-
+# One arm: its preset (the eye) and the share of tiles that are idealised.
 arm() {
+    local preset fraction
     case "$1" in
-        H0) "$P" "$R/H0-seed$S" "$S" 24000 "24000" "0 1 2" --preset main "${IDEAL[@]}" \
-                --set retina.scenes.tetra.fraction=0.1 ;;
-        H1) "$P" "$R/H1-seed$S" "$S" 24000 "24000" "0 1 2" --preset main "${IDEAL[@]}" \
-                --set retina.scenes.tetra.fraction=0.5 ;;
-        H2) "$P" "$R/H2-seed$S" "$S" 24000 "24000" "0 1 2" --preset large "${IDEAL[@]}" \
-                --set retina.scenes.tetra.fraction=0.1 ;;
+        H0) preset=main fraction=0.1 ;;
+        H1) preset=main fraction=0.5 ;;
+        H2) preset=large fraction=0.1 ;;
         *) echo "humanq-screen.sh: unknown arm $1 (H0, H1 or H2)" >&2; exit 2 ;;
     esac
+    "$P" "$R/$1-seed$S" "$S" 24000 "24000" "0 1 2" --preset "$preset" --cones LMSQ \
+        --set retina.scenes.tetra.environment=Idealised \
+        --set retina.scenes.tetra.fraction="$fraction"
 }
 
 mkdir -p "$R"
