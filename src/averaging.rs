@@ -201,11 +201,11 @@ pub fn command(options: &AverageOptions) -> Result<(), RunError> {
         paths.len(),
         checkpoint.display()
     );
-    let mut scenes = science::heldout::heldout_source(&config, true)?;
+    let mut scenes = science::heldout::hidden_source(&config)?;
     let recovery = science::invariants::measure_with_scenes(
         &last.cortex,
         &mut scenes,
-        science::invariants::HELD_OUT_SCENES,
+        config.schedule.held_out_scenes,
     );
     for line in recovery.describe() {
         println!("  {line}");

@@ -300,8 +300,9 @@ pub struct ConvergenceOptions {
     #[arg(long, value_delimiter = ',')]
     pub steps: Vec<u64>,
     /// Held-out scenes behind the hidden and direction R² (a multiple of 4, at least 8), half
-    /// fitting and half scoring; more for an environment whose rare scenes matter (one tile in
-    /// ten idealised). A kept checkpoint measured on another count is measured again.
+    /// fitting and half scoring, a fresh scene tile every batch of 4; the default is converged
+    /// (docs/notebook/2026-12-05-hidden-signal-convergence.md). A kept checkpoint measured on
+    /// another count or stream is measured again.
     #[arg(long, default_value_t = science::invariants::HELD_OUT_SCENES)]
     pub held_out_scenes: usize,
 }

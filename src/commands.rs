@@ -363,7 +363,7 @@ pub fn scope(options: &RunDirOptions) -> Result<(), RunError> {
         crate::run::folder::load_run_step(&options.run, options.checkpoint_step)?;
     let retina = Retina::new(config.retina.clone())?;
     let mut heldout = science::heldout::heldout_source(&config, false)?;
-    let inv = crate::pictures::write_all(&dir, &config, &retina, &mut heldout, &trainer)?;
+    let inv = crate::pictures::write_all(&dir, &config, &retina, &mut heldout, &trainer, true)?;
     crate::io::write_json(&dir.join("scope.json"), &inv)?;
     println!("Neural Scope pictures and scope.json in {}", dir.display());
     println!(

@@ -126,13 +126,14 @@ fn measure_checkpoint(
     let meta = cortex::checkpoint::read_meta(path)?;
     let with_cmf = cmf.at(meta.step);
     let cached = row_path(out, meta.step);
-    // A kept row is reused when it holds every measure asked for on as many held-out scenes;
-    // one written before the colour directions were measured, or on other scenes, is measured
-    // again, keeping its CMF-SIM.
+    // A kept row is reused when it holds every measure asked for on as many held-out scenes of
+    // the hidden measures' stream; one written before the colour directions were measured, or
+    // on other scenes, is measured again, keeping its CMF-SIM.
     let kept = kept_row(out, meta.step);
     if let Some(row) = &kept {
         if row.recovery.directions.is_some()
             && row.held_out_scenes == held_out_scenes
+            && row.fresh_tiles
             && (row.cmf.is_some() || !with_cmf)
         {
             return Ok(row.clone());
@@ -140,7 +141,7 @@ fn measure_checkpoint(
     }
     let trainer = Trainer::continue_from(path, Some(config.cortex.clone()))?;
     // The same held-out scenes at every checkpoint.
-    let mut scenes = science::heldout::heldout_source(config, true)?;
+    let mut scenes = science::heldout::hidden_source(config)?;
     let recovery = invariants::measure_with_scenes(&trainer.cortex, &mut scenes, held_out_scenes);
     let cmf = if let Some(kept) = kept.and_then(|row| row.cmf) {
         Some(kept)
@@ -181,6 +182,7 @@ fn measure_checkpoint(
         wall_seconds,
         recovery,
         held_out_scenes,
+        fresh_tiles: true,
         cmf,
     };
     let text = serde_json::to_string_pretty(&row).expect("plain data");
@@ -285,10 +287,20 @@ mod tests {
         );
         assert_eq!(fewer[1].cmf.as_ref().map(|c| c.dimension), Some(2));
         let md = std::fs::read_to_string(dir.join("convergence/convergence.md")).unwrap();
-        assert!(
-            md.contains("on 32 at step 10, 8 at step 20 held-out scenes"),
-            "{md}"
+        let counts = format!(
+            "on {} at step 10, 8 at step 20 held-out scenes",
+            invariants::HELD_OUT_SCENES
         );
+        assert!(md.contains(&counts), "{md}");
+        // A kept row measured on the held-out eye's pool of reused tiles (written before the
+        // hidden measures had their own stream) is measured again, on as many scenes.
+        let mut reused = fewer[1].clone();
+        reused.fresh_tiles = false;
+        let text = serde_json::to_string(&reused).unwrap();
+        write_atomic(&dir.join("convergence/step_00000020.json"), text.as_bytes()).unwrap();
+        let again = study(&dir, &CmfAt::Never, &[20], 8).unwrap();
+        assert!(again[1].fresh_tiles && again[1].held_out_scenes == 8);
+        assert_eq!(again[1].cmf.as_ref().map(|c| c.dimension), Some(2));
         // The run's own final measurement joins CMF-SIM's verdict at the table's end.
         assert!(
             !md.contains("CMF-SIM at"),

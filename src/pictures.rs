@@ -54,13 +54,17 @@ fn save_rgb(path: &Path, n: usize, rgb: &[f32]) -> Result<(), RunError> {
     )?)
 }
 
-/// Writes every picture into `dir` and returns the measured invariants.
+/// Writes every picture into `dir` and returns the measured invariants. With `held_out` the
+/// hidden-signal figures and the own image are measured too, on
+/// `config.schedule.held_out_scenes` held-out scenes each (a run's end and `scope`; the
+/// pictures during training leave them out: a minute or more each on the quick eye).
 pub fn write_all(
     dir: &Path,
     config: &RunConfig,
     retina: &Retina,
     source: &mut RetinaSource,
     trainer: &Trainer,
+    held_out: bool,
 ) -> Result<Invariants, RunError> {
     std::fs::create_dir_all(dir).map_err(|source| crate::io::IoError::Fs {
         path: dir.to_path_buf(),
@@ -73,15 +77,19 @@ pub fn write_all(
     write_positions(dir, retina, cortex)?;
     // What the eye hides on the run's fixed held-out scenes (a fresh held-out stream, as
     // `convergence` measures every checkpoint), not on wherever `source` has got to.
-    let mut scenes = science::heldout::heldout_source(config, true)?;
-    let recovery = science::invariants::measure_with_scenes(
-        cortex,
-        &mut scenes,
-        science::invariants::HELD_OUT_SCENES,
-    );
-    // The last class's own signal on the next held-out scenes of the same stream.
-    let own = own_image::held_out(cortex, &mut scenes, science::invariants::HELD_OUT_SCENES);
-    let own_image = own.map(|own| write_own_image(dir, &own)).transpose()?;
+    let (recovery, own_image) = if held_out {
+        let count = config.schedule.held_out_scenes;
+        let mut scenes = science::heldout::hidden_source(config)?;
+        let recovery = science::invariants::measure_with_scenes(cortex, &mut scenes, count);
+        // The last class's own signal on the next held-out scenes of the same stream.
+        let own = own_image::held_out(cortex, &mut scenes, count);
+        (
+            recovery,
+            own.map(|own| write_own_image(dir, &own)).transpose()?,
+        )
+    } else {
+        (science::invariants::measure(cortex, retina), None)
+    };
     Ok(Invariants {
         recovery,
         scope_rmse: scope.rmse,

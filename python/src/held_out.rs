@@ -1,15 +1,17 @@
 //! Measures of a decoder on the run's held-out scenes, from Python: `hidden(eye, decoder,
-//! scenes=32)`, what its percept carries of each cone class's *own* signal at the cones of the
+//! scenes=None)`, what its percept carries of each cone class's *own* signal at the cones of the
 //! other classes and which colour directions it carries — the figures a run's `summary.json`
 //! holds under `invariants.recovery.hidden` and `.directions` (`science::invariants::hidden`,
-//! `::directions`) — and `own_image(eye, decoder, scenes=32)`, the eye's last class's own
+//! `::directions`) — and `own_image(eye, decoder, scenes=None)`, the eye's last class's own
 //! signal as a picture beside the percept's reading of it (`science::invariants::own_image`,
 //! the run's `pictures/own_<class>.png`), for any decoder.
 //!
-//! The scenes are the run's held-out stream (`science::heldout::heldout_source`: its own scene
-//! seed and batch seed, the same scenes on every call, never a training batch), frame 0 of
-//! each; the first half fits, the second half scores; the sites are the cones inside the
-//! loss border (`cortex.loss.border_px`). The truth (each cone's class and the excitations of
+//! The scenes are the hidden measures' held-out stream (`science::heldout::hidden_source`: the
+//! held-out eye's scene seed and batch seed, the same scenes on every call, never a training
+//! batch, a fresh scene tile every batch), frame 0 of each; by default as many as the eye's
+//! `schedule.held_out_scenes` (1 024; `tiny` 64); the first half fits, the second half scores;
+//! the sites are the cones inside the loss border (`cortex.loss.border_px`; every second or
+//! fourth on an eye larger than 64 × 64 cones). The truth (each cone's class and the excitations of
 //! every class at it) is read on the Rust side for scoring only: the decoder sees the ONS.
 //!
 //! A Python decoder is called once on a black frame (its channel count and shape checked
@@ -28,9 +30,7 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use science::config::RunConfig;
 use science::invariants::own_image::{held_out_of as own_image_of, OwnImagePicture};
-use science::invariants::{
-    held_out_batches, measure_held_out_of, HELD_OUT_SCENES, HIDDEN_BATCH_SIZE,
-};
+use science::invariants::{held_out_batches, measure_held_out_of, HIDDEN_BATCH_SIZE};
 use science::observer::oracle::ORACLE_PERCEPT_DIM;
 use science::observer::{ObserverKind, OracleDecoder};
 use science::source::RetinaSource;
@@ -41,24 +41,24 @@ use std::sync::atomic::AtomicBool;
 type Decode<'a> = Box<dyn FnMut(&[f32], usize) -> Result<Vec<f32>, String> + 'a>;
 
 /// Most held-out scenes one call measures (each batch of four is kept until the end; an own
-/// image also draws, and drops, the [`HELD_OUT_SCENES`] before them).
+/// image also draws, and drops, the hidden measure's scenes before them).
 pub const MAX_SCENES: usize = 4096;
 
 /// The run's held-out eye and the `scenes` scenes `what` reads (module docs), batch by batch
 /// until `stop` is set: the stream's first for [`Measure::Hidden`]; for [`Measure::OwnImage`]
-/// those after the first [`HELD_OUT_SCENES`], the scenes a run's hidden measure reads (as a
-/// run's pictures draw them: its own image then reads the next [`HELD_OUT_SCENES`]).
+/// those after the first `schedule.held_out_scenes`, the scenes a run's hidden measure reads
+/// (as a run's pictures draw them: its own image then reads the next as many).
 fn held_out(
     config: &RunConfig,
     scenes: usize,
     what: Measure,
     stop: &AtomicBool,
 ) -> Result<(RetinaSource, Vec<retina::EyeBatch>), Error> {
-    let mut source = science::heldout::heldout_source_until(config, true, stop)?;
+    let mut source = science::heldout::hidden_source_until(config, stop)?;
     let per = scenes.div_ceil(HIDDEN_BATCH_SIZE);
     let skip = match what {
         Measure::Hidden => 0,
-        Measure::OwnImage => HELD_OUT_SCENES.div_ceil(HIDDEN_BATCH_SIZE),
+        Measure::OwnImage => config.schedule.held_out_scenes.div_ceil(HIDDEN_BATCH_SIZE),
     };
     let mut batches = Vec::new();
     for b in 0..skip + per {
@@ -186,9 +186,10 @@ fn measured(
     py: Python<'_>,
     eye: &Eye,
     decoder: &Bound<'_, PyAny>,
-    scenes: usize,
+    scenes: Option<usize>,
     what: Measure,
 ) -> PyResult<Answer> {
+    let scenes = scenes.unwrap_or(eye.config.schedule.held_out_scenes);
     if !(2..=MAX_SCENES).contains(&scenes) {
         return Err(PyValueError::new_err(format!(
             "scenes must be 2 to {MAX_SCENES} (half of them fit, half score), not {scenes}"
@@ -243,12 +244,12 @@ fn measured(
 /// `(N, C, n, n)`, a known-answer decoder (`identity`, `cones`, `oracle`, `oracle-mosaic`) or
 /// a trained run (`eye` must then be its eye).
 #[pyfunction]
-#[pyo3(signature = (eye, decoder, scenes=HELD_OUT_SCENES))]
+#[pyo3(signature = (eye, decoder, scenes=None))]
 pub fn hidden(
     py: Python<'_>,
     eye: &Bound<'_, Eye>,
     decoder: &Bound<'_, PyAny>,
-    scenes: usize,
+    scenes: Option<usize>,
 ) -> PyResult<PyObject> {
     let Answer::Hidden(value) = measured(py, eye.get(), decoder, scenes, Measure::Hidden)? else {
         unreachable!("a hidden measure answers with its figures")
@@ -260,19 +261,19 @@ pub fn hidden(
 /// The eye's last class's own signal (what it catches beyond the other classes) on the last
 /// held-out scene, beside `decoder`'s reading of it (module docs), on the `scenes` held-out
 /// scenes (2 to [`MAX_SCENES`], rounded up to whole batches of four) after the
-/// [`HELD_OUT_SCENES`] that [`hidden`] reads by default, as a run's pictures draw them (so at
+/// `schedule.held_out_scenes` that [`hidden`] reads by default, as a run's pictures draw them (so at
 /// the default count a run's `held_out_r2` is its `summary.json`'s). A dict: `class`,
 /// `held_out_r2` (over the scoring half of the scenes), `truth` and `reading` `(side, side)`
 /// float64 over the cones inside the loss border, `scene_srgb` `(3, n, n)` float32 (linear
 /// sRGB at each cone), `class_range` (the class's excitation range over the last scene: the
 /// scale its own signal is small against), `n`, `border`; `None` for an eye of one class.
 #[pyfunction]
-#[pyo3(signature = (eye, decoder, scenes=HELD_OUT_SCENES))]
+#[pyo3(signature = (eye, decoder, scenes=None))]
 pub fn own_image(
     py: Python<'_>,
     eye: &Bound<'_, Eye>,
     decoder: &Bound<'_, PyAny>,
-    scenes: usize,
+    scenes: Option<usize>,
 ) -> PyResult<PyObject> {
     let Answer::OwnImage(picture) = measured(py, eye.get(), decoder, scenes, Measure::OwnImage)?
     else {

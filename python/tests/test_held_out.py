@@ -1,6 +1,7 @@
 """What a percept carries of each cone class's own signal, from Python (`hidden`, and the last
 class's as a picture, `own_image`): known answers (the oracle that interpolates each kind
-carries it, the oracle that keeps each cell's own kind and the ONS itself do not), a run's
+carries it, the oracle that keeps each cell's own kind and the cone activations do not, the ONS
+a little through its surround), a run's
 figures equal to its summary.json, and a Python decoder equal to the same decoder known to
 Rust."""
 
@@ -19,18 +20,32 @@ def quick():
 
 def test_the_interpolating_oracle_carries_every_class_and_the_mosaic_oracle_none(quick):
     # At a cone of another class, only interpolation from a class's own cones can tell what
-    # that class caught beyond the others: the oracle without interpolation, the ONS and the
-    # cone activations leave nothing of it (R² at or below 0), the interpolating oracle a
-    # clear share.
+    # that class caught beyond the others: the oracle without interpolation and the cone
+    # activations leave nothing of it (R² at or below 0), the interpolating oracle a clear
+    # share.
     interpolating = cv.hidden(quick, cv.oracle())
     assert interpolating["classes"] == ["L", "M", "S"]
     assert all(r2 > 0.25 for r2 in interpolating["unique_r2"]), interpolating
-    for decoder in (cv.oracle(interpolate=False), cv.identity(), cv.cone_activations()):
+    for decoder in (cv.oracle(interpolate=False), cv.cone_activations()):
         none = cv.hidden(quick, decoder)
         assert all(r2 < 0.05 for r2 in none["unique_r2"]), (decoder, none)
         # the scenes and sites are the same whatever the decoder
         assert none["unique_share"] == interpolating["unique_share"]
         assert none["sites"] == interpolating["sites"]
+
+
+def test_the_ons_carries_its_neighbours_only_through_the_surround(quick):
+    # The ONS at a cone is its centre minus a surround of its neighbours (lateral inhibition),
+    # so it holds a little of what neighbouring cones of other classes caught: more than the
+    # cone activations (the surround undone), far less than interpolation. Without the
+    # surround it is the cone activations' and carries nothing.
+    ons = cv.hidden(quick, cv.identity())["unique_r2"]
+    cones = cv.hidden(quick, cv.cone_activations())["unique_r2"]
+    oracle = cv.hidden(quick, cv.oracle())["unique_r2"]
+    assert max(ons) > max(cones) + 0.03, (ons, cones)
+    assert all(o < r / 3 for o, r in zip(ons, oracle)), (ons, oracle)
+    flat = cv.Eye("quick", cones="LMS", settings={"retina.lateral_inhibition.surround_weight": 0.0})
+    assert all(r2 < 0.05 for r2 in cv.hidden(flat, cv.identity())["unique_r2"])
 
 
 def test_a_python_decoder_equals_the_same_decoder_known_to_rust(quick):

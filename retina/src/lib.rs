@@ -49,6 +49,6 @@ pub use error::{Result, RetinaError};
 pub use mosaic::{Mosaic, MosaicSpec};
 pub use movie::{Movie, MovieConfig, SpikeTrain};
 pub use pictures::write_stage_pictures;
-pub use retina::{BatchTruth, EyeBatch, OnsBatch, Retina};
+pub use retina::{BatchTruth, EyeBatch, OnsBatch, Retina, SharedTile};
 pub use scene::SpectralImage;
 pub use stimulus::{Disc, NoiseDraw};

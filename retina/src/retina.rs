@@ -28,6 +28,7 @@ use rand::rngs::SmallRng;
 use rand::{Rng, SeedableRng};
 use rayon::prelude::*;
 use std::sync::atomic::AtomicBool;
+use std::sync::Arc;
 
 use crate::cones::{add_photon_noise, Cones};
 use crate::config::RetinaConfig;
@@ -51,10 +52,35 @@ pub struct BatchTruth {
     pub oracle_shift_normalised: Vec<[f32; 2]>,
     /// The batch's noise ratio r.
     pub noise_ratio: f32,
-    /// Pool tile of each sample.
+    /// Pool tile of each sample (its slot in the pool when the batch was drawn).
     pub tiles: Vec<usize>,
     /// Frame-0 field origin `[x, y]` in its tile, px.
     pub origins_px: Vec<[i32; 2]>,
+    /// The tile each sample was cut from, kept: the truth readers
+    /// ([`Retina::class_excitations_at_cones`], [`Retina::srgb_at_cones`]) read these, so a
+    /// batch's truth stays its own after later batches refresh the pool's slots.
+    pub stacks: Vec<SharedTile>,
+}
+
+/// A scene tile shared between the pool and the batches cut from it (compared by content,
+/// printed by its shape).
+#[derive(Clone)]
+pub struct SharedTile(pub Arc<MipStack>);
+
+impl PartialEq for SharedTile {
+    fn eq(&self, other: &Self) -> bool {
+        Arc::ptr_eq(&self.0, &other.0) || self.0 == other.0
+    }
+}
+
+impl std::fmt::Debug for SharedTile {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "SharedTile({}×{}×{}×{})",
+            self.0.levels, self.0.planes, self.0.h, self.0.w
+        )
+    }
 }
 
 /// One batch from the eye: the signal it sends and the truth it keeps.
@@ -265,10 +291,13 @@ impl Retina {
         out.noise_ratio = self.config.noise.draw_ratio(rng);
         out.oracle_shift_px.clear();
         out.tiles.clear();
+        out.stacks.clear();
         out.origins_px.clear();
         let mut seeds = Vec::with_capacity(batch_size);
         for _ in 0..batch_size {
-            out.tiles.push(rng.random_range(0..self.pool.len()));
+            let tile = rng.random_range(0..self.pool.len());
+            out.tiles.push(tile);
+            out.stacks.push(SharedTile(self.pool.shared_tile(tile)));
             let (lo, hi) = (m, tile_px - f - m);
             out.origins_px
                 .push([rng.random_range(lo..=hi), rng.random_range(lo..=hi)]);
@@ -295,7 +324,7 @@ impl Retina {
             .for_each(|(b, (pair, act))| {
                 act.resize(nn, 0.0);
                 let mut srng = SmallRng::seed_from_u64(seeds[b]);
-                let stack = this.pool.tile(out.tiles[b]);
+                let stack = &out.stacks[b].0;
                 let o = out.origins_px[b];
                 let d = out.oracle_shift_px[b];
                 let (f0, f1) = pair.split_at_mut(nn);
@@ -311,11 +340,11 @@ impl Retina {
     pub fn srgb_at_cones(&self, batch: &BatchTruth, frame: usize) -> Vec<f32> {
         let proj = &self.pool.projection;
         let nn = self.n() * self.n();
-        let samples = batch.tiles.len();
+        let samples = batch.stacks.len();
         let mut out = vec![0.0f32; samples * 3 * nn];
         let mut lms = vec![vec![0.0f32; nn]; 3];
         for b in 0..samples {
-            let stack = self.pool.tile(batch.tiles[b]);
+            let stack = &batch.stacks[b].0;
             let o = self.frame_origin(batch, b, frame);
             for (c, buf) in lms.iter_mut().enumerate() {
                 self.cones
@@ -338,10 +367,10 @@ impl Retina {
     /// frame `frame`: `(B, k, n, n)` (evaluation only).
     pub fn class_excitations_at_cones(&self, batch: &BatchTruth, frame: usize) -> Vec<f32> {
         let (nn, k) = (self.n() * self.n(), self.mosaic.n_classes());
-        let samples = batch.tiles.len();
+        let samples = batch.stacks.len();
         let mut out = vec![0.0f32; samples * k * nn];
         for b in 0..samples {
-            let stack = self.pool.tile(batch.tiles[b]);
+            let stack = &batch.stacks[b].0;
             let o = self.frame_origin(batch, b, frame);
             for c in 0..k {
                 let dst = &mut out[(b * k + c) * nn..(b * k + c + 1) * nn];

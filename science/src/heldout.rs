@@ -36,6 +36,29 @@ pub fn heldout_source_until(
     ))
 }
 
+/// The held-out stream of the hidden-signal measures ([`crate::invariants::measure_held_out`],
+/// the own image): [`heldout_source`]'s eye and seeds, but its scene pool holds
+/// [`HIDDEN_POOL_TILES`] tiles and replaces one after every batch, so `k` batches see about
+/// `k + 3` different tiles and the scoring half shares at most three tiles with the fitting
+/// half. A pool of a few tiles reused over many batches (the training pool's 32) makes the
+/// figures those of a few scenes: on 32 scenes of it a kept quick cortex's S figure read −2.42,
+/// on 1 024 of this stream 0.55 (docs/notebook/2026-12-05-hidden-signal-convergence.md).
+pub fn hidden_source(config: &RunConfig) -> Result<RetinaSource, Error> {
+    hidden_source_until(config, &AtomicBool::new(false))
+}
+
+/// [`hidden_source`] whose scene drawing ends with [`Error::Stopped`] once `stop` is set.
+pub fn hidden_source_until(config: &RunConfig, stop: &AtomicBool) -> Result<RetinaSource, Error> {
+    let mut fresh = config.clone();
+    fresh.retina.scenes.tiles = HIDDEN_POOL_TILES;
+    fresh.retina.scenes.refresh_every_batches = 1;
+    heldout_source_until(&fresh, true, stop)
+}
+
+/// Tiles in the pool of [`hidden_source`]: one batch of the hidden measures
+/// ([`crate::invariants::HIDDEN_BATCH_SIZE`]).
+pub const HIDDEN_POOL_TILES: usize = crate::invariants::HIDDEN_BATCH_SIZE;
+
 /// [`Error::Stopped`] once `stop` is set.
 fn stopped(stop: &AtomicBool) -> Result<(), Error> {
     if stop.load(Ordering::Relaxed) {

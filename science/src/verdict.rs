@@ -86,6 +86,10 @@ pub struct StudyRow {
     /// recorded used [`invariants::HELD_OUT_SCENES`]).
     #[serde(default = "default_held_out_scenes")]
     pub held_out_scenes: usize,
+    /// Whether those scenes came from [`crate::heldout::hidden_source`], a fresh tile every
+    /// batch (rows kept from before it: the held-out eye's pool of reused tiles).
+    #[serde(default)]
+    pub fresh_tiles: bool,
     /// The calibrated CMF-SIM (with `--cmf`).
     pub cmf: Option<CmfPoint>,
 }

@@ -65,6 +65,7 @@ impl RunState<'_> {
                 &self.source.retina,
                 &mut self.heldout,
                 &self.trainer,
+                true,
             )?)
         } else {
             None

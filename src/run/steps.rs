@@ -186,6 +186,7 @@ impl RunState<'_> {
                 &self.source.retina,
                 &mut self.heldout,
                 &self.trainer,
+                false,
             )?;
         }
         self.progress.measured = true;

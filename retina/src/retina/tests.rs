@@ -162,15 +162,8 @@ fn ground_truth_matches_the_batch() {
     let b = r.batch(&mut StdRng::seed_from_u64(2), 3);
     // Without LI and noise, the ONS is Σ_k w_k · excitation_k at each cone.
     let ex = r.class_excitations_at_cones(&b.truth, 1);
-    let (nn, k) = (32 * 32, 3);
-    for s in 0..3 {
-        for i in 0..nn {
-            let want: f32 = (0..k)
-                .map(|c| r.mosaic.weights[i * k + c] * ex[(s * k + c) * nn + i])
-                .sum();
-            assert!((b.signal.frame(s, 1)[i] - want).abs() < 1e-6);
-        }
-    }
+    assert_signal_is_weighted_excitation(&r, &b, &ex, 1);
+    let nn = 32 * 32;
     // sRGB ground truth: white-balanced scenes are bright and in a sane range.
     let rgb = r.srgb_at_cones(&b.truth, 0);
     assert_eq!(rgb.len(), 3 * 3 * nn);
@@ -180,6 +173,53 @@ fn ground_truth_matches_the_batch() {
     assert!(matches!(r.config.layout, LayoutConfig::Foveated(_)));
 }
 
+/// A batch's truth is the scene its signal was made from even after later batches have
+/// refreshed every slot of the pool: read late, it equals what it was when the batch was drawn,
+/// and it still explains the batch's noise-free signal.
+#[test]
+fn ground_truth_outlives_pool_refreshes() {
+    let mut c = RetinaConfig::tiny();
+    c.noise = NoiseConfig::off();
+    c.lateral_inhibition = None;
+    c.scenes.tiles = 2;
+    c.scenes.refresh_every_batches = 1;
+    let mut r = Retina::new(c).unwrap();
+    let mut rng = StdRng::seed_from_u64(5);
+    let first = r.batch(&mut rng, 3);
+    let (ex_then, rgb_then) = (
+        r.class_excitations_at_cones(&first.truth, 0),
+        r.srgb_at_cones(&first.truth, 0),
+    );
+    for _ in 0..4 {
+        r.batch(&mut rng, 3);
+    }
+    // Every slot now holds another tile: the pool no longer has the first batch's scenes.
+    for s in 0..3 {
+        let slot = first.truth.tiles[s];
+        assert!(
+            *r.pool.tile(slot) != *first.truth.stacks[s].0,
+            "slot {slot} not refreshed"
+        );
+    }
+    assert_eq!(r.class_excitations_at_cones(&first.truth, 0), ex_then);
+    assert_eq!(r.srgb_at_cones(&first.truth, 0), rgb_then);
+    assert_signal_is_weighted_excitation(&r, &first, &ex_then, 0);
+}
+
+/// Frame `frame` of every sample of `b` (a noise-free `tiny` eye without lateral inhibition,
+/// 32 × 32 cones of 3 classes) is Σ_k w_k · excitation_k at each cone, `ex` being
+/// [`Retina::class_excitations_at_cones`] of that frame.
+fn assert_signal_is_weighted_excitation(r: &Retina, b: &EyeBatch, ex: &[f32], frame: usize) {
+    let (nn, k) = (32 * 32, 3);
+    for s in 0..b.signal.batch {
+        for i in 0..nn {
+            let want: f32 = (0..k)
+                .map(|c| r.mosaic.weights[i * k + c] * ex[(s * k + c) * nn + i])
+                .sum();
+            assert!((b.signal.frame(s, frame)[i] - want).abs() < 1e-6);
+        }
+    }
+}
 #[test]
 fn invalid_configs_are_errors_naming_the_setting() {
     let mut c = RetinaConfig::tiny();

@@ -33,6 +33,7 @@
 
 use std::path::Path;
 use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
 
 use rand::rngs::StdRng;
 use rand::seq::SliceRandom;
@@ -141,7 +142,8 @@ pub struct ScenePool {
     pub projection: SceneProjection,
     /// Mip levels per tile.
     pub levels: usize,
-    tiles: Vec<MipStack>,
+    /// Shared, so that a batch's truth keeps the tile it was cut from after a refresh.
+    tiles: Vec<Arc<MipStack>>,
     library: ReflectanceLibrary,
     /// Surfaces of the tetrachromatic patches: the observer's hue sphere or optimal colours.
     patch_library: ReflectanceLibrary,
@@ -248,6 +250,7 @@ impl ScenePool {
                     return Err(RetinaError::Stopped);
                 }
                 pool.make_tile(i, &mut StdRng::seed_from_u64(s))
+                    .map(Arc::new)
             })
             .collect::<Result<Vec<_>>>()?;
         pool.tiles = tiles;
@@ -412,7 +415,7 @@ impl ScenePool {
     /// Replace the next tile (round robin) with a fresh one, from the next draw.
     pub fn refresh_one<R: Rng + ?Sized>(&mut self, rng: &mut R) -> Result<()> {
         let i = self.next_refresh % self.tiles.len();
-        self.tiles[i] = self.make_tile(self.tiles.len() + self.next_refresh, rng)?;
+        self.tiles[i] = Arc::new(self.make_tile(self.tiles.len() + self.next_refresh, rng)?);
         self.next_refresh += 1;
         Ok(())
     }
@@ -430,5 +433,10 @@ impl ScenePool {
     /// Tile `i`.
     pub fn tile(&self, i: usize) -> &MipStack {
         &self.tiles[i]
+    }
+
+    /// Tile `i`, shared: it stays what it is when a refresh replaces slot `i`.
+    pub fn shared_tile(&self, i: usize) -> Arc<MipStack> {
+        Arc::clone(&self.tiles[i])
     }
 }

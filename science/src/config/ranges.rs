@@ -184,6 +184,7 @@ pub const RANGES: &[Range] = &[
     r("schedule.pictures_every_steps", 0.0, STEPS_MAX, "steps (0: the end only)"),
     r("schedule.eval_every_steps", 0.0, STEPS_MAX, "steps"),
     r("schedule.eval_batches", 1.0, 10_000.0, "held-out batches per measurement"),
+    r("schedule.held_out_scenes", 2.0, 4096.0, "held-out scenes of the hidden-signal figures"),
     r("schedule.stop_at_dimension", 0.0, 64.0, "a dimension (0: never stop early)"),
     r("schedule.checkpoint_cmf_sets_per_k", 0.0, 1e6, "primary sets per K (0: as cmf_sim)"),
     r("schedule.checkpoint_cmf_wavelengths", 0.0, 10_000.0, "test wavelengths (0: as cmf_sim)"),

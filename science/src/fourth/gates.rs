@@ -33,7 +33,7 @@ use retina::scene::hue_sphere::HueRule;
 use retina::scene::pool::TetraMix;
 use retina::scene::q_from_lms::QFromLms;
 use retina::scene::tetra::TetraEnvironment;
-use retina::{BatchTruth, Retina};
+use retina::{BatchTruth, Retina, SharedTile};
 use serde::Serialize;
 
 /// Cones this close to the lattice edge are left out (the lateral inhibition's edge), cells.
@@ -289,6 +289,7 @@ fn excitations(retina: &Retina, t: usize, rng: &mut StdRng) -> ([i32; 2], Vec<f3
         noise_ratio: 0.0,
         tiles: vec![t],
         origins_px: vec![origin],
+        stacks: vec![SharedTile(retina.pool.shared_tile(t))],
     };
     (origin, retina.class_excitations_at_cones(&truth, 0))
 }

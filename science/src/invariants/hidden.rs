@@ -39,6 +39,12 @@ pub struct HiddenRecovery {
     pub unique_share: Vec<f64>,
     /// Held-out sites the figure of each class was evaluated on.
     pub sites: Vec<usize>,
+    /// Held-out scenes behind the figures, half fitting and half scoring (`None` in a record
+    /// written before the count was kept: 32 scenes cut from a pool of 32 reused tiles, too few
+    /// where a class's own signal lives in rare tiles;
+    /// docs/notebook/2026-12-05-hidden-signal-convergence.md).
+    #[serde(default)]
+    pub scenes: Option<usize>,
 }
 
 /// Held-out samples of percepts and true excitations at the cones, gathered per sample.
@@ -65,7 +71,8 @@ impl HiddenSamples {
     }
 
     /// Adds one sample: `percept (dim, n, n)`, `excitation (classes, n, n)`, `class (n²)`; the
-    /// sites are the cones at least `border` cells from the lattice edge.
+    /// sites are the cones at least `border` cells from the lattice edge, every
+    /// [`site_stride`]-th in each direction (all of them on an eye of up to 64 × 64 cones).
     pub fn add(
         &mut self,
         percept: &[f32],
@@ -87,8 +94,10 @@ impl HiddenSamples {
             class.len()
         );
         let (mut p, mut e, mut c) = (Vec::new(), Vec::new(), Vec::new());
-        for y in border..n.saturating_sub(border) {
-            for x in border..n.saturating_sub(border) {
+        let inside = border..n.saturating_sub(border);
+        let stride = site_stride(inside.len());
+        for y in inside.clone().step_by(stride) {
+            for x in inside.clone().step_by(stride) {
                 let i = y * n + x;
                 p.extend((0..self.dim).map(|d| percept[d * nn + i] as f64));
                 e.extend((0..self.classes).map(|k| excitation[k * nn + i] as f64));
@@ -98,6 +107,11 @@ impl HiddenSamples {
         self.percept.push(p);
         self.excitation.push(e);
         self.class.push(c);
+    }
+
+    /// Sites kept per sample (the same for every sample of one eye and border).
+    pub fn sites_per_sample(&self) -> usize {
+        self.class.first().map_or(0, Vec::len)
     }
 
     /// Percept channels per site.
@@ -163,6 +177,7 @@ impl HiddenSamples {
             unique_r2,
             unique_share,
             sites,
+            scenes: Some(self.percept.len()),
         }
     }
 
@@ -188,6 +203,19 @@ impl HiddenSamples {
         }
         rows
     }
+}
+
+/// Most sites one held-out sample keeps: a 64 × 64 block of cones. Neighbouring cones of one
+/// scene say nearly the same about the percept, so the figures rest on the number of scenes;
+/// this keeps a measure on thousands of scenes of the paper's 256 × 256 eye in memory.
+pub const MAX_SITES_PER_SAMPLE: usize = 64 * 64;
+
+/// The step between the kept sites of a sample, in cones along each direction, for `side`
+/// cones inside the border: the smallest that keeps at most [`MAX_SITES_PER_SAMPLE`].
+pub fn site_stride(side: usize) -> usize {
+    (1..)
+        .find(|s| side.div_ceil(*s).pow(2) <= MAX_SITES_PER_SAMPLE)
+        .expect("a stride as large as the side keeps one site")
 }
 
 /// The hidden sites of one class: target excitation, the other classes' excitations, percept.

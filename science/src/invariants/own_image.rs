@@ -46,7 +46,28 @@ pub fn own_image(
     k: usize,
     fit_sites: usize,
 ) -> OwnImage {
-    let sites = excitation.len() / classes.max(1);
+    own_image_at(
+        (percept, excitation),
+        fit_sites,
+        (percept, excitation),
+        dim,
+        classes,
+        k,
+    )
+}
+
+/// [`own_image`] fitted and scored on `rows = (percept, excitation)` (the first `fit_sites` sites
+/// fit, the rest score), with its truth and reading given at the sites of `shown`, which need not
+/// be among `rows` (a whole scene beside a sample of sites from many scenes).
+pub fn own_image_at(
+    rows: (&[f64], &[f64]),
+    fit_sites: usize,
+    shown: (&[f64], &[f64]),
+    dim: usize,
+    classes: usize,
+    k: usize,
+) -> OwnImage {
+    let ((percept, excitation), sites) = (rows, rows.1.len() / classes.max(1));
     assert!(
         classes >= 2 && k < classes && excitation.len() == sites * classes,
         "own_image: class {k} of {classes}, {} excitations",
@@ -57,8 +78,40 @@ pub fn own_image(
         "own_image: {} percept values for {sites} sites of {dim} channels, fit on {fit_sites}",
         percept.len()
     );
-    let target: Vec<f64> = excitation.chunks_exact(classes).map(|e| e[k]).collect();
-    let others: Vec<f64> = excitation
+    assert!(
+        shown.0.len() * classes == shown.1.len() * dim,
+        "own_image: {} shown percept values against {} excitations",
+        shown.0.len(),
+        shown.1.len()
+    );
+    let (others, target) = split_class(excitation, classes, k);
+    let unique = affine_residuals((&others, &target), (&others, &target), classes - 1);
+    let (shown_others, shown_target) = split_class(shown.1, classes, k);
+    let truth = affine_residuals(
+        (&others, &target),
+        (&shown_others, &shown_target),
+        classes - 1,
+    );
+    let fit = (&percept[..fit_sites * dim], &unique[..fit_sites]);
+    let left = affine_residuals(fit, (shown.0, &truth), dim);
+    let reading = truth.iter().zip(&left).map(|(u, r)| u - r).collect();
+    let held_out_r2 = held_out_r2(
+        fit,
+        (&percept[fit_sites * dim..], &unique[fit_sites..]),
+        dim,
+    );
+    OwnImage {
+        truth,
+        reading,
+        held_out_r2,
+    }
+}
+
+/// Row-major `(sites, classes)` excitations split into the other classes' `(sites, classes − 1)`
+/// and class `k`'s `(sites)`.
+fn split_class(excitation: &[f64], classes: usize, k: usize) -> (Vec<f64>, Vec<f64>) {
+    let target = excitation.chunks_exact(classes).map(|e| e[k]).collect();
+    let others = excitation
         .chunks_exact(classes)
         .flat_map(|e| {
             e.iter()
@@ -67,16 +120,7 @@ pub fn own_image(
                 .map(|(_, &v)| v)
         })
         .collect();
-    let truth = affine_residuals((&others, &target), (&others, &target), classes - 1);
-    let fit = (&percept[..fit_sites * dim], &truth[..fit_sites]);
-    let left = affine_residuals(fit, (percept, &truth), dim);
-    let reading = truth.iter().zip(&left).map(|(u, r)| u - r).collect();
-    let held_out_r2 = held_out_r2(fit, (&percept[fit_sites * dim..], &truth[fit_sites..]), dim);
-    OwnImage {
-        truth,
-        reading,
-        held_out_r2,
-    }
+    (others, target)
 }
 
 /// The last class's own signal on held-out scenes, with what its picture shows ([`held_out`]).
@@ -84,7 +128,8 @@ pub fn own_image(
 pub struct OwnImagePicture {
     /// The class (the eye's last: S for LMS, Q for LMSQ).
     pub class: String,
-    /// Held-out R² of the percept's reading over every site of the scoring half of the scenes.
+    /// Held-out R² of the percept's reading over the sites of the scoring half of the scenes
+    /// (every cone inside the border, or every [`super::hidden::site_stride`]-th on a larger eye).
     pub held_out_r2: f64,
     /// Cones per side.
     pub n: usize,
@@ -103,8 +148,9 @@ pub struct OwnImagePicture {
 
 /// [`own_image`] of the eye's last class on the next `scenes` held-out scenes of `source`
 /// (frame 0, batches of [`super::HIDDEN_BATCH_SIZE`], the count rounded up to whole batches), at
-/// every cone inside the loss border: the first half of the scenes fits the reading, the second
-/// half scores it, and the picture is the last scene's. `None` for a one-class eye or fewer
+/// the cones inside the loss border that [`super::hidden::HiddenSamples::add`] keeps: the first
+/// half of the scenes fits the reading, the second half scores it, and the picture is the last
+/// scene's, at every cone inside the border. `None` for a one-class eye or fewer
 /// than two scenes.
 pub fn held_out(
     cortex: &Cortex,
@@ -133,35 +179,55 @@ pub fn held_out_of(
     if classes < 2 {
         return None;
     }
-    let samples = held_out_samples(retina, batches, dim, border, decode);
+    let mut decode = decode;
+    let mut last_percept = Vec::new();
+    let samples = held_out_samples(retina, batches, dim, border, |frames, count| {
+        let p = decode(frames, count);
+        last_percept.clone_from(&p);
+        p
+    });
     let last = batches.last()?;
     if samples.len() < 2 {
         return None;
     }
-    let srgb = retina.srgb_at_cones(&last.truth, 0);
-    let scene_srgb = srgb[(last.signal.batch - 1) * 3 * n * n..].to_vec();
-    let per_sample = (n - 2 * border).pow(2);
-    let count = samples.len();
+    let (count, per_sample) = (samples.len(), samples.sites_per_sample());
     let (percept, excitation) = samples.all_sites(0..count);
     drop(samples);
-    let fit_sites = count / 2 * per_sample;
-    let own = own_image(&percept, &excitation, dim, classes, classes - 1, fit_sites);
-    let shown = own.truth.len() - per_sample;
-    let last_class = excitation[shown * classes..]
-        .iter()
-        .skip(classes - 1)
-        .step_by(classes);
+    // The picture: every cone inside the border of the last scene.
+    let s = last.signal.batch - 1;
+    let (nn, inside) = (n * n, border..n - border);
+    let scene_excitation = retina.class_excitations_at_cones(&last.truth, 0);
+    let (mut shown_percept, mut shown_excitation) = (Vec::new(), Vec::new());
+    for i in inside
+        .clone()
+        .flat_map(|y| inside.clone().map(move |x| y * n + x))
+    {
+        shown_percept.extend((0..dim).map(|d| last_percept[(s * dim + d) * nn + i] as f64));
+        shown_excitation
+            .extend((0..classes).map(|c| scene_excitation[(s * classes + c) * nn + i] as f64));
+    }
+    let shown = (&shown_percept[..], &shown_excitation[..]);
+    let own = own_image_at(
+        (&percept, &excitation),
+        count / 2 * per_sample,
+        shown,
+        dim,
+        classes,
+        classes - 1,
+    );
+    let last_class = shown_excitation.iter().skip(classes - 1).step_by(classes);
     let (low, high) = last_class.fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &v| {
         (l.min(v), h.max(v))
     });
+    let srgb = retina.srgb_at_cones(&last.truth, 0);
     Some(OwnImagePicture {
         class: retina.mosaic.classes[classes - 1].name.clone(),
         held_out_r2: own.held_out_r2,
         n,
         border,
-        scene_srgb,
-        truth: own.truth[shown..].to_vec(),
-        reading: own.reading[shown..].to_vec(),
+        scene_srgb: srgb[s * 3 * nn..(s + 1) * 3 * nn].to_vec(),
+        truth: own.truth,
+        reading: own.reading,
         class_range: high - low,
     })
 }
@@ -247,6 +313,48 @@ mod tests {
         );
     }
 
+    /// Shown at some of the rows' own sites, the truth and the reading are the measure's values
+    /// there; shown at sites outside the rows (a whole scene beside a sample of sites), they are
+    /// the rows' fits applied there: the own signal drawn, read exactly by a percept that
+    /// carries it.
+    #[test]
+    fn shown_sites_read_as_the_fits_of_the_rows() {
+        let (excitation, own) = tetrachromat(4000);
+        let percept = percept_of(&excitation, true);
+        let rows = (&percept[..3000 * 4], &excitation[..3000 * 4]);
+        let whole = own_image(rows.0, rows.1, 4, 4, 3, 1500);
+        let inside = own_image_at(
+            rows,
+            1500,
+            (
+                &percept[2000 * 4..3000 * 4],
+                &excitation[2000 * 4..3000 * 4],
+            ),
+            4,
+            4,
+            3,
+        );
+        assert_eq!(inside.held_out_r2, whole.held_out_r2);
+        assert_eq!(inside.truth, whole.truth[2000..3000]);
+        assert_eq!(inside.reading, whole.reading[2000..3000]);
+        let outside = own_image_at(
+            rows,
+            1500,
+            (&percept[3000 * 4..], &excitation[3000 * 4..]),
+            4,
+            4,
+            3,
+        );
+        assert_eq!(outside.truth.len(), 1000);
+        let r = correlation(&outside.truth, &own[3000..]);
+        assert!(
+            r > 0.99,
+            "outside the rows, truth against the own signal: r = {r}"
+        );
+        for (i, (u, r)) in outside.truth.iter().zip(&outside.reading).enumerate() {
+            assert!((u - r).abs() < 1e-9, "site {i}: truth {u}, reading {r}");
+        }
+    }
     /// An eye of one class has no own signal to show: `None`, without a single decode.
     #[test]
     fn a_one_class_eye_answers_none_before_decoding() {

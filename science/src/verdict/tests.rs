@@ -33,6 +33,7 @@ fn rows_at(steps: &[u64]) -> Vec<StudyRow> {
             wall_seconds: None,
             recovery: recovery.clone(),
             held_out_scenes: 32,
+            fresh_tiles: true,
             cmf: None,
         })
         .collect()

@@ -123,3 +123,37 @@ fn a_single_class_has_no_figure() {
     let r = samples.measure(&["L".to_string()]);
     assert!(r.unique_r2[0].is_nan(), "{r:?}");
 }
+
+/// Every cone inside the border up to 64 × 64 of them; beyond, the smallest step that keeps at
+/// most that many: the `large` eye (128 cones, border 3) every second, the paper's (256) every
+/// fourth.
+#[test]
+fn the_site_stride_keeps_at_most_a_64_by_64_block() {
+    for (side, stride) in [
+        (1, 1),
+        (18, 1),
+        (58, 1),
+        (64, 1),
+        (65, 2),
+        (122, 2),
+        (128, 2),
+        (250, 4),
+    ] {
+        assert_eq!(site_stride(side), stride, "side {side}");
+    }
+    for side in 1..600 {
+        let s = site_stride(side);
+        assert!(
+            side.div_ceil(s).pow(2) <= MAX_SITES_PER_SAMPLE,
+            "side {side}"
+        );
+        assert!(
+            s == 1 || side.div_ceil(s - 1).pow(2) > MAX_SITES_PER_SAMPLE,
+            "side {side}"
+        );
+    }
+    let mut samples = HiddenSamples::new(1, 1);
+    let n = 132;
+    samples.add(&vec![0.0; n * n], &vec![0.0; n * n], &vec![0; n * n], n, 3);
+    assert_eq!(samples.sites_per_sample(), 63 * 63);
+}
