@@ -57,7 +57,7 @@ fn save_rgb(path: &Path, n: usize, rgb: &[f32]) -> Result<(), RunError> {
 /// Writes every picture into `dir` and returns the measured invariants. With `held_out` the
 /// hidden-signal figures and the own image are measured too, on
 /// `config.schedule.held_out_scenes` held-out scenes each (a run's end and `scope`; the
-/// pictures during training leave them out: a minute or more each on the quick eye).
+/// pictures during training leave them out, their figures were never kept).
 pub fn write_all(
     dir: &Path,
     config: &RunConfig,

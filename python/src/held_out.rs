@@ -8,8 +8,9 @@
 //!
 //! The scenes are the hidden measures' held-out stream (`science::heldout::hidden_source`: the
 //! held-out eye's scene seed and batch seed, the same scenes on every call, never a training
-//! batch, a fresh scene tile every batch), frame 0 of each; by default as many as the eye's
-//! `schedule.held_out_scenes` (1 024; `tiny` 64); the first half fits, the second half scores;
+//! batch, a fresh scene tile every batch), frame 0 of each; by default
+//! [`HELD_OUT_SCENES`] (1 024, converged; a run's summary reads `schedule.held_out_scenes`,
+//! 32); the first half fits, the second half scores;
 //! the sites are the cones inside the loss border (`cortex.loss.border_px`; every second or
 //! fourth on an eye larger than 64 × 64 cones). The truth (each cone's class and the excitations of
 //! every class at it) is read on the Rust side for scoring only: the decoder sees the ONS.
@@ -30,7 +31,9 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use science::config::RunConfig;
 use science::invariants::own_image::{held_out_of as own_image_of, OwnImagePicture};
-use science::invariants::{held_out_batches, measure_held_out_of, HIDDEN_BATCH_SIZE};
+use science::invariants::{
+    held_out_batches, measure_held_out_of, HELD_OUT_SCENES, HIDDEN_BATCH_SIZE,
+};
 use science::observer::oracle::ORACLE_PERCEPT_DIM;
 use science::observer::{ObserverKind, OracleDecoder};
 use science::source::RetinaSource;
@@ -189,7 +192,7 @@ fn measured(
     scenes: Option<usize>,
     what: Measure,
 ) -> PyResult<Answer> {
-    let scenes = scenes.unwrap_or(eye.config.schedule.held_out_scenes);
+    let scenes = scenes.unwrap_or(HELD_OUT_SCENES);
     if !(2..=MAX_SCENES).contains(&scenes) {
         return Err(PyValueError::new_err(format!(
             "scenes must be 2 to {MAX_SCENES} (half of them fit, half score), not {scenes}"
@@ -261,8 +264,8 @@ pub fn hidden(
 /// The eye's last class's own signal (what it catches beyond the other classes) on the last
 /// held-out scene, beside `decoder`'s reading of it (module docs), on the `scenes` held-out
 /// scenes (2 to [`MAX_SCENES`], rounded up to whole batches of four) after the
-/// `schedule.held_out_scenes` that [`hidden`] reads by default, as a run's pictures draw them (so at
-/// the default count a run's `held_out_r2` is its `summary.json`'s). A dict: `class`,
+/// `schedule.held_out_scenes` that a run's summary reads, as a run's pictures draw them (so at
+/// that count, 32, a run's `held_out_r2` is its `summary.json`'s). A dict: `class`,
 /// `held_out_r2` (over the scoring half of the scenes), `truth` and `reading` `(side, side)`
 /// float64 over the cones inside the loss border, `scene_srgb` `(3, n, n)` float32 (linear
 /// sRGB at each cone), `class_range` (the class's excitation range over the last scene: the

@@ -59,13 +59,13 @@ def test_a_python_decoder_equals_the_same_decoder_known_to_rust(quick):
 
 def test_a_run_measured_from_python_equals_its_summary(tiny_run):
     run = cv.load_run(tiny_run)
-    got = cv.hidden(run.eye, run)
     summary = json.loads((tiny_run / "summary.json").read_text())
     recovery = summary["invariants"]["recovery"]
     want = dict(recovery["hidden"], directions=recovery["directions"])
+    got = cv.hidden(run.eye, run, scenes=want["scenes"])
     assert got == want
     # the same cortex as a Python decoder (8 channels, through NumPy) gives the same figures
-    assert cv.hidden(run.eye, lambda ons: run(ons)) == got
+    assert cv.hidden(run.eye, lambda ons: run(ons), scenes=want["scenes"]) == got
 
 
 def test_bad_decoders_and_counts_are_refused(quick):
@@ -127,10 +127,11 @@ def test_the_own_image_of_the_last_class_and_its_known_answers(quick):
 
 def test_a_runs_own_image_from_python_equals_its_summary(tiny_run):
     run = cv.load_run(tiny_run)
-    got = cv.own_image(run.eye, run)
     summary = json.loads((tiny_run / "summary.json").read_text())
+    scenes = summary["invariants"]["recovery"]["hidden"]["scenes"]
+    got = cv.own_image(run.eye, run, scenes=scenes)
     want = summary["invariants"]["own_image"]
     assert (got["class"], got["held_out_r2"]) == (want["class"], want["held_out_r2"])
-    python = cv.own_image(run.eye, lambda ons: run(ons))
+    python = cv.own_image(run.eye, lambda ons: run(ons), scenes=scenes)
     assert python["held_out_r2"] == got["held_out_r2"]
     assert np.array_equal(python["reading"], got["reading"])

@@ -49,9 +49,14 @@ use serde::{Deserialize, Serialize};
 pub const HIDDEN_BATCHES: usize = 256;
 /// Samples per held-out batch of [`measure_held_out`].
 pub const HIDDEN_BATCH_SIZE: usize = 4;
-/// Held-out scenes of [`measure_held_out`] in a run's summary, its pictures and, by default,
-/// `colorvision convergence` and Python's `hidden` and `own_image`.
+/// Held-out scenes of [`measure_held_out`] by default in `colorvision convergence` and Python's
+/// `hidden` and `own_image`: converged (above).
 pub const HELD_OUT_SCENES: usize = HIDDEN_BATCHES * HIDDEN_BATCH_SIZE;
+/// Held-out scenes of the hidden-signal figures and the own image in a run's summary and
+/// pictures (`schedule.held_out_scenes`): a quick look that keeps the end of a run within the
+/// memory its estimate gives (1 024 scenes took a quick run's peak from about 0.3 to 1.8 GB);
+/// not converged where a class's own signal lives in rare tiles (one in ten idealised).
+pub const SUMMARY_HELD_OUT_SCENES: usize = 32;
 
 /// Restarts of the k-means behind [`CRecovery`] (deterministic seeds).
 const KMEANS_RESTARTS: usize = 10;

@@ -20,10 +20,6 @@ pub const PRESETS: [&str; 7] = ["tiny", "quick", "main", "long", "large", "sandb
 /// checkpoints fall on either side of the border between 2 and 3.
 pub const LONG_STEPS: u64 = 40_000;
 
-/// Held-out scenes of the hidden-signal figures in a `tiny` run, a smoke test: too few for
-/// converged figures ([`crate::invariants::HELD_OUT_SCENES`] is), enough to exercise them.
-pub const TINY_HELD_OUT_SCENES: usize = 64;
-
 /// Steps of the `main` preset, the run of `cargo run --release`: fixed before the runs that
 /// measured it (docs/notebook/2026-11-28-slow-colour-protocol-2.md), the quick eye in natural
 /// surface scenes is 3-D at this length for each of arm B1's five seeds (K2 fails 1.06–3.08;
@@ -139,11 +135,7 @@ fn measurement_plan(name: &str, eye: &str) -> (u64, CmfSimSettings, Schedule) {
         pictures_every_steps: steps.max(1) / 4,
         eval_every_steps: (steps / 20).max(10),
         eval_batches: 4,
-        held_out_scenes: if name == "tiny" {
-            TINY_HELD_OUT_SCENES
-        } else {
-            crate::invariants::HELD_OUT_SCENES
-        },
+        held_out_scenes: crate::invariants::SUMMARY_HELD_OUT_SCENES,
         stop_at_dimension: 0,
         checkpoint_cmf_sets_per_k: checkpoint_sets,
         checkpoint_cmf_wavelengths: checkpoint_wavelengths,
