@@ -92,7 +92,7 @@ pub struct Schedule {
     /// Held-out scenes of the hidden-signal figures and the own image in the run's pictures
     /// and summary ([`crate::invariants::SUMMARY_HELD_OUT_SCENES`] in every preset: a quick
     /// look, kept within the run's memory; the converged figures are
-    /// [`crate::invariants::HELD_OUT_SCENES`]', from `colorvision convergence` and Python).
+    /// [`crate::invariants::HELD_OUT_SCENES`], from `colorvision convergence` and Python).
     #[serde(default = "default_held_out_scenes")]
     pub held_out_scenes: usize,
 }
