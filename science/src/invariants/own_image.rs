@@ -84,14 +84,19 @@ pub fn own_image_at(
         shown.0.len(),
         shown.1.len()
     );
+    // One fit of class k on the others over the rows, applied to the rows and the shown sites.
     let (others, target) = split_class(excitation, classes, k);
-    let unique = affine_residuals((&others, &target), (&others, &target), classes - 1);
     let (shown_others, shown_target) = split_class(shown.1, classes, k);
-    let truth = affine_residuals(
+    let mut residuals = affine_residuals(
         (&others, &target),
-        (&shown_others, &shown_target),
+        (
+            &[&others[..], &shown_others[..]].concat(),
+            &[&target[..], &shown_target[..]].concat(),
+        ),
         classes - 1,
     );
+    let truth = residuals.split_off(sites);
+    let unique = residuals;
     let fit = (&percept[..fit_sites * dim], &unique[..fit_sites]);
     let left = affine_residuals(fit, (shown.0, &truth), dim);
     let reading = truth.iter().zip(&left).map(|(u, r)| u - r).collect();
