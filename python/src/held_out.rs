@@ -30,54 +30,28 @@ use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use science::config::RunConfig;
-use science::invariants::own_image::{held_out_of as own_image_of, OwnImagePicture};
-use science::invariants::{
-    held_out_batches, measure_held_out_of, HELD_OUT_SCENES, HIDDEN_BATCH_SIZE,
-};
+use science::invariants::own_image::{of_scenes as own_image_of, OwnImagePicture};
+use science::invariants::{gather_held_out, measure_samples, HELD_OUT_SCENES, HIDDEN_BATCH_SIZE};
 use science::observer::oracle::ORACLE_PERCEPT_DIM;
 use science::observer::{ObserverKind, OracleDecoder};
-use science::source::RetinaSource;
 use science::Error;
 use std::sync::atomic::AtomicBool;
 
 /// The percepts of `count` frames `(count, n, n)` into `(count, dim, n, n)`.
 type Decode<'a> = Box<dyn FnMut(&[f32], usize) -> Result<Vec<f32>, String> + 'a>;
 
-/// Most held-out scenes one call measures (each batch of four is kept until the end; an own
-/// image also draws, and drops, the hidden measure's scenes before them).
+/// Most held-out scenes one call measures (each is read as it is drawn; the kept cones of every
+/// scene stay until the figures are made).
 pub const MAX_SCENES: usize = 4096;
 
-/// The run's held-out eye and the `scenes` scenes `what` reads (module docs), batch by batch
-/// until `stop` is set: the stream's first for [`Measure::Hidden`]; for [`Measure::OwnImage`]
-/// those after the first `schedule.held_out_scenes`, the scenes a run's hidden measure reads
-/// (as a run's pictures draw them: its own image then reads the next as many).
-fn held_out(
-    config: &RunConfig,
-    scenes: usize,
-    what: Measure,
-    stop: &AtomicBool,
-) -> Result<(RetinaSource, Vec<retina::EyeBatch>), Error> {
-    let mut source = science::heldout::hidden_source_until(config, stop)?;
-    let per = scenes.div_ceil(HIDDEN_BATCH_SIZE);
-    let skip = match what {
-        Measure::Hidden => 0,
-        Measure::OwnImage => config.schedule.held_out_scenes.div_ceil(HIDDEN_BATCH_SIZE),
-    };
-    let mut batches = Vec::new();
-    for b in 0..skip + per {
-        if stop.load(std::sync::atomic::Ordering::Relaxed) {
-            return Err(Error::Stopped {
-                stage: "the held-out scenes",
-            });
-        }
-        if b < skip {
-            // drawn to advance the stream, not kept (no copy)
-            source.next_eye_batch(HIDDEN_BATCH_SIZE);
-        } else {
-            batches.extend(held_out_batches(&mut source, HIDDEN_BATCH_SIZE));
-        }
+/// [`Error::Stopped`] once `stop` is set.
+fn stopped(stop: &AtomicBool) -> Result<(), Error> {
+    match stop.load(std::sync::atomic::Ordering::Relaxed) {
+        true => Err(Error::Stopped {
+            stage: "the held-out scenes",
+        }),
+        false => Ok(()),
     }
-    Ok((source, batches))
 }
 
 /// `body` with `decode` as an infallible decode (zeros after its first error), then that error.
@@ -115,26 +89,42 @@ enum Answer {
     OwnImage(Option<OwnImagePicture>),
 }
 
-/// `what` of `decode` (`dim` channels) on `batches` of `retina`.
+/// `what` of `decode` (`dim` channels) on `scenes` scenes of the run's held-out stream (module
+/// docs), drawn and read batch by batch until `stop` is set: the stream's first for
+/// [`Measure::Hidden`]; for [`Measure::OwnImage`] those after the first
+/// `schedule.held_out_scenes`, the scenes a run's hidden measure reads (as a run's pictures draw
+/// them: its own image then reads the next as many).
 fn measure(
     config: &RunConfig,
-    (retina, batches): (&retina::Retina, &[retina::EyeBatch]),
+    scenes: usize,
     (dim, decode): (usize, Decode<'_>),
     what: Measure,
+    stop: &AtomicBool,
 ) -> Result<Answer, Error> {
+    let mut source = science::heldout::hidden_source_until(config, stop)?;
+    if let Measure::OwnImage = what {
+        for _ in 0..config.schedule.held_out_scenes.div_ceil(HIDDEN_BATCH_SIZE) {
+            stopped(stop)?;
+            source.next_eye_batch(HIDDEN_BATCH_SIZE);
+        }
+    }
     let border = config.cortex.loss.border_px;
+    let gathered = decoding(decode, dim, |d| {
+        gather_held_out(&mut source, scenes, dim, border, d, || stopped(stop))
+    })??;
     match what {
         Measure::Hidden => {
-            let (hidden, directions) = decoding(decode, dim, |d| {
-                measure_held_out_of(retina, batches, dim, border, d)
-            })?;
+            let names = source.retina.mosaic.class_names();
+            let (hidden, directions) = measure_samples(&gathered.samples, &names);
             let mut value = serde_json::to_value(&hidden).expect("figures serialise");
             value["directions"] = serde_json::to_value(&directions).expect("figures serialise");
             Ok(Answer::Hidden(value))
         }
-        Measure::OwnImage => decoding(decode, dim, |d| {
-            Answer::OwnImage(own_image_of(retina, batches, dim, border, d))
-        }),
+        Measure::OwnImage => Ok(Answer::OwnImage(own_image_of(
+            &source.retina,
+            &gathered,
+            border,
+        ))),
     }
 }
 
@@ -205,18 +195,16 @@ fn measured(
     }
     let answer = match chosen {
         Chosen::Known(kind) => run_beside_python(py, None, None, |_, stop| {
-            let (source, batches) = held_out(config, scenes, what, stop)?;
-            let decode = known(kind, config, &source.retina)?;
-            measure(config, (&source.retina, &batches), decode, what)
+            let decode = known(kind, config, &eye.discs)?;
+            measure(config, scenes, decode, what, stop)
         })?,
         Chosen::Run(run) => {
             let cortex = &run.cortex;
             run_beside_python(py, None, None, |_, stop| {
-                let (source, batches) = held_out(&run.config, scenes, what, stop)?;
                 let decode: Decode =
                     Box::new(|frames, count| Ok(cortex.decode_frames(frames, count)));
                 let given = (cortex.percept_dim(), decode);
-                measure(&run.config, (&source.retina, &batches), given, what)
+                measure(&run.config, scenes, given, what, stop)
             })?
         }
         Chosen::Python(callable) => {
@@ -228,12 +216,11 @@ fn measured(
                 n,
             };
             run_beside_python(py, Some(&py_decoder), None, |tx, stop| {
-                let (source, batches) = held_out(config, scenes, what, stop)?;
                 let decode: Decode = Box::new(move |frames, count| {
                     let mut out = vec![0f32; count * channels * n * n];
                     decode_via(&tx, frames, count, &mut out).map(|()| out)
                 });
-                measure(config, (&source.retina, &batches), (channels, decode), what)
+                measure(config, scenes, (channels, decode), what, stop)
             })?
         }
     };

@@ -221,7 +221,8 @@ pub fn measure_with_scenes(cortex: &Cortex, source: &mut RetinaSource, scenes: u
 /// How much of each class's own signal the percept carries at the other classes' cones
 /// ([`hidden`]) and which colour directions it carries ([`directions`]), on the next `scenes`
 /// scenes of `source` (frame 0; batches of [`HIDDEN_BATCH_SIZE`], the count rounded up to
-/// whole batches), inside the loss border: the first half fits, the second half scores.
+/// whole batches), inside the loss border: the first half fits, the second half scores. The
+/// scenes are drawn and read one batch at a time ([`gather_held_out`]).
 ///
 /// # Panics
 /// If `scenes` is 0.
@@ -231,73 +232,102 @@ pub fn measure_held_out(
     scenes: usize,
 ) -> (HiddenRecovery, DirectionRecovery) {
     assert!(scenes > 0, "measure_held_out: needs at least one scene");
-    let batches = held_out_batches(source, scenes);
     let border = cortex.config.loss.border_px;
-    measure_held_out_of(
-        &source.retina,
-        &batches,
-        cortex.percept_dim(),
-        border,
-        |frames, count| cortex.decode_frames(frames, count),
-    )
+    let decode = |frames: &[f32], count| cortex.decode_frames(frames, count);
+    let Ok(gathered) =
+        gather_held_out(source, scenes, cortex.percept_dim(), border, decode, || {
+            Ok::<(), std::convert::Infallible>(())
+        });
+    measure_samples(&gathered.samples, &source.retina.mosaic.class_names())
 }
 
-/// The next `scenes` scenes of `source` as batches of [`HIDDEN_BATCH_SIZE`] (the count rounded
-/// up to whole batches): the scenes [`measure_held_out`] reads.
-pub fn held_out_batches(source: &mut RetinaSource, scenes: usize) -> Vec<retina::EyeBatch> {
-    (0..scenes.div_ceil(HIDDEN_BATCH_SIZE))
-        .map(|_| source.next_eye_batch(HIDDEN_BATCH_SIZE).clone())
-        .collect()
+/// The hidden-signal figures and the colour directions of held-out `samples` of an eye whose
+/// classes are `names`.
+///
+/// # Panics
+/// If `samples` holds fewer than two samples or `names` does not name its classes.
+pub fn measure_samples(
+    samples: &HiddenSamples,
+    names: &[String],
+) -> (HiddenRecovery, DirectionRecovery) {
+    (samples.measure(names), measure_directions(samples, names))
 }
 
-/// [`measure_held_out`] for any decoder: `decode(frames, count)` gives the `dim`-channel
-/// percepts `(count, dim, n, n)` of `count` ONS frames `(count, n, n)` (frame 0 of each of
-/// `batches` of `retina`); the figures are read at the cones inside `border`.
+/// Held-out scenes as the hidden measures read them: the samples at the kept cones of every
+/// scene, and the last scene whole (the own image's picture).
+#[derive(Clone, Debug)]
+pub struct HeldOutScenes {
+    /// The percepts and true excitations at the cones [`HiddenSamples::add`] keeps.
+    pub samples: HiddenSamples,
+    /// The last scene drawn (`None` when none was).
+    pub last: Option<LastScene>,
+}
+
+/// One held-out scene at every cone (evaluation: its truth is read for the own image's picture).
+#[derive(Clone, Debug)]
+pub struct LastScene {
+    /// The percept, `(dim, n, n)`.
+    pub percept: Vec<f32>,
+    /// Every class's true excitation at each cone, `(classes, n, n)`.
+    pub excitation: Vec<f32>,
+    /// The scene's linear sRGB at each cone, `(3, n, n)`.
+    pub srgb: Vec<f32>,
+}
+
+/// The percepts (`dim` channels) `decode(frames, count)` gives for frame 0 of the next `scenes`
+/// scenes of `source` (batches of [`HIDDEN_BATCH_SIZE`], the count rounded up to whole
+/// batches), with the true excitations and dominant class at the cones inside `border` that
+/// [`HiddenSamples::add`] keeps. Each batch is read as it is drawn and dropped: the memory is
+/// the kept cones', whatever the scene count. `go_on()` is asked before every batch; its error
+/// ends the gathering.
 ///
 /// # Panics
 /// If `decode` answers with fewer than `count·dim·n²` values.
-pub fn measure_held_out_of(
-    retina: &Retina,
-    batches: &[retina::EyeBatch],
-    dim: usize,
-    border: usize,
-    decode: impl FnMut(&[f32], usize) -> Vec<f32>,
-) -> (HiddenRecovery, DirectionRecovery) {
-    let samples = held_out_samples(retina, batches, dim, border, decode);
-    let names = retina.mosaic.class_names();
-    (
-        samples.measure(&names),
-        measure_directions(&samples, &names),
-    )
-}
-
-/// The percepts (`dim` channels) `decode(frames, count)` gives for frame 0 of `batches` of
-/// `retina`, with the true excitations and dominant class at the cones inside `border` that
-/// [`HiddenSamples::add`] keeps, sample after sample.
-pub(crate) fn held_out_samples(
-    retina: &Retina,
-    batches: &[retina::EyeBatch],
+pub fn gather_held_out<E>(
+    source: &mut RetinaSource,
+    scenes: usize,
     dim: usize,
     border: usize,
     mut decode: impl FnMut(&[f32], usize) -> Vec<f32>,
-) -> HiddenSamples {
-    let n = retina.n();
-    let classes = retina.mosaic.n_classes();
-    let dominant = retina.mosaic.dominant_class();
-    let mut samples = HiddenSamples::new(dim, classes);
+    mut go_on: impl FnMut() -> Result<(), E>,
+) -> Result<HeldOutScenes, E> {
+    let (n, classes) = (source.retina.n(), source.retina.mosaic.n_classes());
+    let dominant = source.retina.mosaic.dominant_class();
+    let nn = n * n;
+    let mut gathered = HeldOutScenes {
+        samples: HiddenSamples::new(dim, classes),
+        last: None,
+    };
     let mut frames = Vec::new();
-    for batch in batches {
+    let batches = scenes.div_ceil(HIDDEN_BATCH_SIZE);
+    for b in 0..batches {
+        go_on()?;
+        let (retina, batch) = source.next_eye_batch_with_retina(HIDDEN_BATCH_SIZE);
         batch.signal.frames(0, &mut frames);
         let count = batch.signal.batch;
         let percept = decode(&frames, count);
         let excitation = retina.class_excitations_at_cones(&batch.truth, 0);
+        let scene = |s: usize| {
+            (
+                &percept[s * dim * nn..(s + 1) * dim * nn],
+                &excitation[s * classes * nn..(s + 1) * classes * nn],
+            )
+        };
         for s in 0..count {
-            let p = &percept[s * dim * n * n..(s + 1) * dim * n * n];
-            let e = &excitation[s * classes * n * n..(s + 1) * classes * n * n];
-            samples.add(p, e, &dominant, n, border);
+            let (p, e) = scene(s);
+            gathered.samples.add(p, e, &dominant, n, border);
+        }
+        if b + 1 == batches && count > 0 {
+            let (p, e) = scene(count - 1);
+            let srgb = retina.srgb_at_cones(&batch.truth, 0);
+            gathered.last = Some(LastScene {
+                percept: p.to_vec(),
+                excitation: e.to_vec(),
+                srgb: srgb[(count - 1) * 3 * nn..count * 3 * nn].to_vec(),
+            });
         }
     }
-    samples
+    Ok(gathered)
 }
 
 /// Per-class figures as `a/b/c` with `digits` decimals; one that is not finite (no recall for

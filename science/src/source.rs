@@ -85,6 +85,13 @@ impl RetinaSource {
         self.eye = eye;
         &self.eye
     }
+
+    /// [`Self::next_eye_batch`] beside the eye it was drawn from, for a caller that reads the
+    /// batch's truth through the eye while holding the batch.
+    pub fn next_eye_batch_with_retina(&mut self, batch_size: usize) -> (&Retina, &EyeBatch) {
+        self.next_eye_batch(batch_size);
+        (&self.retina, &self.eye)
+    }
 }
 
 impl DataSource for RetinaSource {

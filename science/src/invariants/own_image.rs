@@ -20,8 +20,8 @@
 //!
 //! Layout: `percept` row-major `(sites, dim)`, `excitation` row-major `(sites, classes)`.
 
-use super::held_out_samples;
 use super::hidden::{affine_residuals, held_out_r2};
+use super::{gather_held_out, HeldOutScenes};
 use crate::source::RetinaSource;
 use cortex::Cortex;
 
@@ -152,64 +152,53 @@ pub struct OwnImagePicture {
 }
 
 /// [`own_image`] of the eye's last class on the next `scenes` held-out scenes of `source`
-/// (frame 0, batches of [`super::HIDDEN_BATCH_SIZE`], the count rounded up to whole batches), at
-/// the cones inside the loss border that [`super::hidden::HiddenSamples::add`] keeps: the first
-/// half of the scenes fits the reading, the second half scores it, and the picture is the last
-/// scene's, at every cone inside the border. `None` for a one-class eye or fewer
+/// (frame 0, batches of [`super::HIDDEN_BATCH_SIZE`], the count rounded up to whole batches,
+/// drawn and read one batch at a time: [`super::gather_held_out`]), at the cones inside the
+/// loss border that [`super::hidden::HiddenSamples::add`] keeps: the first half of the scenes
+/// fits the reading, the second half scores it, and the picture is the last scene's, at every
+/// cone inside the border. `None` for a one-class eye (before any scene is drawn) or fewer
 /// than two scenes.
 pub fn held_out(
     cortex: &Cortex,
     source: &mut RetinaSource,
     scenes: usize,
 ) -> Option<OwnImagePicture> {
-    let batches = super::held_out_batches(source, scenes);
+    if source.retina.mosaic.n_classes() < 2 {
+        return None;
+    }
     let (dim, border) = (cortex.percept_dim(), cortex.config.loss.border_px);
-    held_out_of(&source.retina, &batches, dim, border, |frames, count| {
-        cortex.decode_frames(frames, count)
-    })
+    let decode = |frames: &[f32], count| cortex.decode_frames(frames, count);
+    let Ok(gathered) = gather_held_out(source, scenes, dim, border, decode, || {
+        Ok::<(), std::convert::Infallible>(())
+    });
+    of_scenes(&source.retina, &gathered, border)
 }
 
-/// [`held_out`] for any decoder: `decode(frames, count)` gives the `dim`-channel percepts
-/// `(count, dim, n, n)` of `count` ONS frames `(count, n, n)` (frame 0 of each of `batches` of
-/// `retina`), read at the cones inside `border`. `None` for a one-class eye or fewer than two
-/// samples.
-pub fn held_out_of(
+/// [`held_out`] of scenes already gathered (by [`super::gather_held_out`], from any decoder)
+/// on `retina`, read at the cones inside `border`. `None` for a one-class eye or fewer than
+/// two samples.
+pub fn of_scenes(
     retina: &retina::Retina,
-    batches: &[retina::EyeBatch],
-    dim: usize,
+    scenes: &HeldOutScenes,
     border: usize,
-    decode: impl FnMut(&[f32], usize) -> Vec<f32>,
 ) -> Option<OwnImagePicture> {
     let (n, classes) = (retina.n(), retina.mosaic.n_classes());
-    if classes < 2 {
+    let (samples, last) = (&scenes.samples, scenes.last.as_ref()?);
+    if classes < 2 || samples.len() < 2 {
         return None;
     }
-    let mut decode = decode;
-    let mut last_percept = Vec::new();
-    let samples = held_out_samples(retina, batches, dim, border, |frames, count| {
-        let p = decode(frames, count);
-        last_percept.clone_from(&p);
-        p
-    });
-    let last = batches.last()?;
-    if samples.len() < 2 {
-        return None;
-    }
+    let dim = samples.dim();
     let (count, per_sample) = (samples.len(), samples.sites_per_sample());
     let (percept, excitation) = samples.all_sites(0..count);
-    drop(samples);
     // The picture: every cone inside the border of the last scene.
-    let s = last.signal.batch - 1;
     let (nn, inside) = (n * n, border..n - border);
-    let scene_excitation = retina.class_excitations_at_cones(&last.truth, 0);
     let (mut shown_percept, mut shown_excitation) = (Vec::new(), Vec::new());
     for i in inside
         .clone()
         .flat_map(|y| inside.clone().map(move |x| y * n + x))
     {
-        shown_percept.extend((0..dim).map(|d| last_percept[(s * dim + d) * nn + i] as f64));
-        shown_excitation
-            .extend((0..classes).map(|c| scene_excitation[(s * classes + c) * nn + i] as f64));
+        shown_percept.extend((0..dim).map(|d| last.percept[d * nn + i] as f64));
+        shown_excitation.extend((0..classes).map(|c| last.excitation[c * nn + i] as f64));
     }
     let shown = (&shown_percept[..], &shown_excitation[..]);
     let own = own_image_at(
@@ -224,13 +213,12 @@ pub fn held_out_of(
     let (low, high) = last_class.fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &v| {
         (l.min(v), h.max(v))
     });
-    let srgb = retina.srgb_at_cones(&last.truth, 0);
     Some(OwnImagePicture {
         class: retina.mosaic.classes[classes - 1].name.clone(),
         held_out_r2: own.held_out_r2,
         n,
         border,
-        scene_srgb: srgb[s * 3 * nn..(s + 1) * 3 * nn].to_vec(),
+        scene_srgb: last.srgb.clone(),
         truth: own.truth,
         reading: own.reading,
         class_range: high - low,
@@ -360,16 +348,13 @@ mod tests {
             assert!((u - r).abs() < 1e-9, "site {i}: truth {u}, reading {r}");
         }
     }
-    /// An eye of one class has no own signal to show: `None`, without a single decode.
+    /// An eye of one class has no own signal to show: `None`, without a single decode or scene.
     #[test]
     fn a_one_class_eye_answers_none_before_decoding() {
         let config = crate::config::RunConfig::preset("tiny", "L").unwrap();
-        let mut source = crate::heldout::heldout_source(&config, true).unwrap();
-        let batches = crate::invariants::held_out_batches(&mut source, 8);
-        assert!(!batches.is_empty());
-        let picture = held_out_of(&source.retina, &batches, 1, 0, |_, _| {
-            panic!("a one-class eye must not be decoded")
-        });
-        assert!(picture.is_none());
+        let cortex = Cortex::new(config.cortex.clone()).unwrap();
+        let mut source = crate::heldout::hidden_source(&config).unwrap();
+        assert!(held_out(&cortex, &mut source, 8).is_none());
+        assert_eq!(source.batches_drawn(), 0, "a one-class eye drew scenes");
     }
 }
