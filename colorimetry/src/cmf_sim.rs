@@ -109,6 +109,15 @@ pub fn validate_settings(settings: &CmfSimSettings, grid: &WavelengthGrid) -> Re
             return bad(name, format!("{v} (must be ≥ {least})"));
         }
     }
+    if s.margins_through_k > s.max_primaries {
+        return bad(
+            "margins_through_k",
+            format!(
+                "{} (at most max_primaries, {})",
+                s.margins_through_k, s.max_primaries
+            ),
+        );
+    }
     if s.max_primaries > MAX_PRIMARIES {
         return bad(
             "max_primaries",
@@ -270,10 +279,11 @@ fn run(
             progress,
         )?;
         curves.push(reported);
-        let passed = summary.passed;
-        per_k.push(summary);
-        if passed {
+        if summary.passed && dimension == 0 {
             dimension = k;
+        }
+        per_k.push(summary);
+        if dimension > 0 && k >= s.margins_through_k {
             break;
         }
     }

@@ -187,6 +187,45 @@ fn a_separation_wider_than_a_band_is_refused_before_any_show() {
     );
 }
 
+/// Margins past the first pass: an L, M observer (2-D) measured through K = 4 still reads 2,
+/// its K = 1 and 2 exactly as the stopping search reads them, and K = 3 and 4 pass with margins
+/// below 1; through a K above `max_primaries` is refused, naming the setting.
+#[test]
+fn margins_through_k_go_past_the_pass_and_keep_the_dimension() {
+    let o = cones(&[ConeClass::l(), ConeClass::m()]);
+    let stopping = run_cmf_sim(&o, &fast(5)).unwrap();
+    let through = CmfSimSettings {
+        margins_through_k: 4,
+        ..fast(5)
+    };
+    let r = run_cmf_sim(&o, &through).unwrap();
+    assert_eq!((stopping.dimension, r.dimension), (2, 2), "{}", r.verdict);
+    assert_eq!(r.verdict, stopping.verdict);
+    let ks: Vec<usize> = r.per_k.iter().map(|k| k.n_primaries).collect();
+    assert_eq!(ks, [1, 2, 3, 4]);
+    let untimed = |ks: &[KSummary]| {
+        let mut ks = ks.to_vec();
+        ks.iter_mut().for_each(|k| k.seconds = 0.0);
+        ks
+    };
+    assert_eq!(untimed(&r.per_k[..2]), untimed(&stopping.per_k));
+    assert_eq!(r.curves[..3], stopping.curves[..]);
+    for k in &r.per_k[2..] {
+        assert!(
+            k.passed && k.converged_worst_ratio < 1.0,
+            "K = {}: {k:?}",
+            k.n_primaries
+        );
+    }
+    assert_eq!(r.curves.len(), 5);
+    let refused = CmfSimSettings {
+        margins_through_k: 7,
+        ..fast(5)
+    };
+    let e = run_cmf_sim(&o, &refused).unwrap_err().to_string();
+    assert!(e.contains("margins_through_k"), "{e}");
+}
+
 #[test]
 fn settings_outside_the_grid_are_errors() {
     let o = cones(&ConeClass::lms());

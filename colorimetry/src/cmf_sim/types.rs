@@ -17,6 +17,12 @@ pub struct CmfSimSettings {
     pub primary_range_nm: (f64, f64),
     /// Largest K tried.
     pub max_primaries: usize,
+    /// Go on past the first K that passes, up to this K (at most `max_primaries`; 0, the
+    /// default, stops at the first pass as the paper's search does). The dimension stays the
+    /// first K that passes; a larger K's margin (its first passing set's worst ratio, as for
+    /// any passing K) says how far inside the border a reading sits, e.g. the K3 margin of a
+    /// run that reads 2 where a protocol's outcome is `log K3`.
+    pub margins_through_k: usize,
     /// Primary sets drawn per K before K is declared failed (paper: 500).
     pub sets_per_k: usize,
     /// Location pairs averaged per error evaluation (docs/references.md#cmf-sim-defaults: about 8).
@@ -59,6 +65,7 @@ impl Default for CmfSimSettings {
             test_range_nm: (400.0, 700.0),
             primary_range_nm: (400.0, 700.0),
             max_primaries: 6,
+            margins_through_k: 0,
             sets_per_k: 500,
             location_pairs: 8,
             reuse_base_pairs: true,

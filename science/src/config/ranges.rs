@@ -159,6 +159,7 @@ pub const RANGES: &[Range] = &[
     r("cmf_sim.test_range_nm[]", NM_MIN, NM_MAX, "wavelength, nm"),
     r("cmf_sim.primary_range_nm[]", NM_MIN, NM_MAX, "wavelength, nm"),
     r("cmf_sim.max_primaries", 1.0, 8.0, "primaries (CMF-SIM tries at most 8)"),
+    r("cmf_sim.margins_through_k", 0.0, 8.0, "primaries (CMF-SIM tries at most 8)"),
     r("cmf_sim.sets_per_k", 1.0, 1e6, "primary sets per K"),
     r("cmf_sim.location_pairs", 1.0, 4096.0, "location pairs"),
     r("cmf_sim.pass_ratio", 1.0, 1e3, "error ratio to the base error (paper: 1.5)"),
