@@ -125,9 +125,28 @@ fn cone_sweep(options: &CommonOptions, out: &Path, cones: &[&str]) -> Result<(),
     Ok(())
 }
 
-/// Fraction of scenes drawn from a tetrachromatic environment: the paper's 100 colour patches
-/// added to 900 hyperspectral images (S-07).
-pub const TETRA_SCENE_FRACTION: f64 = 0.1;
+/// Share of the scene tiles holding hue-sphere colours: the paper's 100 colour patches added to
+/// 900 hyperspectral images (S-07), read as a tenth of the tiles.
+pub const HUE_SPHERE_TILE_FRACTION: f64 = 0.1;
+
+/// Share of the scene tiles holding idealised colours. The paper states none for this
+/// environment (S-07's 100 patches; the authors' training reads one dataset per run); half is
+/// the share under which the human-Q cortex reads the paper's 4 where a tenth reads 3, on three
+/// seeds of an A/B that changed only the share
+/// (docs/notebook/2026-12-05-human-q-idealised-protocol.md, arm H1;
+/// docs/notebook/2026-12-05-idealised-share-table-protocol.md fixed the change before it was
+/// read).
+pub const IDEALISED_TILE_FRACTION: f64 = 0.5;
+
+/// Share of the scene tiles holding `environment`'s colours in S-07's runs.
+pub fn tetra_tile_fraction(environment: TetraEnvironment) -> f64 {
+    match environment {
+        TetraEnvironment::Idealised => IDEALISED_TILE_FRACTION,
+        TetraEnvironment::HueSphere | TetraEnvironment::OptimalColours => {
+            HUE_SPHERE_TILE_FRACTION
+        }
+    }
+}
 
 /// The environments of S-07, by folder name.
 pub const TETRA_ENVIRONMENTS: [(&str, Option<TetraEnvironment>); 3] = [
@@ -146,7 +165,7 @@ fn tetrachromats(options: &CommonOptions, out: &Path) -> Result<(), RunError> {
             let mut config = with_cones(options, cones).resolve(EXPERIMENT_PRESET)?;
             config.retina.scenes.tetra = environment.map(|environment| TetraMix {
                 environment,
-                fraction: TETRA_SCENE_FRACTION,
+                fraction: tetra_tile_fraction(environment),
                 hue_rule: Default::default(),
             });
             let s = full_run(&config, &sub(out, cones).join(name), options)?;
