@@ -142,9 +142,7 @@ pub const IDEALISED_TILE_FRACTION: f64 = 0.5;
 pub fn tetra_tile_fraction(environment: TetraEnvironment) -> f64 {
     match environment {
         TetraEnvironment::Idealised => IDEALISED_TILE_FRACTION,
-        TetraEnvironment::HueSphere | TetraEnvironment::OptimalColours => {
-            HUE_SPHERE_TILE_FRACTION
-        }
+        TetraEnvironment::HueSphere | TetraEnvironment::OptimalColours => HUE_SPHERE_TILE_FRACTION,
     }
 }
 
