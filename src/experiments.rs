@@ -7,7 +7,7 @@
 //! | `monochromats` | L, M, S | Fig. 5 |
 //! | `dichromats` | LM, LS, MS | Fig. 5.2 |
 //! | `trichromat` | LMS, dimension over training | Fig. 3.3 |
-//! | `tetrachromats` | LMS + pigeon Q (506) and LMS + human Q (545), each in three environments: natural scenes; 10 % of scenes from the observer's hue sphere; 10 % idealised | S-07, Fig. 10 |
+//! | `tetrachromats` | LMS + pigeon Q (506) and LMS + human Q (545), each in three environments: natural scenes; 10 % of the tiles from the observer's hue sphere; half the tiles idealised ([`IDEALISED_TILE_FRACTION`]) | S-07, Fig. 10 |
 //! | `baselines` | Φ = identity on the ONS; Φ = identity on cone activations; no demosaicker; (extra) a cortex trained on cone activations (LMS) | S-05, Fig. 8 |
 //! | `gene-therapy` | MS trained, then L replacing / co-expressing / mixing into 50 % of M | S-06, Fig. 6.1, 9 |
 //! | `boost` | LMS trained, then LMSQ, training continued | Fig. 6.2 |
@@ -138,7 +138,8 @@ pub const HUE_SPHERE_TILE_FRACTION: f64 = 0.1;
 /// read).
 pub const IDEALISED_TILE_FRACTION: f64 = 0.5;
 
-/// Share of the scene tiles holding `environment`'s colours in S-07's runs.
+/// Share of the scene tiles holding `environment`'s colours in S-07's runs (the optimal colours,
+/// which S-07 does not use, take the hue sphere's).
 pub fn tetra_tile_fraction(environment: TetraEnvironment) -> f64 {
     match environment {
         TetraEnvironment::Idealised => IDEALISED_TILE_FRACTION,

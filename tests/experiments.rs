@@ -36,7 +36,8 @@ fn tetrachromats_trains_both_observers_in_three_environments() {
     );
     for (observer, cones) in [("LMSQ_Q_506", "LMSQ,Q:506"), ("LMSQ", "LMSQ")] {
         // The hue-sphere tiles a tenth (the paper's 100 patches beside 900 images), the
-        // idealised tiles half (the share the human-Q A/B found: experiments::IDEALISED_TILE_FRACTION).
+        // idealised tiles half (the share the human-Q A/B found:
+        // experiments::IDEALISED_TILE_FRACTION).
         for (environment, recorded, share) in [
             ("natural", None, None),
             ("hue_sphere", Some("HueSphere"), Some(0.1)),

@@ -246,7 +246,7 @@ fn run(
     let no_cc = base.error.iter().sum::<f64>() >= base.energy.iter().sum::<f64>();
     let mut curves = vec![energy_curve(&tests, &base.energy, &threshold)];
 
-    // 2. K = 1, 2, … until a set passes.
+    // 2. K = 1, 2, … until a set passes, then on through `margins_through_k`.
     let search = Search {
         observer,
         settings: s,

@@ -54,7 +54,8 @@ pub const HIDDEN_BATCH_SIZE: usize = 4;
 pub const HELD_OUT_SCENES: usize = HIDDEN_BATCHES * HIDDEN_BATCH_SIZE;
 /// Held-out scenes of the hidden-signal figures and the own image in a run's summary and
 /// pictures (`schedule.held_out_scenes`): a quick look that keeps the end of a run within the
-/// memory its estimate gives (1 024 scenes took a quick run's peak from about 0.3 to 1.8 GB);
+/// memory its estimate gives (1 024 scenes, every cone inside the border of each, took a quick
+/// run's peak from about 0.3 to 1.6 GB);
 /// not converged where a class's own signal lives in rare tiles (one in ten idealised).
 pub const SUMMARY_HELD_OUT_SCENES: usize = 32;
 
@@ -274,8 +275,8 @@ pub struct LastScene {
     pub srgb: Vec<f32>,
 }
 
-/// The percepts (`dim` channels) `decode(frames, count)` gives for frame 0 of the next `scenes`
-/// scenes of `source` (batches of [`HIDDEN_BATCH_SIZE`], the count rounded up to whole
+/// The percepts `decode(frames, count)` gives, `(count, dim, n, n)` for `count` ONS frames
+/// `(count, n, n)`, for frame 0 of the next `scenes` scenes of `source` (batches of [`HIDDEN_BATCH_SIZE`], the count rounded up to whole
 /// batches), with the true excitations and dominant class at the cones inside `border` that
 /// [`HiddenSamples::add`] keeps. Each batch is read as it is drawn and dropped: the memory is
 /// the kept cones', whatever the scene count. `go_on()` is asked before every batch; its error

@@ -21,7 +21,8 @@ pub struct CmfSimSettings {
     /// default, stops at the first pass as the paper's search does). The dimension stays the
     /// first K that passes; a larger K's margin (its first passing set's worst ratio, as for
     /// any passing K) says how far inside the border a reading sits, e.g. the K3 margin of a
-    /// run that reads 2 where a protocol's outcome is `log K3`.
+    /// run that reads 2 where a protocol's outcome is `log K3`. Set in a run's config it applies
+    /// to the readings during training too.
     pub margins_through_k: usize,
     /// Primary sets drawn per K before K is declared failed (paper: 500).
     pub sets_per_k: usize,

@@ -144,3 +144,42 @@ fn one_class_has_no_dprime_and_its_record_reads_back() {
         "{said:?}"
     );
 }
+
+/// The held-out scenes are drawn and read one batch at a time: gathered to the end, every scene
+/// is a sample and the last is kept whole; a `go_on` that refuses before the third batch ends
+/// the gathering with its error, two batches drawn and decoded, no more.
+#[test]
+fn gathering_reads_batch_by_batch_and_stops_where_go_on_refuses() {
+    let config = RunConfig::preset("tiny", "LMS").unwrap();
+    let dim = 2;
+    let gather = |refuse_at: usize| {
+        let mut source = crate::heldout::hidden_source(&config).unwrap();
+        let n = source.retina.n();
+        let (mut decoded, mut asked) = (0, 0);
+        let decode = |_: &[f32], count: usize| {
+            decoded += count;
+            vec![0.5; count * dim * n * n]
+        };
+        let go_on = || {
+            asked += 1;
+            match asked > refuse_at {
+                true => Err("refused"),
+                false => Ok(()),
+            }
+        };
+        let out = gather_held_out(&mut source, 40, dim, 0, decode, go_on);
+        (out, source.batches_drawn(), decoded, n)
+    };
+    let (whole, drawn, decoded, n) = gather(usize::MAX);
+    let whole = whole.unwrap();
+    assert_eq!((drawn, decoded), (10, 40));
+    assert_eq!(whole.samples.len(), 40);
+    let last = whole.last.expect("the last scene is kept");
+    assert_eq!(
+        (last.percept.len(), last.excitation.len(), last.srgb.len()),
+        (dim * n * n, 3 * n * n, 3 * n * n)
+    );
+    let (stopped, drawn, decoded, _) = gather(2);
+    assert_eq!(stopped.err(), Some("refused"));
+    assert_eq!((drawn, decoded), (2, 2 * HIDDEN_BATCH_SIZE));
+}
