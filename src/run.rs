@@ -221,7 +221,7 @@ pub fn check_memory(config: &RunConfig, mode: RunMode) -> Result<(), RunError> {
     check_estimate(&if mode.pictures {
         estimate
     } else {
-        science::budget::without_pictures(estimate)
+        science::budget::without_pictures(config, estimate)
     })
 }
 

@@ -3,8 +3,8 @@
 //!
 //! Conventions: sizes in bytes (`_bytes`), said in MiB. The estimate is the peak resident
 //! memory of the process: a fixed part (the program, its tables, the eye and the cortex per
-//! cone), the scene pools (training, held-out, and the held-out eye the pictures measure on:
-//! every tile's mip stack of class planes),
+//! cone), the scene pools (training and held-out, and the hidden-signal measures' stream of four
+//! tiles at a run's end: every tile's mip stack of class planes),
 //! and the larger of a training step (the autodiff tape of a batch) and, when CMF-SIM runs, a
 //! decode of the observer (each thread's tape over `observer.decode_batch` shows); the two never
 //! overlap. The coefficients are peak resident memory measured on the `tiny` and `quick` presets
@@ -68,11 +68,13 @@ fn eye_fixed_bytes(cones: f64) -> f64 {
     EYE_FIXED_BYTES + READING_PER_CONE_BYTES * cones
 }
 
-/// Scene pools a run holds at its peak: the training eye's, the held-out eye's, and the fresh
-/// held-out eye the pictures measure on (`src/pictures.rs`: the same held-out scenes from their
-/// start). Measured (heap profile of `run --preset tiny --steps 1 --set
-/// retina.scenes.tiles=1000`, docs/memory-tops.md): 949 MiB of tiles, three pools of 316.
-const RUN_SCENE_POOLS: f64 = 3.0;
+/// Full scene pools a run holds at its peak: the training eye's and the held-out eye's. The
+/// hidden-signal measures at its end draw their own stream beside them, of
+/// [`crate::heldout::HIDDEN_POOL_TILES`] tiles ([`hidden_stream_bytes`]). Measured (one thread,
+/// `/usr/bin/time -v colorvision run --preset tiny --steps 1 --set retina.scenes.tiles=1000`):
+/// 702 MiB, two pools of 316 (a heap profile's, docs/memory-tops.md, when the pictures built
+/// a third pool: 1 023 MiB).
+const RUN_SCENE_POOLS: f64 = 2.0;
 /// The page an mmap'd allocation (a tile's mip stack) is rounded up to, bytes.
 const PAGE_BYTES: f64 = 4096.0;
 /// Tape of a training step per sample per ONS pixel, in `f32`s: a fixed part and a part per
@@ -101,7 +103,7 @@ pub struct Estimate {
     /// The program and the per-cone structures.
     pub fixed_bytes: f64,
     /// The scene pools the command holds at once, all of them (a run: training, held-out and
-    /// the pictures' held-out eye).
+    /// the hidden-signal measures' stream).
     pub scenes_bytes: f64,
     /// A training step's tape.
     pub step_bytes: f64,
@@ -202,7 +204,8 @@ pub fn estimate(config: &RunConfig, cmf_sim: bool, threads: usize) -> Estimate {
     };
     Estimate {
         fixed_bytes: FIXED_BYTES + PER_CONE_BYTES * n * n,
-        scenes_bytes: RUN_SCENE_POOLS * s.tiles as f64 * tile_bytes(config, &layout),
+        scenes_bytes: RUN_SCENE_POOLS * s.tiles as f64 * tile_bytes(config, &layout)
+            + hidden_stream_bytes(config),
         step_bytes: config.cortex.train.batch_size as f64 * per_sample,
         decode_bytes: decode,
         flow_bytes: flow::bytes(config),
@@ -210,11 +213,22 @@ pub fn estimate(config: &RunConfig, cmf_sim: bool, threads: usize) -> Estimate {
     }
 }
 
-/// `estimate` of a run that draws no pictures: its training and held-out pools only (the third,
-/// a fresh held-out eye, is built for the pictures).
-pub fn without_pictures(estimate: Estimate) -> Estimate {
+/// The hidden-signal measures' own stream of held-out scenes (`crate::heldout::hidden_source`),
+/// bytes: [`crate::heldout::HIDDEN_POOL_TILES`] tiles of `config`'s pool.
+fn hidden_stream_bytes(config: &RunConfig) -> f64 {
+    crate::heldout::HIDDEN_POOL_TILES as f64 * tile_bytes(config, &layout(config))
+}
+
+/// One scene pool of `config`, bytes.
+fn pool_bytes(config: &RunConfig) -> f64 {
+    config.retina.scenes.tiles as f64 * tile_bytes(config, &layout(config))
+}
+
+/// `estimate` (of `config`) for a run that draws no pictures: its training and held-out pools
+/// only (the hidden-signal measures' stream is drawn for the pictures).
+pub fn without_pictures(config: &RunConfig, estimate: Estimate) -> Estimate {
     Estimate {
-        scenes_bytes: estimate.scenes_bytes * (RUN_SCENE_POOLS - 1.0) / RUN_SCENE_POOLS,
+        scenes_bytes: estimate.scenes_bytes - hidden_stream_bytes(config),
         ..estimate
     }
 }
@@ -225,7 +239,7 @@ pub fn estimate_eye(config: &RunConfig) -> Estimate {
     let e = estimate(config, false, 1);
     Estimate {
         fixed_bytes: eye_fixed_bytes((config.retina.cones_per_side as f64).powi(2)),
-        scenes_bytes: e.scenes_bytes / RUN_SCENE_POOLS,
+        scenes_bytes: pool_bytes(config),
         step_bytes: 0.0,
         flow_bytes: 0.0,
         ..e
@@ -283,7 +297,7 @@ pub fn estimate_convergence(config: &RunConfig, cmf_sim: bool, threads: usize) -
         (0.0, 0.0)
     };
     Estimate {
-        scenes_bytes: e.scenes_bytes / RUN_SCENE_POOLS,
+        scenes_bytes: pool_bytes(config),
         step_bytes: 0.0,
         decode_bytes,
         cmf_sim_bytes,
