@@ -157,6 +157,7 @@ pub fn convergence(options: &ConvergenceOptions) -> Result<(), RunError> {
             &config,
             options.cmf,
             rayon::current_num_threads(),
+            options.held_out_scenes,
         ))?;
         println!(
             "colorvision convergence: {}{}",

@@ -114,14 +114,21 @@ pub struct Estimate {
     /// CMF-SIM's shows, readouts, location cache and solver states beside the decodes
     /// ([`cmf_sim`]; 0 without CMF-SIM).
     pub cmf_sim_bytes: f64,
+    /// The hidden-signal measures' held-out samples ([`held_out_bytes`]): `convergence`'s. A
+    /// run's own (its summary's 32 scenes) are inside the fixed part, fitted on `tiny` and
+    /// `quick` runs that measured them: 0.
+    pub held_out_bytes: f64,
 }
 
 impl Estimate {
-    /// The estimated peak: the fixed part, the scenes and the larger of a step and a decode.
+    /// The estimated peak: the fixed part, the scenes, the held-out samples and the larger of a
+    /// step and a decode (the samples are freed before CMF-SIM decodes, but the pages they took
+    /// stay with the process: measured, `convergence` of a `tiny` run peaks at the sum).
     pub fn total_bytes(&self) -> f64 {
         self.fixed_bytes
             + self.scenes_bytes
             + self.flow_bytes
+            + self.held_out_bytes
             + self.step_bytes.max(self.decode_bytes + self.cmf_sim_bytes)
     }
 
@@ -133,12 +140,14 @@ impl Estimate {
              CMF-SIM decodes {:.0} MiB (observer.decode_batch × threads × cones_per_side²), \
              CMF-SIM shows, solver and location cache {:.0} MiB (cmf_sim.location_pairs × \
              cmf_sim.n_test_wavelengths × cmf_sim.max_primaries), P's flow {:.0} MiB (cortex.p.couplings × \
-             cortex.p.hidden²), the rest {:.0} MiB",
+             cortex.p.hidden²), held-out samples {:.0} MiB (held-out scenes × cones inside the border \
+             × channels), the rest {:.0} MiB",
             self.scenes_bytes / MIB,
             self.step_bytes / MIB,
             self.decode_bytes / MIB,
             self.cmf_sim_bytes / MIB,
             self.flow_bytes / MIB,
+            self.held_out_bytes / MIB,
             self.fixed_bytes / MIB
         )
     }
@@ -206,6 +215,7 @@ pub fn estimate(config: &RunConfig, cmf_sim: bool, threads: usize) -> Estimate {
         fixed_bytes: FIXED_BYTES + PER_CONE_BYTES * n * n,
         scenes_bytes: RUN_SCENE_POOLS * s.tiles as f64 * tile_bytes(config, &layout)
             + hidden_stream_bytes(config),
+        held_out_bytes: 0.0,
         step_bytes: config.cortex.train.batch_size as f64 * per_sample,
         decode_bytes: decode,
         flow_bytes: flow::bytes(config),
@@ -219,6 +229,33 @@ fn hidden_stream_bytes(config: &RunConfig) -> f64 {
     crate::heldout::HIDDEN_POOL_TILES as f64 * tile_bytes(config, &layout(config))
 }
 
+/// Bytes a held-out site keeps per value (its percept channels and class excitations, f64):
+/// the samples, their concatenation and each class's fitting rows. Measured: `colorvision
+/// convergence` at 1 024 held-out scenes peaked above the rest of its estimate by 1 217 MiB
+/// on a `quick` LMS run (3 364 sites a scene, 11 values a site: 33.8 bytes a value) and by
+/// 260–288 MiB on a `tiny` one over four runs of the same folder (676 sites: 35.8–39.7); the
+/// largest and a little for the spread
+/// (`science::budget::tests::convergence_is_estimated_at_its_measured_peaks`).
+const HELD_OUT_BYTES_PER_VALUE: f64 = 42.0;
+
+/// The hidden-signal measures' samples on `scenes` held-out scenes of `config`'s eye, bytes:
+/// every kept cone inside the loss border (`science::invariants::hidden::site_stride`) with
+/// its percept channels and class excitations, [`HELD_OUT_BYTES_PER_VALUE`] each.
+pub fn held_out_bytes(config: &RunConfig, scenes: usize) -> f64 {
+    let n = config.retina.cones_per_side;
+    let side = n.saturating_sub(2 * config.cortex.loss.border_px);
+    let sites = side
+        .div_ceil(crate::invariants::hidden::site_stride(side))
+        .pow(2);
+    let classes = retina::MosaicSpec::parse(&config.cones)
+        .map(|spec| spec.class_names().len())
+        .unwrap_or(3);
+    let scenes = scenes.div_ceil(crate::invariants::HIDDEN_BATCH_SIZE)
+        * crate::invariants::HIDDEN_BATCH_SIZE;
+    let values = (config.cortex.percept_dim() + classes) as f64;
+    scenes as f64 * sites as f64 * values * HELD_OUT_BYTES_PER_VALUE
+}
+
 /// One scene pool of `config`, bytes.
 fn pool_bytes(config: &RunConfig) -> f64 {
     config.retina.scenes.tiles as f64 * tile_bytes(config, &layout(config))
@@ -229,6 +266,7 @@ fn pool_bytes(config: &RunConfig) -> f64 {
 pub fn without_pictures(config: &RunConfig, estimate: Estimate) -> Estimate {
     Estimate {
         scenes_bytes: estimate.scenes_bytes - hidden_stream_bytes(config),
+        held_out_bytes: 0.0,
         ..estimate
     }
 }
@@ -242,6 +280,7 @@ pub fn estimate_eye(config: &RunConfig) -> Estimate {
         scenes_bytes: pool_bytes(config),
         step_bytes: 0.0,
         flow_bytes: 0.0,
+        held_out_bytes: 0.0,
         ..e
     }
 }
@@ -254,6 +293,7 @@ pub fn estimate_cmf_sim(config: &RunConfig, kind: ObserverKind, threads: usize) 
     let layout = layout(config);
     e.fixed_bytes = reading_fixed_bytes((config.retina.cones_per_side as f64).powi(2));
     e.step_bytes = 0.0;
+    e.held_out_bytes = 0.0;
     let window_px = if kind == ObserverKind::Cortex {
         let window_px = cmf_sim::decode_pixels(config, &layout);
         e.decode_bytes = decodes_bytes(config, window_px, threads);
@@ -273,12 +313,16 @@ fn decodes_bytes(config: &RunConfig, window_px: f64, threads: usize) -> f64 {
 }
 
 /// The estimate for `colorvision convergence` of a run of `config` (with CMF-SIM at its
-/// checkpoints when `cmf_sim`), on `threads` threads: the checkpoint's trainer (P's flow and its
-/// copies), one scene pool (the held-out eye), CMF-SIM's decodes and its own part when it
-/// measures; no training step is taken. The held-out scenes' percepts take no more than the
-/// fixed part counts: measured without CMF-SIM (docs/memory-tops.md), the peak less the pool is
-/// 46 MiB on `tiny` and 98 MiB on `quick`, the fixed part's 50 and 103.
-pub fn estimate_convergence(config: &RunConfig, cmf_sim: bool, threads: usize) -> Estimate {
+/// checkpoints when `cmf_sim`), on `threads` threads, its hidden-signal measures on
+/// `held_out_scenes` scenes: the checkpoint's trainer (P's flow and its copies), one scene pool
+/// (the held-out eye), the held-out samples, CMF-SIM's decodes and its own part when it
+/// measures; no training step is taken.
+pub fn estimate_convergence(
+    config: &RunConfig,
+    cmf_sim: bool,
+    threads: usize,
+    held_out_scenes: usize,
+) -> Estimate {
     let e = estimate(config, false, threads);
     let layout = layout(config);
     let (decode_bytes, cmf_sim_bytes) = if cmf_sim {
@@ -301,6 +345,7 @@ pub fn estimate_convergence(config: &RunConfig, cmf_sim: bool, threads: usize) -
         step_bytes: 0.0,
         decode_bytes,
         cmf_sim_bytes,
+        held_out_bytes: held_out_bytes(config, held_out_scenes),
         ..e
     }
 }
