@@ -213,8 +213,8 @@ pub fn estimate(config: &RunConfig, cmf_sim: bool, threads: usize) -> Estimate {
     };
     Estimate {
         fixed_bytes: FIXED_BYTES + PER_CONE_BYTES * n * n,
-        scenes_bytes: RUN_SCENE_POOLS * s.tiles as f64 * tile_bytes(config, &layout)
-            + hidden_stream_bytes(config),
+        scenes_bytes: (RUN_SCENE_POOLS * s.tiles as f64 + crate::heldout::HIDDEN_POOL_TILES as f64)
+            * tile_bytes(config, &layout),
         held_out_bytes: 0.0,
         step_bytes: config.cortex.train.batch_size as f64 * per_sample,
         decode_bytes: decode,

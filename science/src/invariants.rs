@@ -233,13 +233,22 @@ pub fn measure_held_out(
     scenes: usize,
 ) -> (HiddenRecovery, DirectionRecovery) {
     assert!(scenes > 0, "measure_held_out: needs at least one scene");
+    let gathered = gather_cortex_held_out(cortex, source, scenes);
+    measure_samples(&gathered.samples, &source.retina.mosaic.class_names())
+}
+
+/// [`gather_held_out`] of `cortex`'s percepts on the next `scenes` scenes of `source`, at the
+/// cones inside its loss border, to the end.
+pub fn gather_cortex_held_out(
+    cortex: &Cortex,
+    source: &mut RetinaSource,
+    scenes: usize,
+) -> HeldOutScenes {
     let border = cortex.config.loss.border_px;
     let decode = |frames: &[f32], count| cortex.decode_frames(frames, count);
-    let Ok(gathered) =
-        gather_held_out(source, scenes, cortex.percept_dim(), border, decode, || {
-            Ok::<(), std::convert::Infallible>(())
-        });
-    measure_samples(&gathered.samples, &source.retina.mosaic.class_names())
+    let go_on = || Ok::<(), std::convert::Infallible>(());
+    let Ok(gathered) = gather_held_out(source, scenes, cortex.percept_dim(), border, decode, go_on);
+    gathered
 }
 
 /// The hidden-signal figures and the colour directions of held-out `samples` of an eye whose

@@ -21,7 +21,7 @@
 //! Layout: `percept` row-major `(sites, dim)`, `excitation` row-major `(sites, classes)`.
 
 use super::hidden::{affine_residuals, held_out_r2};
-use super::{gather_held_out, HeldOutScenes};
+use super::{gather_cortex_held_out, HeldOutScenes};
 use crate::source::RetinaSource;
 use cortex::Cortex;
 
@@ -166,12 +166,8 @@ pub fn held_out(
     if source.retina.mosaic.n_classes() < 2 {
         return None;
     }
-    let (dim, border) = (cortex.percept_dim(), cortex.config.loss.border_px);
-    let decode = |frames: &[f32], count| cortex.decode_frames(frames, count);
-    let Ok(gathered) = gather_held_out(source, scenes, dim, border, decode, || {
-        Ok::<(), std::convert::Infallible>(())
-    });
-    of_scenes(&source.retina, &gathered, border)
+    let gathered = gather_cortex_held_out(cortex, source, scenes);
+    of_scenes(&source.retina, &gathered, cortex.config.loss.border_px)
 }
 
 /// [`held_out`] of scenes already gathered (by [`super::gather_held_out`], from any decoder)
