@@ -258,16 +258,7 @@ fn run(
         bound_candidates,
     };
     let mut order = WavelengthOrder::by_energy_ratio(&base.energy, &threshold);
-    let mut front = (s.reuse_base_pairs && s.front_end_jacobians)
-        .then(|| FrontEndJacobians::new(observer, nw, intensity, s.solver.fd_step))
-        .flatten()
-        .map(|jacobians| FrontEnd {
-            jacobians,
-            test: TestPercepts {
-                at_a: &base.at_a,
-                at_b: &base.test_b,
-            },
-        });
+    let mut front = front_end(observer, s, nw, intensity, &base);
     let (mut per_k, mut dimension) = (Vec::new(), 0);
     for k in (1..=s.max_primaries).take_while(|_| !no_cc) {
         let (summary, reported) = search.search_k(
@@ -307,6 +298,27 @@ fn run(
         shows: n_shows,
         seconds: start.elapsed().as_secs_f64(),
     })
+}
+
+/// The observer's front-end Jacobians with the base step's test percepts, when the settings
+/// reuse the base pairs and ask for them and the observer has a front end.
+fn front_end<'a>(
+    observer: &dyn Observer,
+    s: &CmfSimSettings,
+    n_tests: usize,
+    intensity: f64,
+    base: &'a base::Base,
+) -> Option<FrontEnd<'a>> {
+    (s.reuse_base_pairs && s.front_end_jacobians)
+        .then(|| FrontEndJacobians::new(observer, n_tests, intensity, s.solver.fd_step))
+        .flatten()
+        .map(|jacobians| FrontEnd {
+            jacobians,
+            test: TestPercepts {
+                at_a: &base.at_a,
+                at_b: &base.test_b,
+            },
+        })
 }
 
 /// The 0-primary curve: the percept energy against the thresholds.
