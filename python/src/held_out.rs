@@ -10,9 +10,9 @@
 //! held-out eye's scene seed and batch seed, the same scenes on every call, never a training
 //! batch, a fresh scene tile every batch), frame 0 of each; by default
 //! [`HELD_OUT_SCENES`] (1 024, converged; a run's summary reads `schedule.held_out_scenes`,
-//! 32); the first half fits, the second half scores;
-//! the sites are the cones inside the loss border (`cortex.loss.border_px`; every second or
-//! fourth on an eye larger than 64 × 64 cones). The truth (each cone's class and the excitations of
+//! 1 024, a `tiny` run 32); the first half fits, the second half scores;
+//! the sites are the cones inside the loss border (`cortex.loss.border_px`), at most 16 × 16 of
+//! them a scene (`science::invariants::hidden::MAX_SITES_PER_SAMPLE`). The truth (each cone's class and the excitations of
 //! every class at it) is read on the Rust side for scoring only: the decoder sees the ONS.
 //!
 //! A Python decoder is called once on a black frame (its channel count and shape checked
@@ -252,7 +252,7 @@ pub fn hidden(
 /// held-out scene, beside `decoder`'s reading of it (module docs), on the `scenes` held-out
 /// scenes (2 to [`MAX_SCENES`], rounded up to whole batches of four) after the
 /// `schedule.held_out_scenes` that a run's summary reads, as a run's pictures draw them (so at
-/// that count, 32, a run's `held_out_r2` is its `summary.json`'s). A dict: `class`,
+/// that count a run's `held_out_r2` is its `summary.json`'s). A dict: `class`,
 /// `held_out_r2` (over the scoring half of the scenes), `truth` and `reading` `(side, side)`
 /// float64 over the cones inside the loss border, `scene_srgb` `(3, n, n)` float32 (linear
 /// sRGB at each cone), `class_range` (the class's excitation range over the last scene: the

@@ -4,7 +4,8 @@
 //! Conventions: sizes in bytes (`_bytes`), said in MiB. The estimate is the peak resident
 //! memory of the process: a fixed part (the program, its tables, the eye and the cortex per
 //! cone), the scene pools (training and held-out, and the hidden-signal measures' stream of four
-//! tiles at a run's end: every tile's mip stack of class planes),
+//! tiles at a run's end: every tile's mip stack of class planes), the hidden-signal measures'
+//! held-out samples ([`held_out_bytes`]: `schedule.held_out_scenes` at a run's end),
 //! and the larger of a training step (the autodiff tape of a batch) and, when CMF-SIM runs, a
 //! decode of the observer (each thread's tape over `observer.decode_batch` shows); the two never
 //! overlap. The coefficients are peak resident memory measured on the `tiny` and `quick` presets
@@ -35,10 +36,14 @@ const MIB: f64 = 1024.0 * 1024.0;
 
 /// The program, its tables and thread stacks, bytes (measured: the fixed part of `tiny` and
 /// `quick` less their per-cone part).
-const FIXED_BYTES: f64 = 33.0 * MIB;
-/// Per cone of the lattice, bytes: the eye's sampler and the cortex's per-pixel structures
-/// (measured: `quick` and `tiny` differ by 52 MiB over 3 072 cones).
-const PER_CONE_BYTES: f64 = 17.4 * 1024.0;
+const FIXED_BYTES: f64 = 36.0 * MIB;
+/// Per cone of the lattice, bytes: the eye's sampler and the cortex's per-pixel structures.
+/// Measured as a run's peak less its other parts with its end reading 4 held-out scenes
+/// (`/usr/bin/time -f %M colorvision train --preset P --steps 2 --set
+/// schedule.held_out_scenes=4`, two runs each): 43.6 MiB on `tiny` (32² cones) and 67.2 on
+/// `quick` (64²), so 7.9 KiB a cone. (Fitted before with the end's held-out samples inside:
+/// 17.4.)
+const PER_CONE_BYTES: f64 = 8.0 * 1024.0;
 /// Per cone of the lattice beyond the `quick` eye's 64² in a reading (`colorvision cmf-sim`:
 /// the eye with one scene tile and an observer, no training), bytes: the eye's slope, measured
 /// as the peak of `colorvision simulate` less its scenes from `quick` to `large` (1.9 KiB a
@@ -114,9 +119,8 @@ pub struct Estimate {
     /// CMF-SIM's shows, readouts, location cache and solver states beside the decodes
     /// ([`cmf_sim`]; 0 without CMF-SIM).
     pub cmf_sim_bytes: f64,
-    /// The hidden-signal measures' held-out samples ([`held_out_bytes`]): `convergence`'s. A
-    /// run's own (its summary's 32 scenes) are inside the fixed part, fitted on `tiny` and
-    /// `quick` runs that measured them: 0.
+    /// The hidden-signal measures' held-out samples ([`held_out_bytes`]): a run's at its end
+    /// (`schedule.held_out_scenes`; 0 for a run that draws no pictures) or `convergence`'s.
     pub held_out_bytes: f64,
 }
 
@@ -215,7 +219,7 @@ pub fn estimate(config: &RunConfig, cmf_sim: bool, threads: usize) -> Estimate {
         fixed_bytes: FIXED_BYTES + PER_CONE_BYTES * n * n,
         scenes_bytes: (RUN_SCENE_POOLS * s.tiles as f64 + crate::heldout::HIDDEN_POOL_TILES as f64)
             * tile_bytes(config, &layout),
-        held_out_bytes: 0.0,
+        held_out_bytes: held_out_bytes(config, config.schedule.held_out_scenes),
         step_bytes: config.cortex.train.batch_size as f64 * per_sample,
         decode_bytes: decode,
         flow_bytes: flow::bytes(config),
@@ -230,13 +234,17 @@ fn hidden_stream_bytes(config: &RunConfig) -> f64 {
 }
 
 /// Bytes a held-out site keeps per value (its percept channels and class excitations, f64):
-/// the samples, their concatenation and each class's fitting rows. Measured: `colorvision
-/// convergence` at 1 024 held-out scenes peaked above the rest of its estimate by 1 217 MiB
-/// on a `quick` LMS run (3 364 sites a scene, 11 values a site: 33.8 bytes a value) and by
-/// 260–288 MiB on a `tiny` one over four runs of the same folder (676 sites: 35.8–39.7); the
-/// largest and a little for the spread
+/// the samples, their concatenation and each class's fitting rows, at most 16 × 16 sites a
+/// scene (`science::invariants::hidden::MAX_SITES_PER_SAMPLE`). Measured as the peak at 1 024
+/// held-out scenes less the peak at a handful, per value: `colorvision convergence --run DIR
+/// --held-out-scenes 1024` against `8` on a fresh `train --preset P --steps 20 --set
+/// cortex.train.checkpoint_every_steps=10` folder, 41–46 bytes on `tiny` (169 sites a scene,
+/// 11 values a site; four folders) and 32–35 on `quick` (225 sites; two); a run's end (its
+/// hidden figures, then its own image on as many scenes again, in the pages the first freed:
+/// `train --preset P --steps 2`, `schedule.held_out_scenes` 1 024 against 4) 37.5 on `tiny` and
+/// 35–37 on `quick`. The largest and a little for the spread
 /// (`science::budget::tests::convergence_is_estimated_at_its_measured_peaks`).
-const HELD_OUT_BYTES_PER_VALUE: f64 = 42.0;
+const HELD_OUT_BYTES_PER_VALUE: f64 = 45.0;
 
 /// The hidden-signal measures' samples on `scenes` held-out scenes of `config`'s eye, bytes:
 /// every kept cone inside the loss border (`science::invariants::hidden::site_stride`) with
@@ -314,9 +322,11 @@ fn decodes_bytes(config: &RunConfig, window_px: f64, threads: usize) -> f64 {
 
 /// The estimate for `colorvision convergence` of a run of `config` (with CMF-SIM at its
 /// checkpoints when `cmf_sim`), on `threads` threads, its hidden-signal measures on
-/// `held_out_scenes` scenes: the checkpoint's trainer (P's flow and its copies), one scene pool
-/// (the held-out eye), the held-out samples, CMF-SIM's decodes and its own part when it
-/// measures; no training step is taken.
+/// `held_out_scenes` scenes: the eye's fixed part ([`eye_fixed_bytes`]: the checkpoint's cortex
+/// without a training step's structures fits in what its top leaves; measured at 8 held-out
+/// scenes with the scene pool, 39.3 MiB on `tiny` and 69.2 on `quick`, estimated 45 and 89),
+/// P's flow and its copies, one scene pool (the held-out eye), the held-out samples, CMF-SIM's
+/// decodes and its own part when it measures; no training step is taken.
 pub fn estimate_convergence(
     config: &RunConfig,
     cmf_sim: bool,
@@ -341,6 +351,7 @@ pub fn estimate_convergence(
         (0.0, 0.0)
     };
     Estimate {
+        fixed_bytes: eye_fixed_bytes((config.retina.cones_per_side as f64).powi(2)),
         scenes_bytes: pool_bytes(config),
         step_bytes: 0.0,
         decode_bytes,

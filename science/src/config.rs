@@ -89,16 +89,16 @@ pub struct Schedule {
     pub checkpoint_cmf_wavelengths: usize,
     /// Location pairs for the measurements during training (0: as `cmf_sim`).
     pub checkpoint_cmf_location_pairs: usize,
-    /// Held-out scenes of the hidden-signal figures and the own image in the run's pictures
-    /// and summary ([`crate::invariants::SUMMARY_HELD_OUT_SCENES`] in every preset: a quick
-    /// look, kept within the run's memory; the converged figures are
-    /// [`crate::invariants::HELD_OUT_SCENES`], from `colorvision convergence` and Python).
+    /// Held-out scenes of the hidden-signal figures and the own image in the run's summary and
+    /// pictures at its end: [`crate::invariants::HELD_OUT_SCENES`], converged, in every preset
+    /// but `tiny` ([`crate::invariants::TINY_HELD_OUT_SCENES`]); a config written before the
+    /// setting existed reads the tiny count, as such runs did.
     #[serde(default = "default_held_out_scenes")]
     pub held_out_scenes: usize,
 }
 
 fn default_held_out_scenes() -> usize {
-    crate::invariants::SUMMARY_HELD_OUT_SCENES
+    crate::invariants::TINY_HELD_OUT_SCENES
 }
 
 /// Everything a run needs.

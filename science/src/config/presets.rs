@@ -135,7 +135,10 @@ fn measurement_plan(name: &str, eye: &str) -> (u64, CmfSimSettings, Schedule) {
         pictures_every_steps: steps.max(1) / 4,
         eval_every_steps: (steps / 20).max(10),
         eval_batches: 4,
-        held_out_scenes: crate::invariants::SUMMARY_HELD_OUT_SCENES,
+        held_out_scenes: match name {
+            "tiny" => crate::invariants::TINY_HELD_OUT_SCENES,
+            _ => crate::invariants::HELD_OUT_SCENES,
+        },
         stop_at_dimension: 0,
         checkpoint_cmf_sets_per_k: checkpoint_sets,
         checkpoint_cmf_wavelengths: checkpoint_wavelengths,
@@ -251,6 +254,25 @@ mod tests {
             )
         );
         assert_eq!(large.schedule, long.schedule);
+    }
+
+    #[test]
+    fn a_runs_summary_reads_the_converged_held_out_count_but_on_the_test_eye() {
+        for preset in PRESETS {
+            let c = RunConfig::preset(preset, "LMS").unwrap();
+            let want = match preset {
+                "tiny" => crate::invariants::TINY_HELD_OUT_SCENES,
+                _ => crate::invariants::HELD_OUT_SCENES,
+            };
+            assert_eq!(c.schedule.held_out_scenes, want, "{preset}");
+        }
+        // A config written before the setting existed reads what such runs read.
+        let mut table: toml::Table =
+            toml::from_str(&RunConfig::preset("main", "LMS").unwrap().to_toml()).unwrap();
+        let schedule = table["schedule"].as_table_mut().unwrap();
+        assert!(schedule.remove("held_out_scenes").is_some());
+        let old: RunConfig = toml::from_str(&toml::to_string(&table).unwrap()).unwrap();
+        assert_eq!(old.schedule.held_out_scenes, 32);
     }
 
     #[test]

@@ -72,7 +72,7 @@ impl HiddenSamples {
 
     /// Adds one sample: `percept (dim, n, n)`, `excitation (classes, n, n)`, `class (n²)`; the
     /// sites are the cones at least `border` cells from the lattice edge, every
-    /// [`site_stride`]-th in each direction (all of them on an eye of up to 64 × 64 cones).
+    /// [`site_stride`]-th in each direction (at most 16 × 16 of them: [`MAX_SITES_PER_SAMPLE`]).
     pub fn add(
         &mut self,
         percept: &[f32],
@@ -205,10 +205,15 @@ impl HiddenSamples {
     }
 }
 
-/// Most sites one held-out sample keeps: a 64 × 64 block of cones. Neighbouring cones of one
-/// scene say nearly the same about the percept, so the figures rest on the number of scenes;
-/// this keeps a measure on thousands of scenes of the paper's 256 × 256 eye in memory.
-pub const MAX_SITES_PER_SAMPLE: usize = 64 * 64;
+/// Most sites one held-out sample keeps: a 16 × 16 grid of cones. Neighbouring cones of one
+/// scene say nearly the same about the percept, so the figures rest on the number of scenes: on
+/// 1 024 scenes of a kept quick cortex (`results/humanq-H0-seed51`, two independent streams)
+/// every class's figure with every cone inside the border (3 364 a scene) and with every fourth
+/// in each direction (225) differ by at most 0.009, while the two streams differ by up to 0.033
+/// (docs/notebook/2026-12-05-hidden-signal-convergence.md). It keeps a measure on 1 024 scenes
+/// of any eye within about 100 MiB (`crate::budget::held_out_bytes`), so a run's summary reads
+/// the converged count.
+pub const MAX_SITES_PER_SAMPLE: usize = 16 * 16;
 
 /// The step between the kept sites of a sample, in cones along each direction, for `side`
 /// cones inside the border: the smallest that keeps at most [`MAX_SITES_PER_SAMPLE`].

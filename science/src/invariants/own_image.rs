@@ -134,7 +134,8 @@ pub struct OwnImagePicture {
     /// The class (the eye's last: S for LMS, Q for LMSQ).
     pub class: String,
     /// Held-out R² of the percept's reading over the sites of the scoring half of the scenes
-    /// (every cone inside the border, or every [`super::hidden::site_stride`]-th on a larger eye).
+    /// (the cones inside the border that [`super::hidden::HiddenSamples::add`] keeps: every
+    /// [`super::hidden::site_stride`]-th, at most 16 × 16 a scene).
     pub held_out_r2: f64,
     /// Cones per side.
     pub n: usize,
