@@ -359,6 +359,15 @@ pub fn cmf_sim_lines(r: &CmfSimResult) -> Vec<String> {
 /// `DIR/scope/` (never over the run's own `pictures/`).
 pub fn scope(options: &RunDirOptions) -> Result<(), RunError> {
     refuse_settings_with_run(&options.common, "scope")?;
+    // What `convergence` of one checkpoint holds without CMF-SIM: the eye, one scene pool and
+    // the held-out samples of the run's `schedule.held_out_scenes`.
+    let config = crate::run::folder::read_valid_config(&options.run)?;
+    run::check_estimate(&science::budget::estimate_convergence(
+        &config,
+        false,
+        rayon::current_num_threads(),
+        config.schedule.held_out_scenes,
+    ))?;
     let dir = measurement_dir(&options.run, options.common.out.as_ref(), "scope")?;
     let (config, trainer, _) =
         crate::run::folder::load_run_step(&options.run, options.checkpoint_step)?;

@@ -145,14 +145,15 @@ def hidden(eye: Eye, decoder: Decoder, scenes: Optional[int] = None) -> Dict[str
     "classes", "scenes"), and which colour directions it carries ("directions"), on the first
     `scenes` held-out scenes of the eye (2 to 4096, rounded up to whole batches of 4; by
     default 1024, converged), a fresh scene tile every batch: the figures a run's summary.json
-    holds (invariants.recovery.hidden, .directions) on its "scenes" (32). A figure with no value (a one-class eye) is None. decoder: as for cmf_sim."""
+    holds (invariants.recovery.hidden, .directions) on its "scenes" (schedule.held_out_scenes:
+    1024; a tiny run, or a run whose config predates the setting, 32). A figure with no value (a one-class eye) is None. decoder: as for cmf_sim."""
 
 def own_image(eye: Eye, decoder: Decoder, scenes: Optional[int] = None) -> Optional[Dict[str, Any]]:
     """The eye's last class's own signal (S for LMS, Q for LMSQ) on the last held-out scene
     beside the decoder's reading of it, on `scenes` held-out scenes (2 to 4096, rounded up to
-    whole batches of 4; by default 1024) after the schedule.held_out_scenes (32) that a run's
-    summary reads, as a run's pictures draw them (at scenes=32 a run's held_out_r2 is its
-    summary.json's): "truth" and
+    whole batches of 4; by default 1024) after the schedule.held_out_scenes that a run's
+    summary reads (1024; a tiny run 32), as a run's pictures draw them (at that count a run's
+    held_out_r2 is its summary.json's): "truth" and
     "reading" (side, side) float64 inside the loss border, "held_out_r2" over the scoring half
     of the scenes, "scene_srgb" (3, n, n) float32 linear sRGB at each cone, "class",
     "class_range" (the class's excitation range over that scene: the scale its own signal is

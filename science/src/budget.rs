@@ -44,21 +44,28 @@ const FIXED_BYTES: f64 = 36.0 * MIB;
 /// `quick` (64²), so 7.9 KiB a cone. (Fitted before with the end's held-out samples inside:
 /// 17.4.)
 const PER_CONE_BYTES: f64 = 8.0 * 1024.0;
-/// Per cone of the lattice beyond the `quick` eye's 64² in a reading (`colorvision cmf-sim`:
-/// the eye with one scene tile and an observer, no training), bytes: the eye's slope, measured
-/// as the peak of `colorvision simulate` less its scenes from `quick` to `large` (1.9 KiB a
-/// cone) and to `paper` (1.7; docs/memory-tops.md). Up to 64² cones a reading counts
-/// [`PER_CONE_BYTES`], as fitted.
+/// A reading's fixed part (`colorvision cmf-sim`: the eye with one scene tile and an observer,
+/// no training) on up to [`READING_FITTED_CONES`], bytes: a constant and
+/// [`READING_PER_CONE_BYTES_UP_TO_QUICK`] a cone. These are the coefficients readings' peaks
+/// were checked against on the `quick` eye (375 and 461 MiB, docs/memory-tops.md); they are
+/// the run's fit from before its end's held-out samples were counted apart, kept for readings,
+/// which read no held-out samples but were never fitted on their own.
+const READING_FIXED_BYTES: f64 = 33.0 * MIB;
+/// See [`READING_FIXED_BYTES`].
+const READING_PER_CONE_BYTES_UP_TO_QUICK: f64 = 17.4 * 1024.0;
+/// Per cone of the lattice beyond the `quick` eye's 64² in a reading, bytes: the eye's slope,
+/// measured as the peak of `colorvision simulate` less its scenes from `quick` to `large` (1.9
+/// KiB a cone) and to `paper` (1.7; docs/memory-tops.md).
 const READING_PER_CONE_BYTES: f64 = 1.9 * 1024.0;
-/// The cones up to which [`PER_CONE_BYTES`] was fitted (the `quick` eye).
-const FITTED_CONES: f64 = 64.0 * 64.0;
+/// The cones up to which a reading's per-cone part was fitted (the `quick` eye).
+const READING_FITTED_CONES: f64 = 64.0 * 64.0;
 
-/// The fixed part of a reading on `cones` cones, bytes: [`PER_CONE_BYTES`] a cone up to
-/// [`FITTED_CONES`], [`READING_PER_CONE_BYTES`] beyond.
+/// The fixed part of a reading on `cones` cones, bytes: [`READING_PER_CONE_BYTES_UP_TO_QUICK`]
+/// a cone up to [`READING_FITTED_CONES`], [`READING_PER_CONE_BYTES`] beyond.
 fn reading_fixed_bytes(cones: f64) -> f64 {
-    FIXED_BYTES
-        + PER_CONE_BYTES * cones.min(FITTED_CONES)
-        + READING_PER_CONE_BYTES * (cones - FITTED_CONES).max(0.0)
+    READING_FIXED_BYTES
+        + READING_PER_CONE_BYTES_UP_TO_QUICK * cones.min(READING_FITTED_CONES)
+        + READING_PER_CONE_BYTES * (cones - READING_FITTED_CONES).max(0.0)
 }
 /// The eye alone (`colorvision simulate`, `gamut`: no cortex, no observer), bytes: its fixed
 /// part. Measured as the peak of `simulate` less its scenes less [`READING_PER_CONE_BYTES`] a
@@ -144,8 +151,8 @@ impl Estimate {
              CMF-SIM decodes {:.0} MiB (observer.decode_batch × threads × cones_per_side²), \
              CMF-SIM shows, solver and location cache {:.0} MiB (cmf_sim.location_pairs × \
              cmf_sim.n_test_wavelengths × cmf_sim.max_primaries), P's flow {:.0} MiB (cortex.p.couplings × \
-             cortex.p.hidden²), held-out samples {:.0} MiB (held-out scenes × cones inside the border \
-             × channels), the rest {:.0} MiB",
+             cortex.p.hidden²), held-out samples {:.0} MiB (schedule.held_out_scenes or \
+             --held-out-scenes × kept cones, at most 16 × 16 a scene, × channels), the rest {:.0} MiB",
             self.scenes_bytes / MIB,
             self.step_bytes / MIB,
             self.decode_bytes / MIB,
@@ -238,13 +245,13 @@ fn hidden_stream_bytes(config: &RunConfig) -> f64 {
 /// scene (`science::invariants::hidden::MAX_SITES_PER_SAMPLE`). Measured as the peak at 1 024
 /// held-out scenes less the peak at a handful, per value: `colorvision convergence --run DIR
 /// --held-out-scenes 1024` against `8` on a fresh `train --preset P --steps 20 --set
-/// cortex.train.checkpoint_every_steps=10` folder, 41–46 bytes on `tiny` (169 sites a scene,
-/// 11 values a site; four folders) and 32–35 on `quick` (225 sites; two); a run's end (its
-/// hidden figures, then its own image on as many scenes again, in the pages the first freed:
-/// `train --preset P --steps 2`, `schedule.held_out_scenes` 1 024 against 4) 37.5 on `tiny` and
-/// 35–37 on `quick`. The largest and a little for the spread
+/// cortex.train.checkpoint_every_steps=10` folder, 41.1–46.6 bytes on `tiny` (169 sites a
+/// scene, 11 values a site; four folders) and 33.7–37.0 on `quick` (225 sites; two); a run's
+/// end (its hidden figures, then its own image on as many scenes again, in the pages the first
+/// freed: `train --preset P --steps 2`, `schedule.held_out_scenes` 1 024 against 4) 37.5 on
+/// `tiny` and 34.2–37.6 on `quick`. The largest and a little for the spread
 /// (`science::budget::tests::convergence_is_estimated_at_its_measured_peaks`).
-const HELD_OUT_BYTES_PER_VALUE: f64 = 45.0;
+const HELD_OUT_BYTES_PER_VALUE: f64 = 47.0;
 
 /// The hidden-signal measures' samples on `scenes` held-out scenes of `config`'s eye, bytes:
 /// every kept cone inside the loss border (`science::invariants::hidden::site_stride`) with

@@ -211,8 +211,8 @@ impl HiddenSamples {
 /// every class's figure with every cone inside the border (3 364 a scene) and with every fourth
 /// in each direction (225) differ by at most 0.009, while the two streams differ by up to 0.033
 /// (docs/notebook/2026-12-05-hidden-signal-convergence.md). It keeps a measure on 1 024 scenes
-/// of any eye within about 100 MiB (`crate::budget::held_out_bytes`), so a run's summary reads
-/// the converged count.
+/// of any eye within about 110–140 MiB at the presets' 8 percept channels
+/// (`crate::budget::held_out_bytes`), so a run's summary reads the converged count.
 pub const MAX_SITES_PER_SAMPLE: usize = 16 * 16;
 
 /// The step between the kept sites of a sample, in cones along each direction, for `side`
