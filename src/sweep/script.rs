@@ -97,9 +97,23 @@ fn preset_costs(preset: &str) -> (f64, f64, u64) {
     }
 }
 
+/// Per preset: the end of a run with pictures, s — its hidden figures and own image on
+/// `schedule.held_out_scenes` held-out scenes each (1 024; `tiny` 32). Measured beside two
+/// training runs (`/usr/bin/time colorvision train --preset P --steps 2`, and `--preset paper
+/// --cones LMSQ,Q:506 --steps 1`): 56–68 s on the quick eye, 727 s on the paper's; `large`
+/// taken as 4× quick, as above.
+fn end_seconds(preset: &str) -> f64 {
+    match preset {
+        "tiny" => 1.0,
+        "paper" => 727.0,
+        "large" => 4.0 * 68.0,
+        _ => 68.0,
+    }
+}
+
 impl Resources {
-    /// An estimate for one run: its steps at the preset's step time and every CMF-SIM
-    /// measurement, doubled (shared nodes, slower CPUs), plus 5 minutes; 1.5× the step time
+    /// An estimate for one run: its steps at the preset's step time, every CMF-SIM
+    /// measurement and its end's held-out measures, doubled (shared nodes, slower CPUs), plus 5 minutes; 1.5× the step time
     /// with an estimated eye motion (`config.rs`).
     pub fn estimate(config: &RunConfig, cmf_sim: bool) -> Resources {
         let (step_ms, cmf_s, mem_mib) = preset_costs(&config.preset);
@@ -115,7 +129,9 @@ impl Resources {
         } else {
             0
         };
-        let seconds = config.steps as f64 * step_ms / 1000.0 + measurements as f64 * cmf_s;
+        let seconds = config.steps as f64 * step_ms / 1000.0
+            + measurements as f64 * cmf_s
+            + end_seconds(&config.preset);
         Resources {
             cpus_per_task: if config.preset == "tiny" { 1 } else { 2 },
             mem_mib,
@@ -226,6 +242,10 @@ mod tests {
             "{short:?} {long:?}"
         );
         assert_eq!(short.cpus_per_task, 2);
+        // A paper-eye run of one step still asks for its end's 727 s, doubled.
+        let mut paper = RunConfig::preset("paper", "LMS").unwrap();
+        paper.steps = 1;
+        assert!(Resources::estimate(&paper, false).time_minutes >= 2 * 727 / 60 + 5);
         let given = SlurmSettings {
             time_minutes: Some(7),
             ..SlurmSettings::default()
