@@ -139,6 +139,26 @@ fn a_run_over_its_memory_limit_is_refused_naming_what_drives_it() {
         "{err}"
     );
     assert!(!dir.join("out").exists(), "{err}");
+    // `scope` of a finished run checks its estimate before it writes anything.
+    let o = common::command(
+        &dir,
+        &["train", "--preset", "tiny", "--steps", "2", "--out", "run"],
+        None,
+    )
+    .output()
+    .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let o = common::command(&dir, &["scope", "--run", "run"], None)
+        .env("COLORVISION_MEMORY_LIMIT_MIB", "1")
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr).to_string();
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("COLORVISION_MEMORY_LIMIT_MIB=1") && err.contains("held-out samples"),
+        "{err}"
+    );
+    assert!(!dir.join("run/scope").exists(), "{err}");
     let o = common::command(&dir, &["train", "--preset", "tiny", "--out", "out"], None)
         .env("COLORVISION_MEMORY_LIMIT_MIB", "lots")
         .output()
