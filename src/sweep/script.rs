@@ -79,35 +79,25 @@ pub struct Resources {
     pub time_minutes: u64,
 }
 
-/// Per preset: training-step time on 2 threads (ms), time per CMF-SIM measurement (s) and
-/// memory (MiB). Step times are the README's benchmarks (`cargo bench --bench cortex_step`:
-/// quick 48.4 ms with the oracle motion, sandbox 31.8 ms, paper 0.9 s for the cortex and
-/// 40 ms for the retina); tiny's 6 ms and its 1 s measurement are from `colorvision run
-/// --preset tiny`. CMF-SIM: quick's full budget takes 156 s (README), the smaller budget
-/// during training about a minute (`config.rs`). Memory: paper's step peaks at 1.25 GiB.
-/// `large` (4× quick's cones) is taken as 4× quick in step and measurement time: one thread
-/// beside another run, its steps took 0.39 s against quick's 0.10 s; it holds 0.9 GiB.
-fn preset_costs(preset: &str) -> (f64, f64, u64) {
+/// Per preset: training-step time on 2 threads (ms), time per CMF-SIM measurement (s), the end
+/// of a run per 1 024 held-out scenes (s) and memory (MiB). Step times are the README's
+/// benchmarks (`cargo bench --bench cortex_step`: quick 48.4 ms with the oracle motion, sandbox
+/// 31.8 ms, paper 0.9 s for the cortex and 40 ms for the retina); tiny's 6 ms and its 1 s
+/// measurement are from `colorvision run --preset tiny`. CMF-SIM: quick's full budget takes
+/// 156 s (README), the smaller budget during training about a minute (`config.rs`). The end:
+/// the hidden figures and the own image on `schedule.held_out_scenes` scenes each, measured at
+/// 1 024 beside two training runs (`/usr/bin/time colorvision train --preset P --steps 2`, and
+/// `--preset paper --cones LMSQ,Q:506 --steps 1`): 10 s on `tiny` (1 s at 4 scenes), 56–68 s on
+/// the quick eye, 727 s on the paper's. Memory: paper's step peaks at 1.25 GiB. `large` (4×
+/// quick's cones) is taken as 4× quick in step, measurement and end time: one thread beside
+/// another run, its steps took 0.39 s against quick's 0.10 s; it holds 0.9 GiB.
+fn preset_costs(preset: &str) -> (f64, f64, f64, u64) {
     match preset {
-        "tiny" => (6.0, 5.0, 1024),
-        "sandbox" => (31.8, 60.0, 2048),
-        "paper" => (940.0, 600.0, 4096),
-        "large" => (4.0 * 48.4, 4.0 * 160.0, 2048),
-        _ => (48.4, 160.0, 2048),
-    }
-}
-
-/// Per preset: the end of a run with pictures, s — its hidden figures and own image on
-/// `schedule.held_out_scenes` held-out scenes each (1 024; `tiny` 32). Measured beside two
-/// training runs (`/usr/bin/time colorvision train --preset P --steps 2`, and `--preset paper
-/// --cones LMSQ,Q:506 --steps 1`): 56–68 s on the quick eye, 727 s on the paper's; `large`
-/// taken as 4× quick, as above.
-fn end_seconds(preset: &str) -> f64 {
-    match preset {
-        "tiny" => 1.0,
-        "paper" => 727.0,
-        "large" => 4.0 * 68.0,
-        _ => 68.0,
+        "tiny" => (6.0, 5.0, 10.0, 1024),
+        "sandbox" => (31.8, 60.0, 68.0, 2048),
+        "paper" => (940.0, 600.0, 727.0, 4096),
+        "large" => (4.0 * 48.4, 4.0 * 160.0, 4.0 * 68.0, 2048),
+        _ => (48.4, 160.0, 68.0, 2048),
     }
 }
 
@@ -116,7 +106,7 @@ impl Resources {
     /// measurement and its end's held-out measures, doubled (shared nodes, slower CPUs), plus 5 minutes; 1.5× the step time
     /// with an estimated eye motion (`config.rs`).
     pub fn estimate(config: &RunConfig, cmf_sim: bool) -> Resources {
-        let (step_ms, cmf_s, mem_mib) = preset_costs(&config.preset);
+        let (step_ms, cmf_s, end_s, mem_mib) = preset_costs(&config.preset);
         let step_ms = if config.oracle_motion {
             step_ms
         } else {
@@ -131,7 +121,7 @@ impl Resources {
         };
         let seconds = config.steps as f64 * step_ms / 1000.0
             + measurements as f64 * cmf_s
-            + end_seconds(&config.preset);
+            + end_s * s.held_out_scenes as f64 / 1024.0;
         Resources {
             cpus_per_task: if config.preset == "tiny" { 1 } else { 2 },
             mem_mib,
