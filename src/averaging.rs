@@ -13,6 +13,10 @@
 //! the last checkpoint's Adam state and metadata), `cmf_sim.json` and its plot, `average.json`
 //! ([`Averaged`]: the steps averaged, the dimension, the margins and the invariants). `gather`
 //! shows it beside the run's final figure when it is in `DIR/average/`.
+//!
+//! Before it loads a checkpoint it checks its memory estimate
+//! ([`science::budget::estimate_average`]: a checkpoint's measurement with CMF-SIM and the other
+//! checkpoints beside it) against the limit, and writes nothing when it is over.
 
 use crate::cli::AverageOptions;
 use crate::run::error::RunError;
@@ -160,6 +164,19 @@ fn checkpoint_path(dir: &Path, step: u64) -> Result<PathBuf, RunError> {
     }
 }
 
+/// The summed sizes of the files in folder `dir` (a checkpoint's), bytes; 0 for what does not
+/// read (loading it then says why).
+fn files_bytes(dir: &Path) -> f64 {
+    std::fs::read_dir(dir)
+        .map(|entries| {
+            entries
+                .filter_map(|e| e.ok()?.metadata().ok())
+                .map(|m| m.len() as f64)
+                .sum()
+        })
+        .unwrap_or(0.0)
+}
+
 /// `colorvision average`.
 pub fn command(options: &AverageOptions) -> Result<(), RunError> {
     let mut steps = options.steps.clone();
@@ -179,6 +196,15 @@ pub fn command(options: &AverageOptions) -> Result<(), RunError> {
         .iter()
         .map(|&s| checkpoint_path(dir, s))
         .collect::<Result<Vec<_>, _>>()?;
+    let others_bytes = paths[..paths.len() - 1]
+        .iter()
+        .map(|p| files_bytes(p))
+        .sum();
+    crate::run::check_estimate(&science::budget::estimate_average(
+        &config,
+        rayon::current_num_threads(),
+        others_bytes,
+    ))?;
     let load = |p: &PathBuf| Trainer::continue_from(p, Some(config.cortex.clone()));
     let mut last = load(paths.last().expect("two or more"))?;
     let others = paths[..paths.len() - 1]

@@ -89,6 +89,33 @@ fn the_estimate_is_within_30_percent_of_the_peak_at_the_presets() {
     check_cases("presets", &cases, |e, p| (e / p - 1.0).abs() <= 0.30);
 }
 
+/// `average` of three checkpoints of a `tiny` run (CMF-SIM, the hidden measures and the two
+/// checkpoints held beside the last): within ±30 %.
+#[test]
+fn the_estimate_of_average_is_within_30_percent_of_its_peak() {
+    let dir = scratch("average");
+    peak_of(
+        &dir,
+        &[
+            "train",
+            "--preset",
+            "tiny",
+            "--out",
+            "run",
+            "--set",
+            "cortex.train.checkpoint_every_steps=100",
+        ],
+    );
+    let (stdout, peak) = peak_of(&dir, &["average", "--run", "run", "--steps", "100,200,300"]);
+    let estimate = printed_estimate(&stdout);
+    println!("average: estimated {estimate:.0} MiB, peak {peak:.0} MiB");
+    assert!(
+        (estimate / peak - 1.0).abs() <= 0.30,
+        "average: estimated {estimate} MiB, peak {peak} MiB"
+    );
+    std::fs::remove_dir_all(dir).ok();
+}
+
 /// Where a setting makes a part grow (docs/memory-tops.md): peak ≤ estimate ≤ 1.3 × peak.
 #[test]
 fn the_estimate_bounds_the_peak_where_a_part_grows() {
@@ -159,6 +186,41 @@ fn a_run_over_its_memory_limit_is_refused_naming_what_drives_it() {
         "{err}"
     );
     assert!(!dir.join("run/scope").exists(), "{err}");
+    // So does `average`, counting the checkpoints it holds beside the last.
+    let o = common::command(
+        &dir,
+        &[
+            "train",
+            "--preset",
+            "tiny",
+            "--steps",
+            "2",
+            "--out",
+            "checkpointed",
+        ],
+        None,
+    )
+    .args(["--set", "cortex.train.checkpoint_every_steps=1"])
+    .output()
+    .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let o = common::command(
+        &dir,
+        &["average", "--run", "checkpointed", "--steps", "1,2"],
+        None,
+    )
+    .env("COLORVISION_MEMORY_LIMIT_MIB", "1")
+    .output()
+    .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr).to_string();
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("COLORVISION_MEMORY_LIMIT_MIB=1")
+            && err.contains("the other checkpoints averaged")
+            && err.contains("CMF-SIM decodes"),
+        "{err}"
+    );
+    assert!(!dir.join("checkpointed/average").exists(), "{err}");
     let o = common::command(&dir, &["train", "--preset", "tiny", "--out", "out"], None)
         .env("COLORVISION_MEMORY_LIMIT_MIB", "lots")
         .output()

@@ -17,12 +17,13 @@
 //! × `cmf_sim.n_test_wavelengths` × `cmf_sim.max_primaries`), which CMF-SIM holds beside its
 //! decodes.
 //!
-//! Four estimates: [`estimate`] for a run (training, and CMF-SIM of its cortex when it
+//! Five estimates: [`estimate`] for a run (training, and CMF-SIM of its cortex when it
 //! measures; [`without_pictures`] for a run that draws none), [`estimate_cmf_sim`] for
 //! `colorvision cmf-sim` of any observer (no training step; the search's buffers sized by that
 //! observer's readout, the cortex's decodes only for the cortex), [`estimate_convergence`] for
-//! `colorvision convergence` (a checkpoint's trainer, the held-out pool, no step), and
-//! [`estimate_eye`] for the commands that build the eye alone (`simulate`, `gamut`: one scene
+//! `colorvision convergence` (a checkpoint's trainer, the held-out pool, no step),
+//! [`estimate_average`] for `colorvision average` (that, with CMF-SIM, and the other
+//! checkpoints held beside it) and [`estimate_eye`] for the commands that build the eye alone (`simulate`, `gamut`: one scene
 //! pool).
 
 use crate::config::RunConfig;
@@ -129,6 +130,9 @@ pub struct Estimate {
     /// The hidden-signal measures' held-out samples ([`held_out_bytes`]): a run's at its end
     /// (`schedule.held_out_scenes`; 0 for a run that draws no pictures) or `convergence`'s.
     pub held_out_bytes: f64,
+    /// The checkpoints held beside the measured one ([`estimate_average`]: their files' sizes
+    /// on disk); 0 for every command but `average`.
+    pub checkpoints_bytes: f64,
 }
 
 impl Estimate {
@@ -140,11 +144,20 @@ impl Estimate {
             + self.scenes_bytes
             + self.flow_bytes
             + self.held_out_bytes
+            + self.checkpoints_bytes
             + self.step_bytes.max(self.decode_bytes + self.cmf_sim_bytes)
     }
 
     /// The parts in words, each with the settings that drive it.
     pub fn parts(&self) -> String {
+        let checkpoints = if self.checkpoints_bytes > 0.0 {
+            format!(
+                "the other checkpoints averaged {:.0} MiB (--steps), ",
+                self.checkpoints_bytes / MIB
+            )
+        } else {
+            String::new()
+        };
         format!(
             "scenes {:.0} MiB (pools × retina.scenes.tiles × tile_px² × planes × mip levels), \
              training step {:.0} MiB (cortex.train.batch_size × cones_per_side² × cortex.d.widths), \
@@ -152,13 +165,14 @@ impl Estimate {
              CMF-SIM shows, solver and location cache {:.0} MiB (cmf_sim.location_pairs × \
              cmf_sim.n_test_wavelengths × cmf_sim.max_primaries), P's flow {:.0} MiB (cortex.p.couplings × \
              cortex.p.hidden²), held-out samples {:.0} MiB (schedule.held_out_scenes or \
-             --held-out-scenes × kept cones, at most 16 × 16 a scene, × channels), the rest {:.0} MiB",
+             --held-out-scenes × kept cones, at most 16 × 16 a scene, × channels), {}the rest {:.0} MiB",
             self.scenes_bytes / MIB,
             self.step_bytes / MIB,
             self.decode_bytes / MIB,
             self.cmf_sim_bytes / MIB,
             self.flow_bytes / MIB,
             self.held_out_bytes / MIB,
+            checkpoints,
             self.fixed_bytes / MIB
         )
     }
@@ -231,6 +245,7 @@ pub fn estimate(config: &RunConfig, cmf_sim: bool, threads: usize) -> Estimate {
         decode_bytes: decode,
         flow_bytes: flow::bytes(config),
         cmf_sim_bytes,
+        checkpoints_bytes: 0.0,
     }
 }
 
@@ -365,6 +380,22 @@ pub fn estimate_convergence(
         cmf_sim_bytes,
         held_out_bytes: held_out_bytes(config, held_out_scenes),
         ..e
+    }
+}
+
+/// The estimate for `colorvision average` of a run of `config` on `threads` threads: what
+/// `convergence` of one checkpoint holds with CMF-SIM (the run's `cmf_sim` settings, its hidden
+/// measures on `schedule.held_out_scenes`) and the other checkpoints averaged into it, each as
+/// large in memory as its files (`other_checkpoints_bytes`, their sizes on disk: parameters and
+/// the optimiser's state, f32 as stored).
+pub fn estimate_average(
+    config: &RunConfig,
+    threads: usize,
+    other_checkpoints_bytes: f64,
+) -> Estimate {
+    Estimate {
+        checkpoints_bytes: other_checkpoints_bytes,
+        ..estimate_convergence(config, true, threads, config.schedule.held_out_scenes)
     }
 }
 
