@@ -8,6 +8,12 @@
 //! Target: ≤ 10 % of one training step at the same scale, so the eye never limits
 //! learning — the quick step target is ~61 ms, so ≤ 6 ms here; paper scale proportionally.
 //! Pool construction (scene generation) happens once, outside the timing.
+//!
+//! `held_out_stream/{draw,skip}`: the hidden measures' held-out stream of the quick eye
+//! (`science::heldout::hidden_source`, a new tile every batch) drawing one batch of its
+//! `HIDDEN_BATCH_SIZE` scenes against passing over it (`RetinaSource::skip_batches`: the tile
+//! refresh alone), as `own_image` and a resumed run pass over the scenes before theirs. The new
+//! tile (its Perlin textures) is most of both.
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use rand::rngs::SmallRng;
@@ -42,5 +48,26 @@ fn batch8(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, batch8);
+fn held_out_stream(c: &mut Criterion) {
+    let mut group = c.benchmark_group("held_out_stream");
+    group
+        .sample_size(20)
+        .measurement_time(Duration::from_secs(10));
+    let config = science::config::RunConfig::preset("quick", "LMS").expect("preset");
+    let batch = science::invariants::HIDDEN_BATCH_SIZE;
+    let mut drawn = science::heldout::hidden_source(&config).expect("stream");
+    group.bench_function("draw", |b| {
+        b.iter(|| black_box(&drawn.next_eye_batch(batch).signal.ons).len())
+    });
+    let mut skipped = science::heldout::hidden_source(&config).expect("stream");
+    group.bench_function("skip", |b| {
+        b.iter(|| {
+            skipped.skip_batches(1);
+            black_box(skipped.batches_drawn())
+        })
+    });
+    group.finish();
+}
+
+criterion_group!(benches, batch8, held_out_stream);
 criterion_main!(benches);

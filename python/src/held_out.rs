@@ -105,7 +105,7 @@ fn measure(
     if let Measure::OwnImage = what {
         for _ in 0..config.schedule.held_out_scenes.div_ceil(HIDDEN_BATCH_SIZE) {
             stopped(stop)?;
-            source.next_eye_batch(HIDDEN_BATCH_SIZE);
+            source.skip_batches(1);
         }
     }
     let border = config.cortex.loss.border_px;

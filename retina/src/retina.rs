@@ -270,14 +270,7 @@ impl Retina {
         signal: &mut OnsBatch,
         truth: &mut BatchTruth,
     ) {
-        let refresh = self.config.scenes.refresh_every_batches;
-        if refresh > 0 && self.batches_done > 0 && self.batches_done.is_multiple_of(refresh) {
-            let mut r = SmallRng::seed_from_u64(rng.random());
-            self.pool
-                .refresh_one(&mut r)
-                .expect("refreshing a tile of a pool that was built once cannot fail");
-        }
-        self.batches_done += 1;
+        self.advance_pool(rng);
         let n = self.n();
         let nn = n * n;
         let f = self.config.field_px as i32;
@@ -332,6 +325,26 @@ impl Retina {
                 this.encode_frame_noisy(&mut srng, r, stack, [o[0] + d[0], o[1] + d[1]], act, f1);
             });
         self.scratch = scratch;
+    }
+
+    /// What drawing a batch with `rng` does to the eye's state, without drawing it: the scene
+    /// pool replaces a tile when its `refresh_every_batches` comes round (the batch's first
+    /// draw from `rng`), and the batch is counted. The next batch is then the one
+    /// [`Retina::batch_into`] would have drawn after this one.
+    pub fn skip_batch<R: Rng + ?Sized>(&mut self, rng: &mut R) {
+        self.advance_pool(rng);
+    }
+
+    /// The scene pool's refresh before a batch, and the batch counted.
+    fn advance_pool<R: Rng + ?Sized>(&mut self, rng: &mut R) {
+        let refresh = self.config.scenes.refresh_every_batches;
+        if refresh > 0 && self.batches_done > 0 && self.batches_done.is_multiple_of(refresh) {
+            let mut r = SmallRng::seed_from_u64(rng.random());
+            self.pool
+                .refresh_one(&mut r)
+                .expect("refreshing a tile of a pool that was built once cannot fail");
+        }
+        self.batches_done += 1;
     }
 
     /// Linear sRGB of the scene at each cone for frame `frame` of every sample of a batch:

@@ -68,12 +68,22 @@ impl RetinaSource {
         }
     }
 
-    /// Draws batches until `batches` have been drawn, one sample each: each batch has its own
-    /// RNG, so this rebuilds the scene pool's refresh state exactly at a fraction of the cost
-    /// (resuming, and sampling the scenes of a whole training).
+    /// Passes over batches ([`Self::skip_batches`]) until `batches` have been drawn: each batch
+    /// has its own RNG, so this rebuilds the scene pool's refresh state exactly at a fraction of
+    /// the cost (resuming, and sampling the scenes of a whole training).
     pub fn replay_to(&mut self, batches: u64) {
-        while self.batches < batches {
-            self.next_eye_batch(1);
+        self.skip_batches(batches.saturating_sub(self.batches));
+    }
+
+    /// Passes over the next `batches` batches without drawing them: the scene pool changes as
+    /// if they had been drawn ([`Retina::skip_batch`]), so the batch after them is the one a
+    /// source that drew them would draw next, bit for bit. The last batch's signal and truth
+    /// stay those of the last batch drawn.
+    pub fn skip_batches(&mut self, batches: u64) {
+        for _ in 0..batches {
+            let mut rng = self.rng_for(self.batches);
+            self.batches += 1;
+            self.retina.skip_batch(&mut rng);
         }
     }
 
@@ -129,5 +139,44 @@ impl DataSource for RetinaSource {
         }
         self.replay_to(batches);
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::RunConfig;
+
+    /// The hidden measures' stream of a `tiny` LMS eye: its pool replaces a tile every batch.
+    fn stream() -> RetinaSource {
+        let config = RunConfig::preset("tiny", "LMS").unwrap();
+        crate::heldout::hidden_source(&config).unwrap()
+    }
+
+    #[test]
+    fn a_skipped_batch_leaves_the_stream_where_drawing_it_would() {
+        let (mut drawn, mut skipped) = (stream(), stream());
+        for _ in 0..5 {
+            drawn.next_eye_batch(3);
+        }
+        skipped.skip_batches(5);
+        assert_eq!(skipped.batches_drawn(), 5);
+        for _ in 0..2 {
+            let a = drawn.next_eye_batch(3).clone();
+            let b = skipped.next_eye_batch(3);
+            assert_eq!(a.truth.tiles, b.truth.tiles);
+            assert!(
+                a == *b,
+                "the batch after the skip differs from the one drawn"
+            );
+        }
+    }
+
+    #[test]
+    fn a_stream_that_skips_nothing_draws_its_first_batch() {
+        let (mut a, mut b) = (stream(), stream());
+        b.skip_batches(0);
+        b.replay_to(0);
+        assert!(a.next_eye_batch(2).signal.ons == b.next_eye_batch(2).signal.ons);
     }
 }
