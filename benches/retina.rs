@@ -14,6 +14,8 @@
 //! `HIDDEN_BATCH_SIZE` scenes against passing over it (`RetinaSource::skip_batches`: the tile
 //! refresh alone), as `own_image` and a resumed run pass over the scenes before theirs. The new
 //! tile (its Perlin textures) is most of both.
+//!
+//! `perlin/texture_192`: one texture field of a quick-eye surface tile (5 octaves, 192²).
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use rand::rngs::SmallRng;
@@ -69,5 +71,23 @@ fn held_out_stream(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, batch8, held_out_stream);
+/// The surface scenes' texture field of a quick-eye tile: 5 octaves of Perlin noise on 192 ×
+/// 192 pixels from 3 periods (`SurfacesConfig`'s 64 px coarsest period); a tile draws several.
+fn perlin(c: &mut Criterion) {
+    let mut group = c.benchmark_group("perlin");
+    group
+        .sample_size(50)
+        .measurement_time(Duration::from_secs(5));
+    let mut rng = SmallRng::seed_from_u64(0);
+    group.bench_function("texture_192", |b| {
+        b.iter(|| {
+            black_box(retina::foveation::perlin::perlin_octaves(
+                &mut rng, 192, 192, 3, 5, 0.6,
+            ))
+        })
+    });
+    group.finish();
+}
+
+criterion_group!(benches, batch8, held_out_stream, perlin);
 criterion_main!(benches);
