@@ -146,6 +146,22 @@ fn the_estimate_bounds_the_peak_where_a_part_grows() {
     check_cases("tops", &cases, |e, p| p <= e && e <= 1.3 * p);
 }
 
+/// Runs `colorvision ARGS` in `dir` under a limit of 1 MiB: it must be refused (exit 1) naming
+/// the limit; its stderr.
+fn refused_at_one_mib(dir: &Path, args: &[&str]) -> String {
+    let o = common::command(dir, args, None)
+        .env("COLORVISION_MEMORY_LIMIT_MIB", "1")
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr).to_string();
+    assert_eq!(o.status.code(), Some(1), "{args:?}: {err}");
+    assert!(
+        err.contains("COLORVISION_MEMORY_LIMIT_MIB=1"),
+        "{args:?}: {err}"
+    );
+    err
+}
+
 #[test]
 fn a_run_over_its_memory_limit_is_refused_naming_what_drives_it() {
     let dir = scratch("limit");
@@ -166,61 +182,26 @@ fn a_run_over_its_memory_limit_is_refused_naming_what_drives_it() {
         "{err}"
     );
     assert!(!dir.join("out").exists(), "{err}");
-    // `scope` of a finished run checks its estimate before it writes anything.
+    // `scope` and `average` of a finished run check their estimates before they write anything.
     let o = common::command(
         &dir,
         &["train", "--preset", "tiny", "--steps", "2", "--out", "run"],
-        None,
-    )
-    .output()
-    .unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let o = common::command(&dir, &["scope", "--run", "run"], None)
-        .env("COLORVISION_MEMORY_LIMIT_MIB", "1")
-        .output()
-        .unwrap();
-    let err = String::from_utf8_lossy(&o.stderr).to_string();
-    assert_eq!(o.status.code(), Some(1), "{err}");
-    assert!(
-        err.contains("COLORVISION_MEMORY_LIMIT_MIB=1") && err.contains("held-out samples"),
-        "{err}"
-    );
-    assert!(!dir.join("run/scope").exists(), "{err}");
-    // So does `average`, counting the checkpoints it holds beside the last.
-    let o = common::command(
-        &dir,
-        &[
-            "train",
-            "--preset",
-            "tiny",
-            "--steps",
-            "2",
-            "--out",
-            "checkpointed",
-        ],
         None,
     )
     .args(["--set", "cortex.train.checkpoint_every_steps=1"])
     .output()
     .unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let o = common::command(
-        &dir,
-        &["average", "--run", "checkpointed", "--steps", "1,2"],
-        None,
-    )
-    .env("COLORVISION_MEMORY_LIMIT_MIB", "1")
-    .output()
-    .unwrap();
-    let err = String::from_utf8_lossy(&o.stderr).to_string();
-    assert_eq!(o.status.code(), Some(1), "{err}");
+    let err = refused_at_one_mib(&dir, &["scope", "--run", "run"]);
+    assert!(err.contains("held-out samples"), "{err}");
+    assert!(!dir.join("run/scope").exists(), "{err}");
+    // `average` counts the checkpoints it holds beside the last.
+    let err = refused_at_one_mib(&dir, &["average", "--run", "run", "--steps", "1,2"]);
     assert!(
-        err.contains("COLORVISION_MEMORY_LIMIT_MIB=1")
-            && err.contains("the other checkpoints averaged")
-            && err.contains("CMF-SIM decodes"),
+        err.contains("the other checkpoints averaged") && err.contains("CMF-SIM decodes"),
         "{err}"
     );
-    assert!(!dir.join("checkpointed/average").exists(), "{err}");
+    assert!(!dir.join("run/average").exists(), "{err}");
     let o = common::command(&dir, &["train", "--preset", "tiny", "--out", "out"], None)
         .env("COLORVISION_MEMORY_LIMIT_MIB", "lots")
         .output()
