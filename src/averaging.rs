@@ -164,17 +164,12 @@ fn checkpoint_path(dir: &Path, step: u64) -> Result<PathBuf, RunError> {
     }
 }
 
-/// The summed sizes of the files in folder `dir` (a checkpoint's), bytes; 0 for what does not
-/// read (loading it then says why).
-fn files_bytes(dir: &Path) -> f64 {
-    std::fs::read_dir(dir)
-        .map(|entries| {
-            entries
-                .filter_map(|e| e.ok()?.metadata().ok())
-                .map(|m| m.len() as f64)
-                .sum()
-        })
-        .unwrap_or(0.0)
+/// The size of checkpoint `dir`'s parameter file, bytes: what loading it holds
+/// ([`Trainer::continue_from`] loads the parameters and starts a fresh optimiser); 0 for a file
+/// that does not read (loading it then says why).
+fn parameters_bytes(dir: &Path) -> f64 {
+    std::fs::metadata(dir.join(cortex::checkpoint::CHECKPOINT_FILES[0]))
+        .map_or(0.0, |m| m.len() as f64)
 }
 
 /// `colorvision average`.
@@ -198,7 +193,7 @@ pub fn command(options: &AverageOptions) -> Result<(), RunError> {
         .collect::<Result<Vec<_>, _>>()?;
     let others_bytes = paths[..paths.len() - 1]
         .iter()
-        .map(|p| files_bytes(p))
+        .map(|p| parameters_bytes(p))
         .sum();
     crate::run::check_estimate(&science::budget::estimate_average(
         &config,
@@ -216,6 +211,7 @@ pub fn command(options: &AverageOptions) -> Result<(), RunError> {
     // average as good a predictor?
     let alone = heldout_gain(&config, &mut last)?;
     average_into(&mut last, &others);
+    drop(others);
     let averaged = heldout_gain(&config, &mut last)?;
     println!(
         "  held-out prediction gain over \"next = current\": {averaged:.2} averaged, {alone:.2} at step {}",

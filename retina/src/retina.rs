@@ -270,7 +270,7 @@ impl Retina {
         signal: &mut OnsBatch,
         truth: &mut BatchTruth,
     ) {
-        self.advance_pool(rng);
+        self.skip_batch(rng);
         let n = self.n();
         let nn = n * n;
         let f = self.config.field_px as i32;
@@ -328,15 +328,12 @@ impl Retina {
     }
 
     /// What drawing a batch with `rng` does to the eye's state, without drawing it: the scene
-    /// pool replaces a tile when its `refresh_every_batches` comes round (the batch's first
-    /// draw from `rng`), and the batch is counted. The next batch is then the one
-    /// [`Retina::batch_into`] would have drawn after this one.
+    /// pool replaces a tile when its `refresh_every_batches` comes round (seeded by the batch's
+    /// first draw from `rng`), and the batch is counted ([`Retina::batch_into`] begins with
+    /// this). For a caller that seeds each batch's RNG afresh (as `science`'s `RetinaSource`
+    /// does) the next batch is then the one drawing this one would have left; `rng` itself is
+    /// left where one draw leaves it, not where a whole batch would.
     pub fn skip_batch<R: Rng + ?Sized>(&mut self, rng: &mut R) {
-        self.advance_pool(rng);
-    }
-
-    /// The scene pool's refresh before a batch, and the batch counted.
-    fn advance_pool<R: Rng + ?Sized>(&mut self, rng: &mut R) {
         let refresh = self.config.scenes.refresh_every_batches;
         if refresh > 0 && self.batches_done > 0 && self.batches_done.is_multiple_of(refresh) {
             let mut r = SmallRng::seed_from_u64(rng.random());

@@ -5,8 +5,8 @@
 //! memory of the process: a fixed part (the program, its tables, the eye and the cortex per
 //! cone), the scene pools (training and held-out, and the hidden-signal measures' stream of four
 //! tiles at a run's end: every tile's mip stack of class planes), the hidden-signal measures'
-//! held-out samples ([`held_out_bytes`]: `schedule.held_out_scenes` at a run's end),
-//! and the larger of a training step (the autodiff tape of a batch) and, when CMF-SIM runs, a
+//! held-out samples ([`held_out_bytes`]: `schedule.held_out_scenes` at a run's end), the
+//! checkpoints `average` holds beside the one it measures, and the larger of a training step (the autodiff tape of a batch) and, when CMF-SIM runs, a
 //! decode of the observer (each thread's tape over `observer.decode_batch` shows); the two never
 //! overlap. The coefficients are peak resident memory measured on the `tiny` and `quick` presets
 //! (2 threads; `tests/memory_budget.rs` checks the estimate within ±30 % of the peak there, and
@@ -23,8 +23,8 @@
 //! observer's readout, the cortex's decodes only for the cortex), [`estimate_convergence`] for
 //! `colorvision convergence` (a checkpoint's trainer, the held-out pool, no step),
 //! [`estimate_average`] for `colorvision average` (that, with CMF-SIM, and the other
-//! checkpoints held beside it) and [`estimate_eye`] for the commands that build the eye alone (`simulate`, `gamut`: one scene
-//! pool).
+//! checkpoints held beside it) and [`estimate_eye`] for the commands that build the eye alone
+//! (`simulate`, `gamut`: one scene pool).
 
 use crate::config::RunConfig;
 use crate::observer::ObserverKind;
@@ -130,14 +130,14 @@ pub struct Estimate {
     /// The hidden-signal measures' held-out samples ([`held_out_bytes`]): a run's at its end
     /// (`schedule.held_out_scenes`; 0 for a run that draws no pictures) or `convergence`'s.
     pub held_out_bytes: f64,
-    /// The checkpoints held beside the measured one ([`estimate_average`]: their files' sizes
-    /// on disk); 0 for every command but `average`.
+    /// The checkpoints held beside the measured one ([`estimate_average`]: their parameter
+    /// files' sizes on disk); 0 for every command but `average`.
     pub checkpoints_bytes: f64,
 }
 
 impl Estimate {
-    /// The estimated peak: the fixed part, the scenes, the held-out samples and the larger of a
-    /// step and a decode (the samples are freed before CMF-SIM decodes, but the pages they took
+    /// The estimated peak: the fixed part, the scenes, P's flow, the held-out samples, the
+    /// checkpoints held beside the measured one, and the larger of a step and a decode (the samples are freed before CMF-SIM decodes, but the pages they took
     /// stay with the process: measured, `convergence` of a `tiny` run peaks at the sum).
     pub fn total_bytes(&self) -> f64 {
         self.fixed_bytes
@@ -386,8 +386,9 @@ pub fn estimate_convergence(
 /// The estimate for `colorvision average` of a run of `config` on `threads` threads: what
 /// `convergence` of one checkpoint holds with CMF-SIM (the run's `cmf_sim` settings, its hidden
 /// measures on `schedule.held_out_scenes`) and the other checkpoints averaged into it, each as
-/// large in memory as its files (`other_checkpoints_bytes`, their sizes on disk: parameters and
-/// the optimiser's state, f32 as stored).
+/// large in memory as its parameter file (`other_checkpoints_bytes`, their sizes on disk, f32 as
+/// stored; a loaded checkpoint starts a fresh optimiser). They are freed once averaged, but the
+/// pages they took may stay with the process, so they are counted beside the rest.
 pub fn estimate_average(
     config: &RunConfig,
     threads: usize,

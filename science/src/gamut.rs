@@ -90,7 +90,7 @@ pub fn compare(lights: &[f64], colours: &[f64], k: usize, near_deg: f64) -> (Vec
 
 /// The test lights at `wavelengths_nm` against the scenes of a training of `batches` batches
 /// from a fresh `source`: [`GAMUT_FRAMES`] frames at evenly spaced batches (all of them when
-/// fewer). The batches between are replayed ([`RetinaSource::replay_to`]), which rebuilds the
+/// fewer). The batches between are passed over ([`RetinaSource::replay_to`]), which rebuilds the
 /// scene pool exactly as training leaves it.
 pub fn measure(source: &mut RetinaSource, wavelengths_nm: &[f64], batches: u64) -> Gamut {
     let retina = &source.retina;

@@ -7,8 +7,8 @@
 //! lateral-inhibition kernel stay behind.
 //!
 //! Determinism: batch k is drawn with an RNG seeded from `(seed, k)`, so the source's whole state
-//! is the number of batches drawn; resuming replays that many batches to rebuild the scene
-//! pool's refresh state exactly.
+//! is the number of batches drawn; resuming passes over that many batches
+//! ([`RetinaSource::skip_batches`]) to rebuild the scene pool's refresh state exactly.
 
 use cortex::{CortexError, DataSource, OnsBatch};
 use rand::rngs::SmallRng;
@@ -41,7 +41,7 @@ impl RetinaSource {
         }
     }
 
-    /// Number of batches drawn so far.
+    /// Number of batches drawn or passed over so far.
     pub fn batches_drawn(&self) -> u64 {
         self.batches
     }
@@ -68,9 +68,10 @@ impl RetinaSource {
         }
     }
 
-    /// Passes over batches ([`Self::skip_batches`]) until `batches` have been drawn: each batch
-    /// has its own RNG, so this rebuilds the scene pool's refresh state exactly at a fraction of
-    /// the cost (resuming, and sampling the scenes of a whole training).
+    /// Passes over batches ([`Self::skip_batches`]) until `batches` have been drawn or passed
+    /// over: each batch has its own RNG, so this rebuilds the scene pool's refresh state exactly
+    /// at the cost of its tile refreshes alone (resuming, and sampling the scenes of a whole
+    /// training).
     pub fn replay_to(&mut self, batches: u64) {
         self.skip_batches(batches.saturating_sub(self.batches));
     }
@@ -147,36 +148,41 @@ mod tests {
     use super::*;
     use crate::config::RunConfig;
 
-    /// The hidden measures' stream of a `tiny` LMS eye: its pool replaces a tile every batch.
-    fn stream() -> RetinaSource {
-        let config = RunConfig::preset("tiny", "LMS").unwrap();
-        crate::heldout::hidden_source(&config).unwrap()
+    /// A stream of a `tiny` LMS eye whose pool of 4 tiles replaces one every `refresh` batches.
+    fn stream(refresh: usize) -> RetinaSource {
+        let mut config = RunConfig::preset("tiny", "LMS").unwrap();
+        config.retina.scenes.tiles = 4;
+        config.retina.scenes.refresh_every_batches = refresh;
+        crate::heldout::heldout_source(&config, true).unwrap()
     }
 
     #[test]
     fn a_skipped_batch_leaves_the_stream_where_drawing_it_would() {
-        let (mut drawn, mut skipped) = (stream(), stream());
-        for _ in 0..5 {
-            drawn.next_eye_batch(3);
-        }
-        skipped.skip_batches(5);
-        assert_eq!(skipped.batches_drawn(), 5);
-        for _ in 0..2 {
-            let a = drawn.next_eye_batch(3).clone();
-            let b = skipped.next_eye_batch(3);
-            assert_eq!(a.truth.tiles, b.truth.tiles);
-            assert!(
-                a == *b,
-                "the batch after the skip differs from the one drawn"
-            );
+        // A new tile every batch, and every third batch (5 skipped: a refresh boundary crossed).
+        for refresh in [1, 3] {
+            let (mut drawn, mut skipped) = (stream(refresh), stream(refresh));
+            for _ in 0..5 {
+                drawn.next_eye_batch(3);
+            }
+            skipped.skip_batches(5);
+            assert_eq!(skipped.batches_drawn(), 5);
+            for _ in 0..2 {
+                let a = drawn.next_eye_batch(3).clone();
+                let b = skipped.next_eye_batch(3);
+                assert_eq!(a.truth.tiles, b.truth.tiles, "refresh every {refresh}");
+                assert!(
+                    a == *b,
+                    "refresh every {refresh}: the batch after the skip differs"
+                );
+            }
         }
     }
 
     #[test]
     fn a_stream_that_skips_nothing_draws_its_first_batch() {
-        let (mut a, mut b) = (stream(), stream());
+        let (mut a, mut b) = (stream(1), stream(1));
         b.skip_batches(0);
         b.replay_to(0);
-        assert!(a.next_eye_batch(2).signal.ons == b.next_eye_batch(2).signal.ons);
+        assert!(*a.next_eye_batch(2) == *b.next_eye_batch(2));
     }
 }

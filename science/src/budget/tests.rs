@@ -181,6 +181,24 @@ fn the_scene_pools_are_estimated_at_their_measured_peaks() {
 }
 
 #[test]
+fn average_counts_its_other_checkpoints_beside_a_measurement_with_cmf_sim() {
+    let c = RunConfig::preset("quick", "LMSQ").unwrap();
+    let with_cmf = estimate_convergence(&c, true, 2, c.schedule.held_out_scenes);
+    let none = estimate_average(&c, 2, 0.0);
+    assert_eq!(none.total_bytes(), with_cmf.total_bytes());
+    assert!(!none.parts().contains("--steps"), "{}", none.parts());
+    let three = estimate_average(&c, 2, 3.0 * MIB);
+    assert_eq!(three.total_bytes(), with_cmf.total_bytes() + 3.0 * MIB);
+    assert!(
+        three
+            .parts()
+            .contains("the other checkpoints averaged 3 MiB (--steps)"),
+        "{}",
+        three.parts()
+    );
+}
+
+#[test]
 fn convergence_is_estimated_at_its_measured_peaks() {
     // Measured (one thread, `/usr/bin/time -f %M colorvision convergence --run DIR [--cmf]` on
     // a fresh `train --preset P --steps 20 --set cortex.train.checkpoint_every_steps=10`
