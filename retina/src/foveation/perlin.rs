@@ -39,6 +39,20 @@ pub fn perlin_octave<R: Rng + ?Sized>(
     out
 }
 
+/// The random unit gradients at the `(res_rows + 1) × (res_cols + 1)` lattice corners,
+/// row-major, as `(x, y)`: angles uniform in [0, 2π), drawn in that order from `rng`.
+fn gradients<R: Rng + ?Sized>(
+    rng: &mut R,
+    (res_rows, res_cols): (usize, usize),
+) -> Vec<(f64, f64)> {
+    (0..(res_rows + 1) * (res_cols + 1))
+        .map(|_| {
+            let a = rng.random::<f64>() * 2.0 * PI;
+            (a.cos(), a.sin())
+        })
+        .collect()
+}
+
 /// Where one grid coordinate falls on the noise lattice: its cell, its offsets from the cell's
 /// two corners (`f`, `f − 1`) and the fade of `f`.
 #[derive(Clone, Copy)]
@@ -78,12 +92,7 @@ fn add_octave<R: Rng + ?Sized>(
     );
     assert_eq!(out.len(), rows * cols, "perlin: output of {rows}×{cols}");
     let gw = res_cols + 1;
-    let grads: Vec<(f64, f64)> = (0..(res_rows + 1) * gw)
-        .map(|_| {
-            let a = rng.random::<f64>() * 2.0 * PI;
-            (a.cos(), a.sin())
-        })
-        .collect();
+    let grads = gradients(rng, (res_rows, res_cols));
     let columns: Vec<LatticePlace> = (0..cols)
         .map(|c| LatticePlace::of(c, cols, res_cols))
         .collect();
@@ -137,12 +146,7 @@ mod tests {
         (res_rows, res_cols): (usize, usize),
     ) -> Vec<f64> {
         let gw = res_cols + 1;
-        let grads: Vec<(f64, f64)> = (0..(res_rows + 1) * gw)
-            .map(|_| {
-                let a = rng.random::<f64>() * 2.0 * PI;
-                (a.cos(), a.sin())
-            })
-            .collect();
+        let grads = gradients(rng, (res_rows, res_cols));
         let mut out = vec![0.0; rows * cols];
         for r in 0..rows {
             let gy = r as f64 * res_rows as f64 / rows as f64;
