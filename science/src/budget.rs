@@ -6,9 +6,9 @@
 //! cone), the scene pools (training and held-out, and the hidden-signal measures' stream of four
 //! tiles at a run's end: every tile's mip stack of class planes), the hidden-signal measures'
 //! held-out samples ([`held_out_bytes`]: `schedule.held_out_scenes` at a run's end), the
-//! checkpoints `average` holds beside the one it measures, and the larger of a training step (the autodiff tape of a batch) and, when CMF-SIM runs, a
-//! decode of the observer (each thread's tape over `observer.decode_batch` shows); the two never
-//! overlap. The coefficients are peak resident memory measured on the `tiny` and `quick` presets
+//! checkpoints `average` holds beside the one it measures, and the larger of a training step
+//! (the autodiff tape of a batch) and, when CMF-SIM runs, a decode of the observer (each
+//! thread's tape over `observer.decode_batch` shows); the two never overlap. The coefficients are peak resident memory measured on the `tiny` and `quick` presets
 //! (2 threads; `tests/memory_budget.rs` checks the estimate within ±30 % of the peak there, and
 //! peak ≤ estimate ≤ 1.3 × peak where a setting makes a part grow).
 //! Two parts that grow without bound at the tops of their ranges are modelled from their shapes
@@ -137,8 +137,9 @@ pub struct Estimate {
 
 impl Estimate {
     /// The estimated peak: the fixed part, the scenes, P's flow, the held-out samples, the
-    /// checkpoints held beside the measured one, and the larger of a step and a decode (the samples are freed before CMF-SIM decodes, but the pages they took
-    /// stay with the process: measured, `convergence` of a `tiny` run peaks at the sum).
+    /// checkpoints held beside the measured one, and the larger of a step and a decode (the
+    /// samples are freed before CMF-SIM decodes, but the pages they took stay with the process:
+    /// measured, `convergence` of a `tiny` run peaks at the sum).
     pub fn total_bytes(&self) -> f64 {
         self.fixed_bytes
             + self.scenes_bytes
