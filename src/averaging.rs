@@ -9,8 +9,9 @@
 //! move around. It is a way to read out a trained model, applied identically to every run; it
 //! reads only the run's own checkpoints, never the eye.
 //!
-//! Output, in `--out` or `DIR/average/`: `checkpoints/step_<last>/` (the averaged parameters,
-//! the last checkpoint's Adam state and metadata), `cmf_sim.json` and its plot, `average.json`
+//! Output, in `--out` or `DIR/average/`: `checkpoints/step_<last>/` (the averaged parameters
+//! with the last checkpoint's step and a fresh optimiser's state: `Trainer::continue_from`
+//! loads the parameters alone), `cmf_sim.json` and its plot, `average.json`
 //! ([`Averaged`]: the steps averaged, the dimension, the margins and the invariants). `gather`
 //! shows it beside the run's final figure when it is in `DIR/average/`.
 //!
