@@ -192,18 +192,16 @@ pub fn command(options: &AverageOptions) -> Result<(), RunError> {
         .iter()
         .map(|&s| checkpoint_path(dir, s))
         .collect::<Result<Vec<_>, _>>()?;
-    let others_bytes = paths[..paths.len() - 1]
-        .iter()
-        .map(|p| parameters_bytes(p))
-        .sum();
+    let (last_path, other_paths) = paths.split_last().expect("two or more");
+    let others_bytes = other_paths.iter().map(|p| parameters_bytes(p)).sum();
     crate::run::check_estimate(&science::budget::estimate_average(
         &config,
         rayon::current_num_threads(),
         others_bytes,
     ))?;
     let load = |p: &PathBuf| Trainer::continue_from(p, Some(config.cortex.clone()));
-    let mut last = load(paths.last().expect("two or more"))?;
-    let others = paths[..paths.len() - 1]
+    let mut last = load(last_path)?;
+    let others = other_paths
         .iter()
         .map(load)
         .collect::<Result<Vec<_>, _>>()?;

@@ -103,8 +103,8 @@ fn preset_costs(preset: &str) -> (f64, f64, f64, u64) {
 
 impl Resources {
     /// An estimate for one run: its steps at the preset's step time, every CMF-SIM
-    /// measurement and its end's held-out measures, doubled (shared nodes, slower CPUs), plus 5 minutes; 1.5× the step time
-    /// with an estimated eye motion (`config.rs`).
+    /// measurement and its end's held-out measures, doubled (shared nodes, slower CPUs), plus
+    /// 5 minutes; 1.5× the step time with an estimated eye motion (`config.rs`).
     pub fn estimate(config: &RunConfig, cmf_sim: bool) -> Resources {
         let (step_ms, cmf_s, end_s, mem_mib) = preset_costs(&config.preset);
         let step_ms = if config.oracle_motion {
