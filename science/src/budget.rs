@@ -8,8 +8,9 @@
 //! held-out samples ([`held_out_bytes`]: `schedule.held_out_scenes` at a run's end), the
 //! checkpoints `average` holds beside the one it measures, and the larger of a training step
 //! (the autodiff tape of a batch) and, when CMF-SIM runs, a decode of the observer (each
-//! thread's tape over `observer.decode_batch` shows); the two never overlap. The coefficients are peak resident memory measured on the `tiny` and `quick` presets
-//! (2 threads; `tests/memory_budget.rs` checks the estimate within ±30 % of the peak there, and
+//! thread's tape over `observer.decode_batch` shows); the two never overlap. The coefficients
+//! are peak resident memory measured on the `tiny` and `quick` presets (2 threads;
+//! `tests/memory_budget.rs` checks the estimate within ±30 % of the peak there, and
 //! peak ≤ estimate ≤ 1.3 × peak where a setting makes a part grow).
 //! Two parts that grow without bound at the tops of their ranges are modelled from their shapes
 //! instead: P's flow parameters and their copies ([`flow`], `cortex.p.hidden`), and CMF-SIM's
