@@ -4,24 +4,30 @@
 Each row is one arm read at one step against its control (the same seed, one change): the
 natural log of K3, the best three-primary set's converged worst ratio over the threshold, at
 location seeds 0, 1, 2 (> 0: three primaries fail, a fourth dimension), its median, the median's
-difference from the control's, the dimension per location seed, and Q's hidden unique R² from the
-record's summary (32 held-out scenes; "—" where the summary is of another step). An arm moves
-when its median differs from its control's by more than 0.25, the rule the fourth-dimension and
-human-Q protocols fixed before their arms ran (the hue-rule protocol's is the same; the updates
-A/B was answered by its dimension, 4 or not, and is shown here by the same measure):
+difference from the control's, the dimension per location seed, Q's hidden unique R² from the
+record's summary (32 held-out scenes; "—" where the summary is of another step or the eye has no
+Q), and the verdict by the rule its protocol fixed before the arm ran:
 
-- docs/notebook/2026-12-02-fourth-dimension-protocol.md (pigeon Q, seeds 21-23) and its hue-rule
-  part, docs/notebook/2026-12-03-hue-rule-protocol.md;
-- docs/notebook/2026-12-05-human-q-idealised-protocol.md (human Q, seeds 51-53);
-- docs/notebook/2026-12-04-updates-ab-protocol.md (the table's pigeon-Q natural cell, 192 000).
+- `shift`: the arm moves when its median differs from its control's by more than 0.25 (the
+  fourth-dimension protocol, docs/notebook/2026-12-02-fourth-dimension-protocol.md, pigeon Q on
+  seeds 21-23, its controls C1b and C1c included; the human-Q protocol,
+  docs/notebook/2026-12-05-human-q-idealised-protocol.md, seeds 51-53);
+- `up`: the arm moves when its median is above its control's by at least 0.25 (the hue-rule
+  protocol, docs/notebook/2026-12-03-hue-rule-protocol.md);
+- `dimension`: the answer is the median of the three verdicts (C2, which must read 3; the updates
+  A/B, docs/notebook/2026-12-04-updates-ab-protocol.md, which answers "updates" if it reads 4);
+- `reported`: read and shown, not judged (C1a; A0i, the control of C1c and C2; the
+  twice-the-steps arms A2a).
 
-Where a reading is below 3-D its K3 was not searched: the log of its last K's ratio stands in
-(an upper bound, marked ≤; a difference from such a control is then a lower bound, ≥), as the
-protocols fix; a reading taken with CMF-SIM run on through
-K3 (`cmf-sim-stepN-locL-through-k3`) gives the K3 itself. Standard library only.
+Where a reading is below 3-D its K3 was not searched: the log of its last K's ratio stands in,
+an upper bound (marked ≤), as the protocols fix; a reading taken with CMF-SIM run on through K3
+(`cmf-sim-stepN-locL-through-k3`) gives the K3 itself. A difference from a control with such a
+bound is a lower bound (≥), an arm's with one an upper bound (≤); a verdict the bound leaves
+undecided is "open". Standard library only.
 
 Usage: scripts/fourth-ab-table.py [RESULTS_DIR]   (default: results)
 """
+import functools
 import json
 import math
 import os
@@ -32,68 +38,71 @@ MOVE = 0.25
 PIGEON = "pigeon Q"
 HUMAN = "human Q"
 UPDATES = "pigeon Q, the table's cell"
+A0_21 = ("fourth-A0-seed21", 24000)
+A0I_21 = ("fourth-A0i-seed21", 24000)
 
-# (protocol, seed, arm, the one change, record, step, control as (record, step) or None)
-ROWS = [
+# (protocol, seed, arm, the one change, record, step, control as (record, step) or None, rule)
+SCREEN = [
     (PIGEON, 21, "A0", "control: the table's pigeon-Q natural cell, 24 000 steps",
-     "fourth-A0-seed21", 24000, None),
-    (PIGEON, 21, "C1a", "Q's plane replaced by its fit from L, M, S before the white balance",
-     "fourth-C1a-seed21", 24000, ("fourth-A0-seed21", 24000)),
-    (PIGEON, 21, "C1b", "Q's plane replaced by its fit from L, M, S after the white balance",
-     "fourth-C1b-seed21", 24000, ("fourth-A0-seed21", 24000)),
-    (PIGEON, 21, "A0i", "a tenth of the tiles idealised",
-     "fourth-A0i-seed21", 24000, ("fourth-A0-seed21", 24000)),
+     "fourth-A0-seed21", 24000, None, "control"),
+    (PIGEON, 21, "C1a", "Q's plane replaced by its fit from L, M, S before the white balance "
+     "(the balance's own Q signal stays)", "fourth-C1a-seed21", 24000, A0_21, "reported"),
+    (PIGEON, 21, "C1b", "Q's plane replaced by its fit from L, M, S after the white balance "
+     "(no Q signal of its own)", "fourth-C1b-seed21", 24000, A0_21, "shift"),
+    (PIGEON, 21, "A0i", "a tenth of the tiles idealised (the control of C1c and C2)",
+     "fourth-A0i-seed21", 24000, A0_21, "reported"),
     (PIGEON, 21, "C1c", "A0i with Q's plane from L, M, S after the balance",
-     "fourth-C1c-seed21", 24000, ("fourth-A0i-seed21", 24000)),
+     "fourth-C1c-seed21", 24000, A0I_21, "shift"),
     (PIGEON, 21, "C2", "A0i's scenes, a fourth kind in the span of L and M (½L + ½M)",
-     "fourth-C2-seed21", 24000, ("fourth-A0i-seed21", 24000)),
+     "fourth-C2-seed21", 24000, A0I_21, "dimension"),
     (PIGEON, 21, "A1", "the `large` eye, 128 × 128 cones",
-     "fourth-A1-seed21", 24000, ("fourth-A0-seed21", 24000)),
-    (PIGEON, 21, "A3", "half the tiles hue-sphere colours",
-     "fourth-A3-seed21", 24000, ("fourth-A0-seed21", 24000)),
-    (PIGEON, 22, "A0", "control, seed 22", "fourth-A0-seed22", 24000, None),
-    (PIGEON, 23, "A0", "control, seed 23", "fourth-A0-seed23", 24000, None),
-    (PIGEON, 22, "A3", "half the tiles hue-sphere colours",
-     "fourth-A3-seed22", 24000, ("fourth-A0-seed22", 24000)),
-    (PIGEON, 23, "A3", "half the tiles hue-sphere colours",
-     "fourth-A3-seed23", 24000, ("fourth-A0-seed23", 24000)),
+     "fourth-A1-seed21", 24000, A0_21, "shift"),
     (PIGEON, 21, "A4", "boosted: an LMS cortex at 12 000 steps, then 12 000 with Q",
-     "fourth-A4-seed21", 24000, ("fourth-A0-seed21", 24000)),
+     "fourth-A4-seed21", 24000, A0_21, "shift"),
     (PIGEON, 21, "A5c", "control: a tenth of the tiles hue-sphere colours, the default hue rule",
-     "fourth-A5c-seed21", 24000, None),
+     "fourth-A5c-seed21", 24000, None, "control"),
     (PIGEON, 21, "A5", "A5c with the max-chroma hue rule",
-     "fourth-A5-seed21", 24000, ("fourth-A5c-seed21", 24000)),
-    (PIGEON, 21, "A0 retrained", "control of the step arms (same seed and settings)",
-     "fourth-A2b-seed21", 24000, None),
-    (PIGEON, 21, "A2a", "twice the steps, 48 000",
-     "fourth-A2a-seed21", 48000, ("fourth-A2b-seed21", 24000)),
-    (PIGEON, 21, "A2b", "four times the steps, 96 000",
-     "fourth-A2b-seed21", 96000, ("fourth-A2b-seed21", 24000)),
-    (PIGEON, 22, "A2a", "twice the steps, 48 000",
-     "fourth-A2a-seed22", 48000, ("fourth-A0-seed22", 24000)),
-    (PIGEON, 22, "A2b", "four times the steps, 96 000",
-     "fourth-A2b-seed22", 96000, ("fourth-A0-seed22", 24000)),
-    (PIGEON, 23, "A2a", "twice the steps, 48 000",
-     "fourth-A2a-seed23", 48000, ("fourth-A0-seed23", 24000)),
-    (PIGEON, 23, "A2b", "four times the steps, 96 000",
-     "fourth-A2b-seed23", 96000, ("fourth-A0-seed23", 24000)),
-    (HUMAN, 51, "H0", "control: a tenth of the tiles idealised", "humanq-H0-seed51", 24000, None),
-    (HUMAN, 52, "H0", "control: a tenth of the tiles idealised", "humanq-H0-seed52", 24000, None),
-    (HUMAN, 53, "H0", "control: a tenth of the tiles idealised", "humanq-H0-seed53", 24000, None),
-    (HUMAN, 51, "H1", "half the tiles idealised",
-     "humanq-H1-seed51", 24000, ("humanq-H0-seed51", 24000)),
-    (HUMAN, 52, "H1", "half the tiles idealised",
-     "humanq-H1-seed52", 24000, ("humanq-H0-seed52", 24000)),
-    (HUMAN, 53, "H1", "half the tiles idealised",
-     "humanq-H1-seed53", 24000, ("humanq-H0-seed53", 24000)),
-    (HUMAN, 51, "H2", "the `large` eye, 128 × 128 cones",
-     "humanq-H2-seed51", 24000, ("humanq-H0-seed51", 24000)),
-    (UPDATES, 31, "96k", "control: LMS + pigeon Q from scratch, natural scenes, 96 000 steps",
-     "LMSQ-pigeonQ-surfaces-96k", 96000, None),
-    (UPDATES, 31, "192k", "the 96 000-step cell trained on to 192 000 updates",
-     "LMSQ-pigeonQ-surfaces-96k-192k", 192000, ("LMSQ-pigeonQ-surfaces-96k", 96000)),
+     "fourth-A5-seed21", 24000, ("fourth-A5c-seed21", 24000), "up"),
 ]
-
+# A3 against each seed's A0; seeds 22 and 23 are its replicates.
+HUE_SPHERE = [
+    (PIGEON, seed, "A0", f"control, seed {seed}", f"fourth-A0-seed{seed}", 24000, None, "control")
+    for seed in (22, 23)
+] + [
+    (PIGEON, seed, "A3", "half the tiles hue-sphere colours", f"fourth-A3-seed{seed}", 24000,
+     (f"fourth-A0-seed{seed}", 24000), "shift")
+    for seed in (21, 22, 23)
+]
+# The step arms continue A0's own folder; seed 21's control is its A0 trained again (the
+# record's CPU differed), kept in the A2b record at 24 000 steps.
+STEP_CONTROL = {21: ("fourth-A2b-seed21", 24000), 22: ("fourth-A0-seed22", 24000),
+                23: ("fourth-A0-seed23", 24000)}
+STEPS = [(PIGEON, 21, "A0 retrained", "control of the step arms (same seed and settings)",
+          "fourth-A2b-seed21", 24000, None, "control")] + [
+    row for seed in (21, 22, 23) for row in [
+        (PIGEON, seed, "A2a", "twice the steps, 48 000", f"fourth-A2a-seed{seed}", 48000,
+         STEP_CONTROL[seed], "reported"),
+        (PIGEON, seed, "A2b", "four times the steps, 96 000", f"fourth-A2b-seed{seed}", 96000,
+         STEP_CONTROL[seed], "shift"),
+    ]
+]
+HUMAN_Q = [
+    (HUMAN, seed, arm, change, f"humanq-{arm}-seed{seed}", 24000,
+     None if arm == "H0" else (f"humanq-H0-seed{seed}", 24000),
+     "control" if arm == "H0" else "shift")
+    for arm, change, seeds in [("H0", "control: a tenth of the tiles idealised", (51, 52, 53)),
+                               ("H1", "half the tiles idealised", (51, 52, 53)),
+                               ("H2", "the `large` eye, 128 × 128 cones", (51,))]
+    for seed in seeds
+]
+UPDATES_AB = [
+    (UPDATES, 31, "96k", "control: LMS + pigeon Q from scratch, natural scenes, 96 000 steps",
+     "LMSQ-pigeonQ-surfaces-96k", 96000, None, "control"),
+    (UPDATES, 31, "192k", "the 96 000-step cell trained on to 192 000 updates",
+     "LMSQ-pigeonQ-surfaces-96k-192k", 192000, ("LMSQ-pigeonQ-surfaces-96k", 96000),
+     "dimension"),
+]
+ROWS = SCREEN + HUE_SPHERE + STEPS + HUMAN_Q + UPDATES_AB
 
 def reading(root, record, step, loc):
     """(dimension, log of K3's ratio, whether that log is a stand-in bound) at one location."""
@@ -110,10 +119,12 @@ def reading(root, record, step, loc):
     return main["dimension"], math.log(ks[max(ks)]), True
 
 
+@functools.lru_cache(maxsize=None)
 def readings(root, record, step):
-    """Per-location dimensions, logs and bound marks; the median log."""
-    rows = [reading(root, record, step, loc) for loc in (0, 1, 2)]
-    return rows, statistics.median(r[1] for r in rows)
+    """The three location seeds' (dimension, log K3, bound); the median log and whether it is
+    an upper bound (any of the three is)."""
+    rows = tuple(reading(root, record, step, loc) for loc in (0, 1, 2))
+    return rows, statistics.median(r[1] for r in rows), any(r[2] for r in rows)
 
 
 def hidden_q(root, record, step):
@@ -131,32 +142,62 @@ def signed(value, digits):
     return f"{value:+.{digits}f}".replace("-", "\u2212")
 
 
-def cell(value, bound):
+def log_cell(value, bound):
+    """A log K3, marked ≤ where it is a stand-in upper bound."""
     return ("≤" if bound else "") + signed(value, 3)
+
+
+def difference(arm_median, arm_bound, control_median, control_bound):
+    """The arm's median minus the control's as (text, lowest, highest it can be)."""
+    d = arm_median - control_median
+    if arm_bound and control_bound:
+        return "?", -math.inf, math.inf
+    if control_bound:
+        return "≥" + signed(d, 3), d, math.inf
+    if arm_bound:
+        return "≤" + signed(d, 3), -math.inf, d
+    return signed(d, 3), d, d
+
+
+def verdict(rule, low, high, dimensions):
+    """The protocol's verdict from the difference's range or the three dimensions."""
+    if rule == "shift":
+        if low > MOVE or high < -MOVE:
+            return "moves"
+        return "does not move" if -MOVE <= low and high <= MOVE else "open"
+    if rule == "up":
+        if low >= MOVE:
+            return "moves"
+        return "does not move" if high < MOVE else "open"
+    if rule == "dimension":
+        return f"reads {statistics.median(dimensions):g}"
+    return rule
+
+
+def table_row(root, protocol, seed, arm, change, record, step, control, rule):
+    """One arm's markdown row."""
+    rows, median, bound = readings(root, record, step)
+    dimensions = [r[0] for r in rows]
+    q = hidden_q(root, record, step)
+    if control is None:
+        diff, judged = "—", "control"
+    else:
+        _, control_median, control_bound = readings(root, *control)
+        diff, low, high = difference(median, bound, control_median, control_bound)
+        judged = verdict(rule, low, high, dimensions)
+    cells = [protocol, str(seed), arm, change, f"{step:,}".replace(",", " "),
+             ", ".join(log_cell(r[1], r[2]) for r in rows), log_cell(median, bound), diff,
+             ", ".join(map(str, dimensions)), "—" if q is None else signed(q, 2), judged]
+    return "| " + " | ".join(cells) + " |"
 
 
 def main():
     root = sys.argv[1] if len(sys.argv) > 1 else "results"
     print("| protocol | seed | arm | the one change | steps | log K3 at location seeds 0, 1, 2 "
-          "| median | − control's | dimensions | Q's hidden R² | moves |")
+          "| median | − control's | dimensions | Q's hidden R² | verdict |")
     print("|---|---|---|---|---|---|---|---|---|---|---|")
-    for protocol, seed, arm, change, record, step, control in ROWS:
-        rows, median = readings(root, record, step)
-        logs = ", ".join(cell(r[1], r[2]) for r in rows)
-        dims = ", ".join(str(r[0]) for r in rows)
-        q = hidden_q(root, record, step)
-        q = "—" if q is None else signed(q, 2)
-        if control is None:
-            diff, moves = "—", "control"
-        else:
-            control_rows, control_median = readings(root, *control)
-            d = median - control_median
-            # Against a control's stand-in bound the true difference is at least this.
-            at_least = "≥" if any(r[2] for r in control_rows) else ""
-            diff, moves = at_least + signed(d, 3), "yes" if abs(d) > MOVE else "no"
-        steps = f"{step:,}".replace(",", " ")
-        print(f"| {protocol} | {seed} | {arm} | {change} | {steps} | {logs} | "
-              f"{cell(median, any(r[2] for r in rows))} | {diff} | {dims} | {q} | {moves} |")
+    for row in ROWS:
+        print(table_row(root, *row))
 
 
 if __name__ == "__main__":
