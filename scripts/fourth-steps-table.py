@@ -5,7 +5,9 @@ replicates' verdict, as the protocol fixes them (docs/notebook/2026-12-02-fourth
 
 Per seed: the control A0 at 24 000 steps, A2a at 48 000 and A2b at 96 000 (one run trained on),
 each with `log K3` at location seeds 0, 1, 2 (the natural log of the best three-primary set's
-converged worst ratio; where a verdict is below 3, its last K's log ratio, an upper bound),
+converged worst ratio; where a verdict is below 3, its last K's log ratio, the protocol's
+stand-in, which it called an upper bound: not strictly one, as CMF-SIM draws its primary sets
+afresh for each K),
 their median, the dimension per location seed and Q's hidden unique R². An arm moves when its
 median exceeds its seed's control by more than 0.25. A2b is supported when both replicates
 (seeds 21 and 22) move, refuted when neither does, inconclusive otherwise. A reading not taken
@@ -41,7 +43,7 @@ def folders(arm, seed):
 
 
 def log_k3(path):
-    """(log K3 or its upper bound, dimension) of one reading."""
+    """(log K3 or its last K's stand-in, dimension) of one reading."""
     r = json.load(open(path))
     ratios = {k["n_primaries"]: k["converged_worst_ratio"] for k in r["per_k"]}
     k = 3 if 3 in ratios else max(ratios)
