@@ -30,13 +30,20 @@ Standard library only.
 Usage: scripts/fourth-ab-table.py [RESULTS_DIR]   (default: results)
 """
 import functools
+import importlib.util
 import json
-import math
 import os
 import statistics
 import sys
 
-MOVE = 0.25
+# One reading's log K3 (or its last K's stand-in) and the 0.25 rule: the step arms' table's.
+_spec = importlib.util.spec_from_file_location(
+    "fourth_steps_table",
+    os.path.join(os.path.dirname(os.path.abspath(__file__)), "fourth-steps-table.py"))
+_steps = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(_steps)
+log_k3, MOVE = _steps.log_k3, _steps.MOVE
+
 PIGEON = "pigeon Q"
 HUMAN = "human Q"
 UPDATES = "pigeon Q, the table's cell"
@@ -107,18 +114,16 @@ UPDATES_AB = [
 ROWS = SCREEN + HUE_SPHERE + STEPS + HUMAN_Q + UPDATES_AB
 
 def reading(root, record, step, loc):
-    """(dimension, log of K3's ratio, whether that log is its last K's stand-in) at one location."""
+    """(dimension, log of K3's ratio, whether that log is its last K's stand-in) at one location.
+    A verdict below 3 never searched K3; a reading run on through K3 beside it supplies it."""
     folder = os.path.join(root, record, f"cmf-sim-step{step}-loc{loc}")
-    with open(os.path.join(folder, "cmf_sim.json")) as f:
-        main = json.load(f)
-    ks = {k["n_primaries"]: k["converged_worst_ratio"] for k in main["per_k"]}
-    through = folder + "-through-k3"
-    if 3 not in ks and os.path.isdir(through):
-        with open(os.path.join(through, "cmf_sim.json")) as f:
-            ks.update({k["n_primaries"]: k["converged_worst_ratio"] for k in json.load(f)["per_k"]})
-    if 3 in ks:
-        return main["dimension"], math.log(ks[3]), False
-    return main["dimension"], math.log(ks[max(ks)]), True
+    log, dimension = log_k3(os.path.join(folder, "cmf_sim.json"))
+    if dimension >= 3:
+        return dimension, log, False
+    through = os.path.join(folder + "-through-k3", "cmf_sim.json")
+    if os.path.isfile(through):
+        return dimension, log_k3(through)[0], False
+    return dimension, log, True
 
 
 @functools.lru_cache(maxsize=None)
